@@ -1,0 +1,98 @@
+//! BPM benchmarks (issue #2): precompute throughput on a ≥ 1M-triangle mesh, evaluation
+//! throughput (f64 CPU with 1 and 2 threads, f32 GPU), the BPM/linear cost ratio, and the QC
+//! protocol on a real model when `../shared/realdata` is present (a procedural mesh otherwise).
+//!
+//! Run: `cargo bench --bench bpm`. Figures go in the issue notes; CI only compiles this.
+
+use std::hint::black_box;
+use std::path::Path;
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use reparam::bpm::{precompute, qc_protocol, Bpm, BpmOptions, Interp, Sample};
+use reparam::mesh::{io::load_obj, procedural, TriMesh};
+
+/// torus(1024, 512) = 1,048,576 triangles.
+fn big_mesh() -> TriMesh {
+    procedural::torus(1024, 512, 1.0, 0.35)
+}
+
+/// Eight fixed points per face, spread over the interior.
+fn samples(bpm: &Bpm, per_face: usize) -> Vec<Sample> {
+    const B: [[f64; 3]; 8] = [
+        [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
+        [0.6, 0.2, 0.2],
+        [0.2, 0.6, 0.2],
+        [0.2, 0.2, 0.6],
+        [0.45, 0.45, 0.1],
+        [0.1, 0.45, 0.45],
+        [0.45, 0.1, 0.45],
+        [0.7, 0.25, 0.05],
+    ];
+    (0..bpm.maps.len() as u32)
+        .flat_map(|face| (0..per_face).map(move |k| Sample { face, bary: B[k % 8] }))
+        .collect()
+}
+
+fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(f)
+}
+
+fn bench_precompute(c: &mut Criterion) {
+    let mesh = big_mesh();
+    let mut group = c.benchmark_group("bpm_precompute");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(mesh.face_count() as u64));
+    for threads in [1, 2] {
+        group.bench_function(format!("torus_1M_f64_{threads}threads"), |b| {
+            b.iter(|| in_pool(threads, || black_box(precompute(&mesh, BpmOptions::default()).unwrap())))
+        });
+    }
+    group.finish();
+}
+
+fn bench_eval(c: &mut Criterion) {
+    let mesh = procedural::torus(256, 128, 1.0, 0.35);
+    let bpm = precompute(&mesh, BpmOptions::default()).unwrap();
+    let samples = samples(&bpm, 8);
+    let mut group = c.benchmark_group("bpm_eval");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(samples.len() as u64));
+    for threads in [1, 2] {
+        for interp in [Interp::Bpm, Interp::Linear] {
+            group.bench_function(format!("{interp:?}_f64_{threads}threads").to_lowercase(), |b| {
+                b.iter(|| in_pool(threads, || black_box(bpm.eval_many(&samples, interp))))
+            });
+        }
+    }
+    #[cfg(feature = "gpu")]
+    if let Ok(gpu) = reparam::bpm::gpu::context() {
+        let maps = reparam::bpm::gpu::maps_to_gpu(&bpm);
+        let gpu_samples = reparam::bpm::gpu::samples_to_gpu(&samples);
+        for interp in [Interp::Bpm, Interp::Linear] {
+            group.bench_function(format!("{interp:?}_f32_gpu").to_lowercase(), |b| {
+                b.iter(|| black_box(reparam::bpm::gpu::eval_gpu(&gpu, &maps, &gpu_samples, interp).unwrap()))
+            });
+        }
+    }
+    group.finish();
+}
+
+fn bench_qc(c: &mut Criterion) {
+    let spot = Path::new("../shared/realdata/uv_textured/spot/spot_triangulated.obj");
+    let (name, mesh) = match load_obj(spot) {
+        Ok(m) => ("spot", m),
+        Err(_) => ("torus_64x32", procedural::torus(64, 32, 1.0, 0.35)),
+    };
+    let bpm = precompute(&mesh, BpmOptions::default()).unwrap();
+    let mut group = c.benchmark_group("bpm_qc");
+    group.sample_size(10);
+    for interp in [Interp::Bpm, Interp::Linear] {
+        group.bench_function(format!("{name}_subdiv4_{interp:?}").to_lowercase(), |b| {
+            b.iter(|| black_box(qc_protocol(&bpm, interp, 4)))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_precompute, bench_eval, bench_qc);
+criterion_main!(benches);

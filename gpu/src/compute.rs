@@ -1,0 +1,284 @@
+//! Buffers, compute dispatch and readback: the plumbing every kernel module uses.
+
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use bytemuck::Pod;
+use wgpu::util::DeviceExt;
+
+use crate::context::Gpu;
+use crate::error::GpuError;
+
+/// Invocations per workgroup of every compute kernel (`WORKGROUP_SIZE` in `dispatch.wgsl`).
+pub const WORKGROUP_SIZE: u32 = 64;
+
+/// How long [`Gpu::read_back`] waits for the GPU before giving up with [`GpuError::Timeout`]
+/// (generous: lavapipe runs shaders on the CPU).
+pub const READBACK_TIMEOUT: Duration = Duration::from_secs(120);
+
+/// Upper bound on the items of one chunk of [`Gpu::run_per_item`] (4 Mi), so that a chunk's
+/// buffers stay around a few hundred MB whatever the device allows.
+pub const MAX_CHUNK_ITEMS: usize = 1 << 22;
+
+/// WGSL shared by all compute kernels: `WORKGROUP_SIZE` and `linear_index`. Prepend it to a
+/// kernel's source (WGSL has no includes).
+pub const DISPATCH_WGSL: &str = include_str!("../shaders/dispatch.wgsl");
+
+/// A compute pipeline built from WGSL, with its bind group layout inferred from the shader.
+#[derive(Clone, Debug)]
+pub struct ComputeKernel {
+    pipeline: wgpu::ComputePipeline,
+    label: String,
+}
+
+/// The dispatch grid [x, y] of workgroups for `count` invocations:
+/// groups = ⌈count / 64⌉, x = min(groups, max_per_dimension), y = ⌈groups / x⌉. The shader
+/// rebuilds the linear index as `gid.x + gid.y · x · 64` (`linear_index` in `dispatch.wgsl`)
+/// and returns when it is ≥ count. [`GpuError::TooLarge`] when y exceeds the limit too.
+pub fn workgroup_grid(count: u32, max_per_dimension: u32) -> Result<[u32; 2], GpuError> {
+    let groups = count.div_ceil(WORKGROUP_SIZE);
+    if groups == 0 {
+        return Ok([0, 0]);
+    }
+    let x = groups.min(max_per_dimension.max(1));
+    let y = groups.div_ceil(x);
+    if y > max_per_dimension {
+        return Err(GpuError::TooLarge(format!(
+            "{count} invocations need {groups} workgroups, more than {max_per_dimension}²"
+        )));
+    }
+    Ok([x, y])
+}
+
+impl Gpu {
+    /// The largest storage buffer a kernel can bind, in bytes:
+    /// min(max_storage_buffer_binding_size, max_buffer_size).
+    pub fn max_storage_bytes(&self) -> u64 {
+        let l = self.limits();
+        l.max_storage_buffer_binding_size.min(l.max_buffer_size)
+    }
+
+    /// [`GpuError::TooLarge`] unless a storage buffer of `bytes` bytes can be bound.
+    fn check_storage_size(&self, label: &str, bytes: u64) -> Result<(), GpuError> {
+        let max = self.max_storage_bytes();
+        if bytes > max {
+            return Err(GpuError::TooLarge(format!(
+                "buffer '{label}' needs {bytes} bytes, the device binds at most {max}"
+            )));
+        }
+        Ok(())
+    }
+
+    /// A storage buffer (STORAGE | COPY_SRC) holding `data`. An empty slice gives one zeroed
+    /// element, since a binding cannot be empty.
+    pub fn upload_storage<T: Pod>(&self, label: &str, data: &[T]) -> Result<wgpu::Buffer, GpuError> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let zero = vec![0u8; std::mem::size_of::<T>()];
+        let contents = if bytes.is_empty() { &zero[..] } else { bytes };
+        self.check_storage_size(label, contents.len() as u64)?;
+        Ok(self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        }))
+    }
+
+    /// A uniform buffer holding `value` (its size must be a multiple of 16 bytes to match a
+    /// WGSL uniform struct).
+    pub fn upload_uniform<T: Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
+        self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::bytes_of(value),
+            usage: wgpu::BufferUsages::UNIFORM,
+        })
+    }
+
+    /// A zeroed storage buffer (STORAGE | COPY_SRC) for `len` elements of `T` (at least one),
+    /// for a kernel to write and [`Gpu::read_back`] to copy from.
+    pub fn output_storage<T: Pod>(&self, label: &str, len: usize) -> Result<wgpu::Buffer, GpuError> {
+        let bytes = (len.max(1) * std::mem::size_of::<T>()) as u64;
+        self.check_storage_size(label, bytes)?;
+        Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        }))
+    }
+
+    /// Compile `source` and build the compute pipeline of its entry point `entry`, with the
+    /// bind group layout inferred from the shader. Invalid WGSL gives [`GpuError::Validation`]
+    /// with the compiler's message.
+    pub fn compute_kernel(&self, label: &str, source: &str, entry: &str) -> Result<ComputeKernel, GpuError> {
+        self.checked(|| {
+            let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+            let pipeline = self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+            Ok(ComputeKernel {
+                pipeline,
+                label: label.to_string(),
+            })
+        })
+    }
+
+    /// Run `kernel` over `count` invocations with `buffers[n]` bound at `@group(0)
+    /// @binding(n)`, on the grid of [`workgroup_grid`], and submit. Does nothing for
+    /// `count == 0`.
+    pub fn dispatch(&self, kernel: &ComputeKernel, buffers: &[&wgpu::Buffer], count: u32) -> Result<(), GpuError> {
+        let [x, y] = workgroup_grid(count, self.limits().max_compute_workgroups_per_dimension)?;
+        if x == 0 {
+            return Ok(());
+        }
+        self.checked(|| {
+            let entries: Vec<wgpu::BindGroupEntry> = buffers
+                .iter()
+                .enumerate()
+                .map(|(n, b)| wgpu::BindGroupEntry {
+                    binding: n as u32,
+                    resource: b.as_entire_binding(),
+                })
+                .collect();
+            let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(&kernel.label),
+                layout: &kernel.pipeline.get_bind_group_layout(0),
+                entries: &entries,
+            });
+            let mut encoder = self.encoder(&kernel.label);
+            {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(&kernel.label),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(&kernel.pipeline);
+                pass.set_bind_group(0, &bind_group, &[]);
+                pass.dispatch_workgroups(x, y, 1);
+            }
+            self.queue.submit([encoder.finish()]);
+            Ok(())
+        })
+    }
+
+    /// The most items of `item_bytes` bytes one chunk of [`Gpu::run_per_item`] may hold:
+    /// min(max_storage_bytes / item_bytes, [`MAX_CHUNK_ITEMS`]).
+    pub fn max_chunk_len(&self, item_bytes: usize) -> usize {
+        let by_limit = self.max_storage_bytes() / item_bytes.max(1) as u64;
+        (by_limit.min(MAX_CHUNK_ITEMS as u64) as usize).max(1)
+    }
+
+    /// Run a one-item-per-invocation `kernel` over `input`, `chunk_len` items at a time. Per
+    /// chunk: bind `[uniform params(count), shared…, input chunk, output chunk]` at bindings
+    /// 0, 1, …, dispatch `count` invocations, read the output back; return all outputs in order.
+    pub fn run_per_item<P: Pod, I: Pod, O: Pod>(
+        &self,
+        kernel: &ComputeKernel,
+        params: impl Fn(u32) -> P,
+        shared: &[&wgpu::Buffer],
+        input: &[I],
+        chunk_len: usize,
+    ) -> Result<Vec<O>, GpuError> {
+        let mut output = Vec::with_capacity(input.len());
+        for chunk in input.chunks(chunk_len.max(1)) {
+            let count = u32::try_from(chunk.len())
+                .map_err(|_| GpuError::TooLarge(format!("chunk of {} items", chunk.len())))?;
+            let params = self.upload_uniform(&kernel.label, &params(count));
+            let input = self.upload_storage(&kernel.label, chunk)?;
+            let out = self.output_storage::<O>(&kernel.label, chunk.len())?;
+            let mut buffers = vec![&params];
+            buffers.extend_from_slice(shared);
+            buffers.extend([&input, &out]);
+            self.dispatch(kernel, &buffers, count)?;
+            output.extend(self.read_back::<O>(&out, chunk.len())?);
+        }
+        Ok(output)
+    }
+
+    /// The first `len` elements of `T` of a storage buffer: copy to a mappable staging buffer,
+    /// submit, wait (at most [`READBACK_TIMEOUT`]), map and copy out.
+    pub fn read_back<T: Pod>(&self, buffer: &wgpu::Buffer, len: usize) -> Result<Vec<T>, GpuError> {
+        if len == 0 {
+            return Ok(Vec::new());
+        }
+        let size = (len * std::mem::size_of::<T>()) as u64;
+        let (staging, submission) = self.checked(|| {
+            let staging = self.staging_buffer("read_back", size);
+            let mut encoder = self.encoder("read_back");
+            encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+            let submission = self.queue.submit([encoder.finish()]);
+            Ok((staging, submission))
+        })?;
+        let bytes = self.map_staging(&staging, submission)?;
+        Ok(bytemuck::pod_collect_to_vec(&bytes))
+    }
+
+    /// A MAP_READ | COPY_DST buffer of `size` bytes to copy results into.
+    pub(crate) fn staging_buffer(&self, label: &str, size: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    pub(crate) fn encoder(&self, label: &str) -> wgpu::CommandEncoder {
+        self.device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) })
+    }
+
+    /// Map `staging` for reading once `submission` (the copy into it) has completed and return
+    /// its bytes. Waits with `device.poll(PollType::Wait { submission_index, timeout })`.
+    pub(crate) fn map_staging(
+        &self,
+        staging: &wgpu::Buffer,
+        submission: wgpu::SubmissionIndex,
+    ) -> Result<Vec<u8>, GpuError> {
+        let deadline = Instant::now() + READBACK_TIMEOUT;
+        let (sender, receiver) = mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |result| {
+            // The receiver lives until the mapping is resolved; a send error cannot happen.
+            let _ = sender.send(result);
+        });
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(submission),
+                timeout: Some(READBACK_TIMEOUT),
+            })
+            .map_err(|e| match e {
+                wgpu::PollError::Timeout => GpuError::Timeout,
+                other => GpuError::Map(other.to_string()),
+            })?;
+        // The callback normally ran inside the wait above; keep polling in case another
+        // thread's poll is delivering it.
+        let mapped = loop {
+            match receiver.try_recv() {
+                Ok(result) => break result,
+                Err(mpsc::TryRecvError::Disconnected) => {
+                    return Err(GpuError::Map("the map callback was dropped".into()))
+                }
+                Err(mpsc::TryRecvError::Empty) if Instant::now() > deadline => {
+                    return Err(GpuError::Timeout)
+                }
+                Err(mpsc::TryRecvError::Empty) => {
+                    let _ = self.device.poll(wgpu::PollType::Poll);
+                    std::thread::sleep(Duration::from_millis(1));
+                }
+            }
+        };
+        mapped.map_err(|e| GpuError::Map(e.to_string()))?;
+        let bytes = staging
+            .get_mapped_range(..)
+            .map_err(|e| GpuError::Map(e.to_string()))?
+            .to_vec();
+        staging.unmap();
+        Ok(bytes)
+    }
+}

@@ -1,0 +1,162 @@
+//! Bridge between the f64 reference and the f32 kernels of `reparam-gpu`: gathers the same
+//! inputs for both sides, converts per-triangle data between the two layouts, and runs the
+//! kernels. The GPU crate itself knows nothing of the reference; this module is the only place
+//! where the two meet.
+
+use num_complex::Complex64 as C;
+use rayon::prelude::*;
+use reparam_gpu::bpm::{self as kernels, GpuFit, GpuInterp, GpuSample, GpuTriangleMaps, StarInput};
+use reparam_gpu::Gpu;
+
+use super::eval::{Interp, Sample};
+use super::moebius::Sl2;
+use super::precompute::{gather_star, is_degenerate, Bpm, Fit, Star};
+use super::render::{camera_for, RenderOptions};
+use crate::error::{Error, Result};
+use crate::mesh::{Adjacency, TriMesh};
+use crate::texture::Image;
+
+/// The GPU context, or a typed error that says how to get an adapter.
+pub fn context() -> Result<Gpu> {
+    Gpu::new().map_err(gpu_error)
+}
+
+fn gpu_error(e: reparam_gpu::GpuError) -> Error {
+    Error::Gpu(e.to_string())
+}
+
+fn f32x2(z: C) -> [f32; 2] {
+    [z.re as f32, z.im as f32]
+}
+
+/// Every face's [`Star`], as the CPU precompute gathers it.
+pub fn stars(mesh: &TriMesh) -> Result<Vec<Star>> {
+    mesh.validate_with_uvs()?;
+    let adjacency = Adjacency::new(mesh);
+    let degenerate: Vec<bool> = (0..mesh.face_count()).into_par_iter().map(|f| is_degenerate(mesh, f)).collect();
+    Ok((0..mesh.face_count())
+        .into_par_iter()
+        .map(|f| gather_star(mesh, &adjacency, &degenerate, f))
+        .collect())
+}
+
+/// A [`Star`] in the GPU layout (positions and UVs rounded to f32).
+pub fn star_to_gpu(star: &Star) -> StarInput {
+    let mut mask = 0u32;
+    for e in 0..3 {
+        if star.neighbour[e] {
+            mask |= 1 << e;
+        }
+    }
+    if star.degenerate {
+        mask |= 1 << 3;
+    }
+    StarInput {
+        p: star.p.map(|p| [p.x as f32, p.y as f32, p.z as f32, 0.0]),
+        w: star.w.map(f32x2),
+        mask,
+        _pad: [0; 3],
+    }
+}
+
+fn sl2_to_gpu(l: &Sl2) -> [[f32; 4]; 2] {
+    [[l.a.re as f32, l.a.im as f32, l.b.re as f32, l.b.im as f32], [l.c.re as f32, l.c.im as f32, 0.0, 0.0]]
+}
+
+/// The reference's per-triangle data rounded to the GPU layout (input of `bpm_eval` when the
+/// evaluation kernel is checked alone).
+pub fn maps_to_gpu(bpm: &Bpm) -> Vec<GpuTriangleMaps> {
+    bpm.maps
+        .par_iter()
+        .map(|t| {
+            let [l0, l1, l2] = t.logs.map(|l| sl2_to_gpu(&l));
+            let m = &t.m_t;
+            GpuTriangleMaps {
+                z: [t.z[1].re as f32, t.z[1].im as f32, t.z[2].re as f32, t.z[2].im as f32],
+                uv_ij: [t.uv[0].re as f32, t.uv[0].im as f32, t.uv[1].re as f32, t.uv[1].im as f32],
+                uv_k_origin: [t.uv[2].re as f32, t.uv[2].im as f32, t.w_origin.re as f32, t.w_origin.im as f32],
+                m: [
+                    [m.a.re as f32, m.a.im as f32, m.b.re as f32, m.b.im as f32],
+                    [m.c.re as f32, m.c.im as f32, m.d.re as f32, m.d.im as f32],
+                ],
+                logs: [l0[0], l0[1], l1[0], l1[1], l2[0], l2[1]],
+                flags: (t.fallback_linear as u32) | ((t.mirrored as u32) << 1),
+                _pad: [0; 3],
+            }
+        })
+        .collect()
+}
+
+/// Samples in the GPU layout: face id and (b_j, b_k) in f32.
+pub fn samples_to_gpu(samples: &[Sample]) -> Vec<GpuSample> {
+    samples
+        .iter()
+        .map(|s| GpuSample { face: s.face, _pad: 0, b: [s.bary[1] as f32, s.bary[2] as f32] })
+        .collect()
+}
+
+/// The f64 barycentrics the GPU actually evaluates for a sample: (1 − b_j − b_k, b_j, b_k) with
+/// b_j, b_k rounded to f32 (the CPU reference is evaluated at exactly these points).
+pub fn sample_as_gpu_sees_it(s: &Sample) -> Sample {
+    let (bj, bk) = (s.bary[1] as f32 as f64, s.bary[2] as f32 as f64);
+    Sample { face: s.face, bary: [1.0 - bj - bk, bj, bk] }
+}
+
+fn fit_to_gpu(fit: Fit) -> GpuFit {
+    match fit {
+        Fit::Local => GpuFit::Local,
+        Fit::Determinant => GpuFit::Determinant,
+    }
+}
+
+fn interp_to_gpu(interp: Interp) -> GpuInterp {
+    match interp {
+        Interp::Bpm => GpuInterp::Bpm,
+        Interp::Linear => GpuInterp::Linear,
+    }
+}
+
+/// Run the `bpm_precompute` kernel on every face of `mesh`.
+pub fn precompute_gpu(gpu: &Gpu, mesh: &TriMesh, fit: Fit) -> Result<Vec<GpuTriangleMaps>> {
+    let stars: Vec<StarInput> = stars(mesh)?.iter().map(star_to_gpu).collect();
+    kernels::precompute(gpu, &stars, fit_to_gpu(fit)).map_err(gpu_error)
+}
+
+/// Run the `bpm_eval` kernel: UVs at `samples` from per-triangle data `maps`.
+pub fn eval_gpu(gpu: &Gpu, maps: &[GpuTriangleMaps], samples: &[GpuSample], interp: Interp) -> Result<Vec<C>> {
+    let uv = kernels::eval(gpu, maps, samples, interp_to_gpu(interp)).map_err(gpu_error)?;
+    Ok(uv.into_iter().map(|[u, v]| C::new(u as f64, v as f64)).collect())
+}
+
+/// Render `mesh` on the GPU: `bpm_precompute` with `fit`, then the `bpm_render` fragment shader
+/// (the same evaluation as `bpm_eval`), with the camera of the CPU render.
+pub fn render_gpu(gpu: &Gpu, mesh: &TriMesh, fit: Fit, texture: &Image<[u8; 4]>, options: &RenderOptions) -> Result<Image<[u8; 4]>> {
+    let maps = precompute_gpu(gpu, mesh, fit)?;
+    let view_proj = camera_for(mesh, options).view_proj();
+    let corners: Vec<[f32; 4]> = mesh
+        .faces
+        .iter()
+        .flat_map(|f| f.map(|v| {
+            let p = mesh.positions[v as usize];
+            [p.x as f32, p.y as f32, p.z as f32, 1.0]
+        }))
+        .collect();
+    let input = kernels::RenderInput {
+        width: options.width,
+        height: options.height,
+        view_proj: std::array::from_fn(|i| view_proj.as_slice()[i] as f32),
+        corners: &corners,
+        maps: &maps,
+        texture_width: texture.width as u32,
+        texture_height: texture.height as u32,
+        texture: texture.pixels.as_flattened(),
+        interp: interp_to_gpu(options.interp),
+        background: options.background,
+    };
+    let bytes = kernels::render(gpu, &input).map_err(gpu_error)?;
+    let (w, h) = (options.width as usize, options.height as usize);
+    Ok(Image::from_fn(w, h, |x, y| {
+        let i = 4 * (y * w + x);
+        [bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]
+    }))
+}

@@ -1,0 +1,131 @@
+//! The authors' quality protocol (notes, "Quality metric"): subdivide every face n times 1→4,
+//! evaluate the interpolant at the sub-vertices, and measure the quasi-conformal distortion
+//! QC = σ_max/σ_min of the affine map from each sub-triangle (in the face's layout) to its image.
+
+use num_complex::Complex64 as C;
+use rayon::prelude::*;
+
+use super::eval::Interp;
+use super::precompute::Bpm;
+
+/// Distortion statistics over all sub-triangles. Percentiles and the mean are weighted by the
+/// sub-triangle's area; folded sub-triangles (orientation reversed) are counted separately and
+/// included in the statistics with their (finite) QC.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct QcStats {
+    pub interp: Interp,
+    pub subdiv: u32,
+    pub sub_triangles: usize,
+    pub mean: f64,
+    pub p50: f64,
+    pub p95: f64,
+    pub p99: f64,
+    pub max: f64,
+    /// Sub-triangles whose image is reversed (det < 0).
+    pub folded: usize,
+    /// Sub-triangles whose image is degenerate (σ_min = 0, QC = ∞), left out of the figures.
+    pub collapsed: usize,
+    /// Degenerate input faces (linear fallback), left out of the protocol.
+    pub skipped_faces: usize,
+}
+
+/// Quasi-conformal distortion of the affine map taking the triangle `z` to the triangle `w`.
+///
+/// Writing the map as w = α z + β z̄ + c (α, β solved from the two edge vectors):
+/// σ_max = |α| + |β|, σ_min = ||α| − |β||, det = |α|² − |β|² (< 0: folded). Returns
+/// (σ_max/σ_min, folded).
+pub fn quasi_conformal(z: [C; 3], w: [C; 3]) -> (f64, bool) {
+    let (dz1, dz2) = (z[1] - z[0], z[2] - z[0]);
+    let (dw1, dw2) = (w[1] - w[0], w[2] - w[0]);
+    let det = dz1 * dz2.conj() - dz2 * dz1.conj();
+    let alpha = (dw1 * dz2.conj() - dw2 * dz1.conj()) / det;
+    let beta = (dz1 * dw2 - dz2 * dw1) / det;
+    let (a, b) = (alpha.norm(), beta.norm());
+    ((a + b) / (a - b).abs(), b > a)
+}
+
+/// Barycentric coordinates of the regular grid with `n = 2^subdiv` segments per edge: vertex
+/// (r, s) has b = (1 − (r + s)/n, r/n, s/n).
+fn grid_bary(r: usize, s: usize, n: usize) -> [f64; 3] {
+    let (bj, bk) = (r as f64 / n as f64, s as f64 / n as f64);
+    [1.0 - bj - bk, bj, bk]
+}
+
+/// The sub-triangles of the grid as triples of (r, s) indices: "up" (r,s),(r+1,s),(r,s+1) and
+/// "down" (r+1,s),(r+1,s+1),(r,s+1); n² in all, all with the face's orientation.
+fn sub_triangles(n: usize) -> Vec<[(usize, usize); 3]> {
+    let mut out = Vec::with_capacity(n * n);
+    for s in 0..n {
+        for r in 0..n - s {
+            out.push([(r, s), (r + 1, s), (r, s + 1)]);
+            if r + s + 1 < n {
+                out.push([(r + 1, s), (r + 1, s + 1), (r, s + 1)]);
+            }
+        }
+    }
+    out
+}
+
+/// Run the QC protocol with `subdiv` 1→4 subdivisions per face (n = 4 gives 256 sub-triangles).
+pub fn qc_protocol(bpm: &Bpm, interp: Interp, subdiv: u32) -> QcStats {
+    let n = 1usize << subdiv;
+    let subs = sub_triangles(n);
+    // (qc, area, folded) for every sub-triangle, face by face in order: thread-count independent.
+    let per_face: Vec<Vec<(f64, f64, bool)>> = (0..bpm.maps.len())
+        .into_par_iter()
+        .map(|f| {
+            let t = &bpm.maps[f];
+            if t.fallback_linear {
+                return Vec::new();
+            }
+            let point = |(r, s): (usize, usize)| {
+                let b = grid_bary(r, s, n);
+                (t.z[0] * b[0] + t.z[1] * b[1] + t.z[2] * b[2], bpm.eval(f, b, interp))
+            };
+            subs.iter()
+                .map(|tri| {
+                    let [(z0, w0), (z1, w1), (z2, w2)] = tri.map(point);
+                    let (qc, folded) = quasi_conformal([z0, z1, z2], [w0, w1, w2]);
+                    let area = 0.5 * super::precompute::signed_area2(z0, z1, z2).abs();
+                    (qc, area, folded)
+                })
+                .collect()
+        })
+        .collect();
+    let skipped_faces = bpm.maps.iter().filter(|t| t.fallback_linear).count();
+    summarise(per_face.into_iter().flatten().collect(), interp, subdiv, skipped_faces)
+}
+
+fn summarise(mut v: Vec<(f64, f64, bool)>, interp: Interp, subdiv: u32, skipped: usize) -> QcStats {
+    let sub_triangles = v.len();
+    let folded = v.iter().filter(|x| x.2).count();
+    v.retain(|x| x.0.is_finite());
+    let collapsed = sub_triangles - v.len();
+    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let total_area: f64 = v.iter().map(|x| x.1).sum();
+    let mean = v.iter().map(|x| x.0 * x.1).sum::<f64>() / total_area;
+    let percentile = |p: f64| {
+        let target = p * total_area;
+        let mut acc = 0.0;
+        for x in &v {
+            acc += x.1;
+            if acc >= target {
+                return x.0;
+            }
+        }
+        v.last().map_or(f64::NAN, |x| x.0)
+    };
+    QcStats {
+        interp,
+        subdiv,
+        sub_triangles,
+        mean,
+        p50: percentile(0.50),
+        p95: percentile(0.95),
+        p99: percentile(0.99),
+        max: v.last().map_or(f64::NAN, |x| x.0),
+        folded,
+        collapsed,
+        skipped_faces: skipped,
+    }
+}

@@ -1,0 +1,267 @@
+//! `reparam bpm render|qc`.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::{Args, Subcommand, ValueEnum};
+use reparam::bpm::render::{render_cpu, RenderOptions};
+use reparam::bpm::{precompute, qc_protocol, BpmOptions, Fit, Interp, PrecomputeReport, QcStats};
+use reparam::report::sig;
+use reparam::texture::save_png;
+use reparam::Result;
+use serde::Serialize;
+
+use reparam::bpm::render::resolve_texture;
+
+use super::inputs::{load_mesh, parse_direction, parse_size};
+
+#[derive(Subcommand)]
+pub enum BpmCommand {
+    /// Render a mesh textured under BPM or linear UVs to a PNG.
+    Render(RenderArgs),
+    /// The authors' quality protocol: QC = σmax/σmin over 4ⁿ sub-triangles per face.
+    Qc(QcArgs),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum InterpArg {
+    Bpm,
+    Linear,
+}
+
+impl From<InterpArg> for Interp {
+    fn from(a: InterpArg) -> Interp {
+        match a {
+            InterpArg::Bpm => Interp::Bpm,
+            InterpArg::Linear => Interp::Linear,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Backend {
+    Cpu,
+    Gpu,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FitArg {
+    Local,
+    Det,
+}
+
+impl From<FitArg> for Fit {
+    fn from(a: FitArg) -> Fit {
+        match a {
+            FitArg::Local => Fit::Local,
+            FitArg::Det => Fit::Determinant,
+        }
+    }
+}
+
+#[derive(Args)]
+pub struct RenderArgs {
+    /// OBJ file (with `vt` and optionally an MTL texture) or `procedural:<name>`.
+    pub mesh: String,
+    #[arg(long, value_enum, default_value = "bpm")]
+    pub interp: InterpArg,
+    #[arg(long, value_enum, default_value = "cpu")]
+    pub backend: Backend,
+    /// Möbius fit (the GPU backend's precompute uses it too).
+    #[arg(long, value_enum, default_value = "local")]
+    pub fit: FitArg,
+    /// Texture image; default: the mesh's material texture, else a built-in UV grid.
+    #[arg(long)]
+    pub texture: Option<PathBuf>,
+    /// Picture size WIDTHxHEIGHT.
+    #[arg(long, value_parser = parse_size, default_value = "768x768")]
+    pub size: (u32, u32),
+    /// View direction x,y,z (from the mesh towards the eye).
+    #[arg(long, value_parser = parse_direction, default_value = "0.4,0.3,1")]
+    pub view: nalgebra::Vector3<f64>,
+    /// With --backend gpu: also render on the CPU and report PSNR and differing pixels.
+    #[arg(long)]
+    pub compare: bool,
+    /// Output PNG.
+    #[arg(short, long, default_value = "out/bpm_render.png")]
+    pub output: PathBuf,
+    /// Print machine-readable results.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args)]
+pub struct QcArgs {
+    /// OBJ file (with `vt`) or `procedural:<name>`.
+    pub mesh: String,
+    /// Number of 1→4 subdivisions per face (4 → 256 sub-triangles).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(0..=8))]
+    pub subdiv: u32,
+    #[arg(long, value_enum, default_value = "local")]
+    pub fit: FitArg,
+    /// Print machine-readable results.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(cmd: BpmCommand) -> Result<()> {
+    match cmd {
+        BpmCommand::Render(args) => render(args),
+        BpmCommand::Qc(args) => qc(args),
+    }
+}
+
+#[derive(Serialize)]
+struct RenderResult {
+    mesh: String,
+    output: PathBuf,
+    backend: String,
+    interp: Interp,
+    width: u32,
+    height: u32,
+    precompute: PrecomputeReport,
+    seconds: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    adapter: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    versus_cpu: Option<reparam::raster::DiffStats>,
+}
+
+fn render(args: RenderArgs) -> Result<()> {
+    let mesh = load_mesh(&args.mesh)?;
+    let bpm_options = BpmOptions { fit: args.fit.into(), ..Default::default() };
+    let bpm = precompute(&mesh, bpm_options)?;
+    let texture = resolve_texture(&mesh, args.texture.as_deref())?;
+    let options = RenderOptions {
+        width: args.size.0,
+        height: args.size.1,
+        view_dir: args.view,
+        interp: args.interp.into(),
+        ..Default::default()
+    };
+    let start = Instant::now();
+    let (image, adapter, versus_cpu) = match args.backend {
+        Backend::Cpu => (render_cpu(&mesh, &bpm, &texture, &options), None, None),
+        Backend::Gpu => render_gpu(&mesh, &bpm, &texture, &options, args.compare)?,
+    };
+    let seconds = start.elapsed().as_secs_f64();
+    save_png(&image, &args.output)?;
+    let result = RenderResult {
+        mesh: mesh.name.clone(),
+        output: args.output.clone(),
+        backend: format!("{:?}", args.backend).to_lowercase(),
+        interp: options.interp,
+        width: options.width,
+        height: options.height,
+        precompute: bpm.report.clone(),
+        seconds,
+        adapter,
+        versus_cpu,
+    };
+    if args.json {
+        return super::print_json(&result);
+    }
+    println!("wrote {} ({}×{}, {:?}, {} backend, {} s)", args.output.display(), options.width, options.height, options.interp, result.backend, sig(seconds, 3));
+    print_precompute_report(&bpm.report);
+    if let Some(d) = &result.versus_cpu {
+        println!("versus the CPU render: PSNR {} dB, {}% of pixels differ by more than 1/255, max {}", sig(d.psnr_db, 3), sig(100.0 * d.fraction_over_1_of_255, 2), d.max_abs);
+    }
+    Ok(())
+}
+
+#[cfg(feature = "gpu")]
+type GpuRender = (reparam::texture::Image<[u8; 4]>, Option<String>, Option<reparam::raster::DiffStats>);
+
+#[cfg(feature = "gpu")]
+fn render_gpu(
+    mesh: &reparam::mesh::TriMesh,
+    bpm: &reparam::bpm::Bpm,
+    texture: &reparam::texture::Image<[u8; 4]>,
+    options: &RenderOptions,
+    compare: bool,
+) -> Result<GpuRender> {
+    let gpu = reparam::bpm::gpu::context()?;
+    let image = reparam::bpm::gpu::render_gpu(&gpu, mesh, bpm.options.fit, texture, options)?;
+    let diff = match compare {
+        true => Some(reparam::raster::image_diff(&image, &render_cpu(mesh, bpm, texture, options))?),
+        false => None,
+    };
+    Ok((image, Some(gpu.adapter_summary()), diff))
+}
+
+#[cfg(not(feature = "gpu"))]
+fn render_gpu(
+    _: &reparam::mesh::TriMesh,
+    _: &reparam::bpm::Bpm,
+    _: &reparam::texture::Image<[u8; 4]>,
+    _: &RenderOptions,
+    _: bool,
+) -> Result<(reparam::texture::Image<[u8; 4]>, Option<String>, Option<reparam::raster::DiffStats>)> {
+    Err(reparam::Error::Gpu("this build has no GPU support (feature `gpu` is off)".into()))
+}
+
+pub fn print_precompute_report(r: &PrecomputeReport) {
+    println!(
+        "{} faces; {} degenerate (linear fallback{}), {} mirrored; edges: {} boundary, {} UV seam, {} non-manifold, {} misoriented (all treated as boundary)",
+        r.faces,
+        r.degenerate_faces,
+        if r.degenerate_examples.is_empty() { String::new() } else { format!(", e.g. faces {:?}", r.degenerate_examples) },
+        r.mirrored_faces,
+        r.boundary_edges,
+        r.seam_edges,
+        r.non_manifold_edges,
+        r.misoriented_edges
+    );
+}
+
+#[derive(Serialize)]
+struct QcResult {
+    mesh: String,
+    subdiv: u32,
+    precompute: PrecomputeReport,
+    linear: QcStats,
+    bpm: QcStats,
+    seconds: f64,
+}
+
+fn qc(args: QcArgs) -> Result<()> {
+    let mesh = load_mesh(&args.mesh)?;
+    let start = Instant::now();
+    let bpm = precompute(&mesh, BpmOptions { fit: args.fit.into(), ..Default::default() })?;
+    let linear = qc_protocol(&bpm, Interp::Linear, args.subdiv);
+    let bpm_stats = qc_protocol(&bpm, Interp::Bpm, args.subdiv);
+    let result = QcResult {
+        mesh: mesh.name.clone(),
+        subdiv: args.subdiv,
+        precompute: bpm.report.clone(),
+        linear,
+        bpm: bpm_stats,
+        seconds: start.elapsed().as_secs_f64(),
+    };
+    if args.json {
+        return super::print_json(&result);
+    }
+    print_precompute_report(&bpm.report);
+    println!("QC = σmax/σmin over {} sub-triangles ({} subdivisions per face), area-weighted:", result.bpm.sub_triangles, args.subdiv);
+    println!("{}", qc_table(&[&result.linear, &result.bpm]));
+    println!("({} s)", sig(result.seconds, 3));
+    Ok(())
+}
+
+/// A plain-text table of QC statistics, one row per interpolant.
+pub fn qc_table(rows: &[&QcStats]) -> String {
+    let mut s = format!("{:<8} {:>9} {:>9} {:>9} {:>9} {:>11} {:>8}\n", "interp", "mean", "p50", "p95", "p99", "max", "folded");
+    for q in rows {
+        s += &format!(
+            "{:<8} {:>9} {:>9} {:>9} {:>9} {:>11} {:>8}\n",
+            format!("{:?}", q.interp).to_lowercase(),
+            sig(q.mean, 4),
+            sig(q.p50, 4),
+            sig(q.p95, 4),
+            sig(q.p99, 4),
+            sig(q.max, 4),
+            q.folded
+        );
+    }
+    s
+}

@@ -1,0 +1,56 @@
+//! Command-line parsing (clap derive) and dispatch. Each subcommand lives in its own file and
+//! only glues the library together: parse, call, print (or `--json`), save.
+
+mod bpm;
+mod crosscheck;
+mod demo;
+mod inputs;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// reparam — reference f64 implementations of texture-parameterisation algorithms, with f32
+/// GPU kernels cross-checked against them.
+#[derive(Parser)]
+#[command(name = "reparam", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run every algorithm on built-in data; write pictures and report.md to the output folder.
+    Demo(demo::DemoArgs),
+    /// Blended Piecewise Möbius Maps: render, quality protocol.
+    #[command(subcommand)]
+    Bpm(bpm::BpmCommand),
+    /// Compare a GPU f32 kernel with the f64 reference from identical inputs.
+    #[command(subcommand)]
+    Crosscheck(crosscheck::CrosscheckCommand),
+}
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Demo(args) => demo::run(args),
+        Command::Bpm(cmd) => bpm::run(cmd),
+        Command::Crosscheck(cmd) => crosscheck::run(cmd),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Print `value` as pretty JSON on stdout.
+pub fn print_json<T: serde::Serialize>(value: &T) -> reparam::Result<()> {
+    let text = serde_json::to_string_pretty(value)
+        .map_err(|e| reparam::Error::InvalidArgument(format!("cannot serialise results: {e}")))?;
+    println!("{text}");
+    Ok(())
+}

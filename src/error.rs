@@ -1,0 +1,84 @@
+//! One error type for the whole library. Every variant names the element (face, vertex, edge)
+//! and the file or built-in mesh it came from, so a user can find the culprit.
+
+use std::path::PathBuf;
+
+/// Result alias used throughout `reparam`.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Everything that can go wrong on user input. Nothing in the library panics on user input.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A mesh file could not be parsed.
+    #[error("{path}: cannot parse mesh: {message}")]
+    MeshParse { path: PathBuf, message: String },
+    /// The mesh has no triangles (or no vertices).
+    #[error("{mesh}: the mesh is empty (no triangles)")]
+    EmptyMesh { mesh: String },
+    /// An algorithm that needs texture coordinates got a mesh without them.
+    #[error("{mesh}: the mesh has no texture coordinates (no `vt` lines); this command needs UVs")]
+    MissingUvs { mesh: String },
+    /// Some faces have UV indices and some do not.
+    #[error("{mesh}: face {face} has no texture coordinates while others do")]
+    PartialUvs { mesh: String, face: usize },
+    /// A vertex position or texture coordinate is NaN or infinite.
+    #[error("{mesh}: {what} {index} is not finite ({value})")]
+    NonFinite {
+        mesh: String,
+        what: &'static str,
+        index: usize,
+        value: String,
+    },
+    /// A face refers to a vertex that does not exist.
+    #[error("{mesh}: face {face} refers to {what} {index}, but there are only {count}")]
+    IndexOutOfRange {
+        mesh: String,
+        face: usize,
+        what: &'static str,
+        index: usize,
+        count: usize,
+    },
+    /// A face that is not a triangle where triangles are required, or repeats a vertex.
+    #[error("{mesh}: face {face} is degenerate: {reason}")]
+    DegenerateFace {
+        mesh: String,
+        face: usize,
+        reason: String,
+    },
+    /// Edges shared by more than two faces where the algorithm needs a 2-manifold.
+    #[error("{mesh}: {count} non-manifold edge(s), first: vertices {first:?}")]
+    NonManifold {
+        mesh: String,
+        count: usize,
+        first: (u32, u32),
+    },
+    /// The mesh's material names a texture file that does not exist.
+    #[error("{mesh}: texture {texture} (from the material file) does not exist; pass --texture to use another image")]
+    MissingTexture { mesh: String, texture: PathBuf },
+    /// An image could not be decoded or encoded.
+    #[error("{path}: image error: {message}")]
+    Image { path: PathBuf, message: String },
+    /// A command-line or options value is out of its valid range.
+    #[error("invalid argument: {0}")]
+    InvalidArgument(String),
+    /// A GPU operation failed (no adapter, device lost, timeout, shader error).
+    #[error("GPU: {0}")]
+    Gpu(String),
+}
+
+impl Error {
+    /// Wrap an `std::io::Error` with the path it concerns.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}

@@ -1,0 +1,324 @@
+//! Built-in meshes for the demo, the tests and the benchmarks. Every mesh is deterministic (the
+//! same arguments give the same mesh) and named `procedural:<name>`.
+//!
+//! Orientation: faces are counter-clockwise seen from outside (from +z for the flat ones), and
+//! counter-clockwise in UV unless the mesh is meant to be mirrored. Size arguments below the
+//! smallest meaningful value are raised to it (documented per function).
+
+use std::f64::consts::TAU;
+
+use nalgebra::{Point2, Point3};
+use num_complex::Complex64;
+
+use super::trimesh::TriMesh;
+
+/// A Möbius map `w = (a z + b) / (c z + d)` written as its matrix `[[a, b], [c, d]]`.
+pub type Mobius = [[Complex64; 2]; 2];
+
+/// Planar fan of `n` triangles (`n ≥ 3`) around a centre vertex at the origin, rim vertices at
+/// irregular radii and angles (no symmetry). UVs are a similarity of the positions,
+/// `uv = 0.35 · R(0.3 rad) · (x, y) + (0.5, 0.5)`.
+///
+/// For tests where the UV map is conformal: BPM and linear interpolation must agree exactly.
+pub fn flat_star(n: usize) -> TriMesh {
+    let (cos, sin) = (0.3f64.cos(), 0.3f64.sin());
+    let similarity = |p: &Point3<f64>| {
+        let s = 0.35;
+        Point2::new(0.5 + s * (cos * p.x - sin * p.y), 0.5 + s * (sin * p.x + cos * p.y))
+    };
+    fan_mesh("flat_star", star_positions(n), similarity)
+}
+
+/// The positions of [`flat_star`], with UVs an anisotropic, sheared affine map of them,
+/// `u = 0.5 + 0.45 x + 0.15 y`, `v = 0.5 − 0.05 x + 0.2 y` (determinant 0.0975 > 0).
+///
+/// For tests where the UV map is not conformal, so BPM differs from linear interpolation.
+pub fn flat_star_affine(n: usize) -> TriMesh {
+    let affine = |p: &Point3<f64>| Point2::new(0.5 + 0.45 * p.x + 0.15 * p.y, 0.5 - 0.05 * p.x + 0.2 * p.y);
+    fan_mesh("flat_star_affine", star_positions(n), affine)
+}
+
+/// A cone: fan of `n` triangles (`n ≥ 3`) around an apex at `(0, 0, height)`, rim a regular
+/// n-gon of radius 1 in the plane z = 0. The apex UV is (0, 0), rim vertex k has UV
+/// `(cos 2πk/n, sin 2πk/n)`: the UV fan closes a full turn around the apex although the cone's
+/// total angle there is smaller, a strongly distorted map (stress case from the BPM notes).
+pub fn cone_fan(n: usize, height: f64) -> TriMesh {
+    let n = n.max(3);
+    let rim = |k: usize| {
+        let angle = TAU * k as f64 / n as f64;
+        (angle.cos(), angle.sin())
+    };
+    let mut positions = vec![Point3::new(0.0, 0.0, height)];
+    let mut uvs = vec![Point2::new(0.0, 0.0)];
+    for k in 0..n {
+        let (c, s) = rim(k);
+        positions.push(Point3::new(c, s, 0.0));
+        uvs.push(Point2::new(c, s));
+    }
+    TriMesh::with_shared_indices(name("cone_fan"), positions, uvs, fan_faces(n))
+}
+
+/// A closed torus around the z axis with `major ≥ 3` segments around the axis and `minor ≥ 3`
+/// around the tube, major radius `big_r` and tube radius `small_r`. Vertex (i, j) sits at
+/// angles θ = 2πi/major, φ = 2πj/minor:
+/// `p = ((R + r cos φ) cos θ, (R + r cos φ) sin θ, r sin φ)`, `uv = (i/major, j/minor)`.
+///
+/// Positions wrap around (the surface is closed, no boundary); UVs do not: UV rows/columns at
+/// u = 1 and v = 1 are separate texture coordinates, so the mesh has UV seams along both
+/// wrap-around directions (`major + minor` seam edges). Triangle count `2 · major · minor`
+/// (see [`torus_triangle_count`]).
+pub fn torus(major: usize, minor: usize, big_r: f64, small_r: f64) -> TriMesh {
+    let (major, minor) = (major.max(3), minor.max(3));
+    let mut positions = Vec::with_capacity(major * minor);
+    for j in 0..minor {
+        let phi = TAU * j as f64 / minor as f64;
+        for i in 0..major {
+            let theta = TAU * i as f64 / major as f64;
+            let ring = big_r + small_r * phi.cos();
+            positions.push(Point3::new(ring * theta.cos(), ring * theta.sin(), small_r * phi.sin()));
+        }
+    }
+    let uvs = grid_points(major, minor, |i, j| {
+        Point2::new(i as f64 / major as f64, j as f64 / minor as f64)
+    });
+    let position_index = |i: usize, j: usize| ((j % minor) * major + i % major) as u32;
+    TriMesh {
+        positions,
+        uvs,
+        faces: grid_faces(major, minor, position_index),
+        uv_faces: grid_faces(major, minor, grid_index(major)),
+        texture: None,
+        name: name("torus"),
+    }
+}
+
+/// Number of triangles of `torus(major, minor, ..)` (for sizes ≥ 3): `2 · major · minor`.
+pub fn torus_triangle_count(major: usize, minor: usize) -> usize {
+    2 * major.max(3) * minor.max(3)
+}
+
+/// Segments of [`big_torus`]: 2 · 1024 · 512 = 1,048,576 triangles.
+pub const BIG_TORUS_SEGMENTS: (usize, usize) = (1024, 512);
+
+/// A torus of 1,048,576 triangles (524,288 positions, 525,825 UVs) for benchmarks:
+/// `torus(1024, 512, 1.0, 0.35)`.
+pub fn big_torus() -> TriMesh {
+    let (major, minor) = BIG_TORUS_SEGMENTS;
+    let mut mesh = torus(major, minor, 1.0, 0.35);
+    mesh.name = name("big_torus");
+    mesh
+}
+
+/// A default Möbius map for [`mobius_mesh`], clearly not affine on [−1, 1]²:
+/// `a = 0.35`, `b = 0.5 + 0.5i`, `c = 0.25 + 0.15i`, `d = 1` (pole at z ≈ −2.9 + 1.8i, outside
+/// the square; `ad − bc = 0.3 − 0.2i ≠ 0`).
+pub fn default_mobius() -> Mobius {
+    let c = |re, im| Complex64::new(re, im);
+    [[c(0.35, 0.0), c(0.5, 0.5)], [c(0.25, 0.15), c(1.0, 0.0)]]
+}
+
+/// `w = (a z + b) / (c z + d)` for `m = [[a, b], [c, d]]`.
+pub fn apply_mobius(m: &Mobius, z: Complex64) -> Complex64 {
+    let [[a, b], [c, d]] = *m;
+    (a * z + b) / (c * z + d)
+}
+
+/// A planar `n × n`-cell grid (`n ≥ 1`) on [−1, 1]² in the plane z = 0, interior vertices
+/// jittered deterministically by up to a quarter cell, whose UVs are the Möbius image of the
+/// layout: `uv = w(x + iy)` with `w = apply_mobius(m, ·)`.
+///
+/// For BPM: a map that is exactly a Möbius transformation must be reproduced exactly by BPM
+/// and not by linear interpolation. The pole `−d/c` must lie outside the square (else some UVs
+/// are infinite and `validate` fails).
+pub fn mobius_mesh(n: usize, m: Mobius) -> TriMesh {
+    let n = n.max(1);
+    let positions = grid_points(n, n, |i, j| {
+        let (x, y) = jittered_square_point(n, i, j);
+        Point3::new(x, y, 0.0)
+    });
+    let uvs = positions
+        .iter()
+        .map(|p| {
+            let w = apply_mobius(&m, Complex64::new(p.x, p.y));
+            Point2::new(w.re, w.im)
+        })
+        .collect();
+    TriMesh::with_shared_indices(name("mobius"), positions, uvs, grid_faces(n, n, grid_index(n)))
+}
+
+/// Two charts meeting at a 3D edge: a tent (roof) of `2n × n` cells (`n ≥ 1`) with its ridge
+/// along the y axis at height 0.6, each slope 1 long and 1 wide. The left slope's UVs are an
+/// isometry of the slope scaled by 0.4 (positive area); the right slope's UVs are *mirrored*
+/// (negative signed UV area), as for a symmetric model that reuses a texture flipped. The two
+/// charts have separate UVs along the ridge, so the ridge is a UV seam.
+///
+/// Left chart UV: `(0.05 + 0.4 a, 0.3 + 0.4 y)` with `a` ∈ [0, 1] the distance up the slope;
+/// right chart UV: `(0.95 − 0.4 a', 0.3 + 0.4 y)` with `a'` the distance down from the ridge.
+pub fn two_charts_mirrored(n: usize) -> TriMesh {
+    let n = n.max(1);
+    let (half_width, height) = (0.8, 0.6); // slope length √(0.8² + 0.6²) = 1
+    let positions = grid_points(2 * n, n, |i, j| {
+        let x = half_width * (i as f64 / n as f64 - 1.0);
+        Point3::new(x, j as f64 / n as f64, height * (1.0 - x.abs() / half_width))
+    });
+    let chart_uv = |u0: f64, du: f64| {
+        grid_points(n, n, move |i, j| {
+            Point2::new(u0 + du * i as f64 / n as f64, 0.3 + 0.4 * j as f64 / n as f64)
+        })
+    };
+    let mut uvs = chart_uv(0.05, 0.4);
+    uvs.extend(chart_uv(0.95, -0.4));
+
+    let position_index = grid_index(2 * n);
+    let mut faces = grid_faces(n, n, |i, j| position_index(i, j));
+    faces.extend(grid_faces(n, n, |i, j| position_index(i + n, j)));
+    let chart_offset = ((n + 1) * (n + 1)) as u32;
+    let uv_index = grid_index(n);
+    let mut uv_faces = grid_faces(n, n, &uv_index);
+    uv_faces.extend(grid_faces(n, n, |i, j| uv_index(i, j) + chart_offset));
+    TriMesh {
+        positions,
+        uvs,
+        faces,
+        uv_faces,
+        texture: None,
+        name: name("two_charts_mirrored"),
+    }
+}
+
+/// UV cell width of [`tiny_far_uv`].
+pub const TINY_UV_CELL: f64 = 0.004;
+
+/// A planar `n × n`-cell grid (`n ≥ 1`) on the unit square whose UVs are a slightly jittered
+/// grid of cell width 0.004 starting at (2.6, 2.6): tiny UV triangles far from the UV origin,
+/// the f32 stress case (UV differences lose most of their f32 digits).
+pub fn tiny_far_uv(n: usize) -> TriMesh {
+    let n = n.max(1);
+    let positions = grid_points(n, n, |i, j| Point3::new(i as f64 / n as f64, j as f64 / n as f64, 0.0));
+    let uvs = grid_points(n, n, |i, j| {
+        let (x, y) = (i as f64, j as f64);
+        let jitter = if is_interior(n, i, j) { 0.2 } else { 0.0 };
+        Point2::new(
+            2.6 + TINY_UV_CELL * (x + jitter * unit_hash(i, j, 7)),
+            2.6 + TINY_UV_CELL * (y + jitter * unit_hash(i, j, 8)),
+        )
+    });
+    TriMesh::with_shared_indices(name("tiny_far_uv"), positions, uvs, grid_faces(n, n, grid_index(n)))
+}
+
+/// A curved, well-shaped height field: `n × n` cells (`n ≥ 1`) on [0, 1]² with
+/// `z = 0.15 sin(2πx) sin(πy)` and `uv = (x, y)`. The UV map is smooth and has no folds, for
+/// tests that an algorithm keeps a good map good.
+pub fn wavy_grid(n: usize) -> TriMesh {
+    let n = n.max(1);
+    let positions = grid_points(n, n, |i, j| {
+        let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+        Point3::new(x, y, 0.15 * (TAU * x).sin() * (0.5 * TAU * y).sin())
+    });
+    let uvs = positions.iter().map(|p| Point2::new(p.x, p.y)).collect();
+    TriMesh::with_shared_indices(name("wavy_grid"), positions, uvs, grid_faces(n, n, grid_index(n)))
+}
+
+/// The small built-in meshes (each under a few thousand triangles), for cross-check loops.
+pub fn all_small() -> Vec<TriMesh> {
+    vec![
+        flat_star(12),
+        flat_star_affine(12),
+        cone_fan(16, 1.0),
+        torus(24, 12, 1.0, 0.35),
+        mobius_mesh(8, default_mobius()),
+        two_charts_mirrored(6),
+        tiny_far_uv(8),
+        wavy_grid(12),
+    ]
+}
+
+// ---------------------------------------------------------------------------------------------
+// Building blocks
+
+fn name(short: &str) -> String {
+    format!("procedural:{short}")
+}
+
+/// Centre (index 0) and `n ≥ 3` rim vertices of an irregular star in the plane z = 0:
+/// rim vertex k at angle `2π (k + 0.3 h₁) / n` and radius `1 + 0.3 h₂` (h = deterministic
+/// values in [−1, 1]); the angles stay increasing because the angular jitter is below half a step.
+fn star_positions(n: usize) -> Vec<Point3<f64>> {
+    let n = n.max(3);
+    let mut positions = vec![Point3::origin()];
+    for k in 0..n {
+        let angle = TAU * (k as f64 + 0.3 * unit_hash(k, 0, 1)) / n as f64;
+        let radius = 1.0 + 0.3 * unit_hash(k, 0, 2);
+        positions.push(Point3::new(radius * angle.cos(), radius * angle.sin(), 0.0));
+    }
+    positions
+}
+
+/// A fan mesh around vertex 0 whose UVs are `uv_of(position)`.
+fn fan_mesh(short: &str, positions: Vec<Point3<f64>>, uv_of: impl Fn(&Point3<f64>) -> Point2<f64>) -> TriMesh {
+    let uvs = positions.iter().map(uv_of).collect();
+    let n = positions.len() - 1;
+    TriMesh::with_shared_indices(name(short), positions, uvs, fan_faces(n))
+}
+
+/// Triangles `(0, k, k+1)` of a closed fan around vertex 0 with rim vertices `1..=n`.
+fn fan_faces(n: usize) -> Vec<[u32; 3]> {
+    (0..n).map(|k| [0, 1 + k as u32, 1 + ((k + 1) % n) as u32]).collect()
+}
+
+/// The `(nx + 1) × (ny + 1)` grid points `f(i, j)`, row-major (index `j (nx + 1) + i`).
+fn grid_points<T>(nx: usize, ny: usize, f: impl Fn(usize, usize) -> T) -> Vec<T> {
+    (0..=ny).flat_map(|j| (0..=nx).map(move |i| (i, j))).map(|(i, j)| f(i, j)).collect()
+}
+
+/// Index of grid point (i, j) in [`grid_points`] order for a grid `nx` cells wide.
+fn grid_index(nx: usize) -> impl Fn(usize, usize) -> u32 {
+    move |i, j| (j * (nx + 1) + i) as u32
+}
+
+/// Two triangles per cell of an `nx × ny` cell grid, counter-clockwise when i runs along x and
+/// j along y: corners a = (i, j), b = (i+1, j), c = (i+1, j+1), d = (i, j+1) give (a, b, c) and
+/// (a, c, d). `index(i, j)` numbers the grid points (and may wrap around for closed surfaces).
+fn grid_faces(nx: usize, ny: usize, index: impl Fn(usize, usize) -> u32) -> Vec<[u32; 3]> {
+    let mut faces = Vec::with_capacity(2 * nx * ny);
+    for j in 0..ny {
+        for i in 0..nx {
+            let (a, b, c, d) = (index(i, j), index(i + 1, j), index(i + 1, j + 1), index(i, j + 1));
+            faces.push([a, b, c]);
+            faces.push([a, c, d]);
+        }
+    }
+    faces
+}
+
+/// Whether grid point (i, j) of an `n × n` cell grid is off the border.
+fn is_interior(n: usize, i: usize, j: usize) -> bool {
+    i > 0 && j > 0 && i < n && j < n
+}
+
+/// Grid point (i, j) of an `n × n` cell grid on [−1, 1]², interior points moved by up to a
+/// quarter cell in x and y.
+fn jittered_square_point(n: usize, i: usize, j: usize) -> (f64, f64) {
+    let cell = 2.0 / n as f64;
+    let jitter = if is_interior(n, i, j) { 0.25 * cell } else { 0.0 };
+    (
+        -1.0 + cell * i as f64 + jitter * unit_hash(i, j, 3),
+        -1.0 + cell * j as f64 + jitter * unit_hash(i, j, 4),
+    )
+}
+
+/// A deterministic pseudo-random value in [−1, 1] for `(i, j, salt)`: the SplitMix64 finaliser
+/// of the packed integers, mapped to the interval (no floating-point library calls, so the same
+/// on every platform).
+fn unit_hash(i: usize, j: usize, salt: u64) -> f64 {
+    let mut x = (i as u64)
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        .wrapping_add((j as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F))
+        .wrapping_add(salt.wrapping_mul(0x1656_67B1_9E37_79F9));
+    x ^= x >> 30;
+    x = x.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x ^= x >> 27;
+    x = x.wrapping_mul(0x94D0_49BB_1331_11EB);
+    x ^= x >> 31;
+    (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+}

@@ -1,0 +1,316 @@
+//! Images: a plain row-major pixel grid, PNG/JPEG/EXR loading and saving, bilinear sampling with
+//! the same conventions as a GPU sampler, and a few generated textures.
+//!
+//! Conventions: pixel (0, 0) is the top-left; rows are stored top row first. Texture
+//! coordinates follow OBJ: (u, v) = (0, 0) is the *bottom*-left corner of the image, v grows
+//! upwards, and the image repeats with period 1 in u and v.
+
+use std::path::Path;
+
+use exr::prelude as exrp;
+use exr::prelude::{ReadChannels, ReadLayers, WritableImage};
+
+use crate::error::{Error, Result};
+use crate::mesh::io::create_parent_dir;
+
+/// An 8-bit RGBA pixel.
+pub type Rgba8 = [u8; 4];
+
+/// A `width × height` grid of pixels, row-major, top row first: pixel (x, y) is
+/// `pixels[y * width + x]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image<T> {
+    pub width: usize,
+    pub height: usize,
+    pub pixels: Vec<T>,
+}
+
+impl<T: Copy> Image<T> {
+    /// An image filled with `value`.
+    pub fn new(width: usize, height: usize, value: T) -> Self {
+        Image {
+            width,
+            height,
+            pixels: vec![value; width * height],
+        }
+    }
+
+    /// An image whose pixel (x, y) is `f(x, y)`.
+    pub fn from_fn(width: usize, height: usize, f: impl Fn(usize, usize) -> T) -> Self {
+        let pixels = (0..height).flat_map(|y| (0..width).map(move |x| (x, y))).map(|(x, y)| f(x, y)).collect();
+        Image { width, height, pixels }
+    }
+
+    /// Pixel (x, y); panics when outside the image (a programming error, not bad input).
+    pub fn get(&self, x: usize, y: usize) -> T {
+        self.pixels[self.index(x, y)]
+    }
+
+    /// Set pixel (x, y); panics when outside the image.
+    pub fn set(&mut self, x: usize, y: usize, value: T) {
+        let i = self.index(x, y);
+        self.pixels[i] = value;
+    }
+
+    fn index(&self, x: usize, y: usize) -> usize {
+        assert!(x < self.width && y < self.height, "pixel ({x}, {y}) outside {}x{}", self.width, self.height);
+        y * self.width + x
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Files
+
+/// Load a PNG or JPEG (format from the file's contents) as 8-bit RGBA. 16-bit images are
+/// reduced to 8 bits (`round(x / 257)`), grey and RGB images get opaque alpha.
+pub fn load_rgba8(path: &Path) -> Result<Image<Rgba8>> {
+    let rgba = open_image(path)?.to_rgba8();
+    let (width, height) = (rgba.width() as usize, rgba.height() as usize);
+    let pixels = rgba.pixels().map(|p| p.0).collect();
+    Ok(Image { width, height, pixels })
+}
+
+/// Save an RGBA image as PNG, creating the parent directories.
+pub fn save_png(image: &Image<Rgba8>, path: &Path) -> Result<()> {
+    create_parent_dir(path)?;
+    let size_error = || Error::Image {
+        path: path.to_path_buf(),
+        message: format!("image size {}x{} does not fit a PNG", image.width, image.height),
+    };
+    let (width, height) = (u32::try_from(image.width).map_err(|_| size_error())?, u32::try_from(image.height).map_err(|_| size_error())?);
+    let raw: Vec<u8> = image.pixels.iter().flatten().copied().collect();
+    let buffer = image::RgbaImage::from_raw(width, height, raw).ok_or_else(size_error)?;
+    buffer
+        .save_with_format(path, image::ImageFormat::Png)
+        .map_err(|e| image_error(path, e))
+}
+
+/// Load a single-channel float image: PNG (or JPEG) as luminance scaled to [0, 1]
+/// (`x / 255` or `x / 65535`; colour images use the Rec. 709 luma of the decoder), or an
+/// OpenEXR file (by the `.exr` extension) with its raw values: channel `Y` if present, else the
+/// Rec. 709 luminance `0.2126 R + 0.7152 G + 0.0722 B` if R, G, B are present, else `R`, else
+/// the first channel (alphabetical order, as EXR stores them).
+pub fn load_gray_f32(path: &Path) -> Result<Image<f32>> {
+    let is_exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if is_exr {
+        return load_exr_gray(path);
+    }
+    let luma = open_image(path)?.to_luma32f();
+    let (width, height) = (luma.width() as usize, luma.height() as usize);
+    Ok(Image {
+        width,
+        height,
+        pixels: luma.into_raw(),
+    })
+}
+
+/// Write a two-channel (R, G) 32-bit float OpenEXR image, `values` row-major top row first
+/// (used for offset maps). Creates the parent directories.
+pub fn save_exr_rg(path: &Path, width: usize, height: usize, values: &[[f32; 2]]) -> Result<()> {
+    if values.len() != width * height {
+        return Err(Error::InvalidArgument(format!(
+            "{}: {} values for a {width}x{height} image",
+            path.display(),
+            values.len()
+        )));
+    }
+    create_parent_dir(path)?;
+    let channels = exrp::SpecificChannels::build()
+        .with_channel("R")
+        .with_channel("G")
+        .with_pixel_fn(|pos: exrp::Vec2<usize>| {
+            let [r, g] = values[pos.y() * width + pos.x()];
+            (r, g)
+        });
+    exrp::Image::from_channels((width, height), channels)
+        .write()
+        .to_file(path)
+        .map_err(|e| exr_error(path, e))
+}
+
+fn open_image(path: &Path) -> Result<image::DynamicImage> {
+    let reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
+    let reader = reader.with_guessed_format().map_err(|e| Error::io(path, e))?;
+    reader.decode().map_err(|e| image_error(path, e))
+}
+
+fn image_error(path: &Path, error: image::ImageError) -> Error {
+    match error {
+        image::ImageError::IoError(e) => Error::io(path, e),
+        other => Error::Image {
+            path: path.to_path_buf(),
+            message: other.to_string(),
+        },
+    }
+}
+
+fn exr_error(path: &Path, error: exr::error::Error) -> Error {
+    match error {
+        exr::error::Error::Io(e) => Error::io(path, e),
+        other => Error::Image {
+            path: path.to_path_buf(),
+            message: other.to_string(),
+        },
+    }
+}
+
+fn load_exr_gray(path: &Path) -> Result<Image<f32>> {
+    let image = exrp::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| exr_error(path, e))?;
+    let layer = &image.layer_data;
+    let (width, height) = (layer.size.width(), layer.size.height());
+    let channel = |name: &str| {
+        layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.eq(name))
+            .map(|c| c.sample_data.values_as_f32().collect::<Vec<f32>>())
+    };
+    let pixels = if let Some(y) = channel("Y") {
+        y
+    } else if let (Some(r), Some(g), Some(b)) = (channel("R"), channel("G"), channel("B")) {
+        (0..width * height).map(|i| 0.2126 * r[i] + 0.7152 * g[i] + 0.0722 * b[i]).collect()
+    } else if let Some(r) = channel("R") {
+        r
+    } else {
+        let first = layer.channel_data.list.first().ok_or_else(|| Error::Image {
+            path: path.to_path_buf(),
+            message: "the EXR layer has no channels".into(),
+        })?;
+        first.sample_data.values_as_f32().collect()
+    };
+    Ok(Image { width, height, pixels })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sampling
+
+/// Bilinear sample of `image` at texture coordinate `uv`, each channel in 0..=255 as f64.
+///
+/// With REPEAT addressing and the OBJ origin (bottom-left): texture space `s = u − ⌊u⌋`,
+/// `t = 1 − (v − ⌊v⌋)`; pixel coordinates `x = s W − 0.5`, `y = t H − 0.5` (texel centres at
+/// half-integers); with `x₀ = ⌊x⌋`, `fx = x − x₀` (same for y), the result is
+/// `(1−fx)(1−fy) T(x₀, y₀) + fx (1−fy) T(x₀+1, y₀) + (1−fx) fy T(x₀, y₀+1) + fx fy T(x₀+1, y₀+1)`
+/// with texel indices taken modulo W and H.
+///
+/// This is what a wgpu sampler computes for an `Rgba8Unorm` texture (rows uploaded top row
+/// first) with `Linear` min/mag filtering, `Repeat` address modes and no mipmaps, sampled at
+/// `(u, 1 − v)` — up to the GPU's reduced filtering precision (typically 8 fractional bits
+/// for the weights), and ×255. An empty image samples as 0.
+pub fn sample_bilinear(image: &Image<Rgba8>, uv: [f64; 2]) -> [f64; 4] {
+    if image.width == 0 || image.height == 0 {
+        return [0.0; 4];
+    }
+    let s = uv[0] - uv[0].floor();
+    let t = 1.0 - (uv[1] - uv[1].floor());
+    let (x0, fx) = texel_and_fraction(s * image.width as f64 - 0.5, image.width);
+    let (y0, fy) = texel_and_fraction(t * image.height as f64 - 0.5, image.height);
+    let (x1, y1) = ((x0 + 1) % image.width, (y0 + 1) % image.height);
+    let corners = [
+        (image.get(x0, y0), (1.0 - fx) * (1.0 - fy)),
+        (image.get(x1, y0), fx * (1.0 - fy)),
+        (image.get(x0, y1), (1.0 - fx) * fy),
+        (image.get(x1, y1), fx * fy),
+    ];
+    let mut result = [0.0; 4];
+    for (texel, weight) in corners {
+        for c in 0..4 {
+            result[c] += weight * texel[c] as f64;
+        }
+    }
+    result
+}
+
+/// For a pixel coordinate `x` (texel centres at integers here), the texel `⌊x⌋ mod size` and
+/// the fraction `x − ⌊x⌋`. Non-finite input gives texel 0, fraction 0.
+fn texel_and_fraction(x: f64, size: usize) -> (usize, f64) {
+    if !x.is_finite() {
+        return (0, 0.0);
+    }
+    let floor = x.floor();
+    let texel = (floor as i64).rem_euclid(size as i64) as usize;
+    (texel, x - floor)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Generated textures
+
+/// A `size × size` black-and-white checkerboard of `cells × cells` squares (at least 1),
+/// the top-left square white.
+pub fn checker(size: usize, cells: usize) -> Image<Rgba8> {
+    let cells = cells.max(1);
+    Image::from_fn(size, size, |x, y| {
+        let (cx, cy) = (x * cells / size, y * cells / size);
+        if (cx + cy) % 2 == 0 {
+            [255, 255, 255, 255]
+        } else {
+            [0, 0, 0, 255]
+        }
+    })
+}
+
+/// A `size × size` UV test texture: 16 × 16 cells whose colour encodes their position (red
+/// grows with u, green with v, blue alternates like a checkerboard), separated by dark lines
+/// every 1/16 (bolder every 1/4). Distortion and seams show as bent or broken lines.
+pub fn uv_grid_texture(size: usize) -> Image<Rgba8> {
+    const CELLS: usize = 16;
+    Image::from_fn(size, size, |x, y| {
+        let u = (x as f64 + 0.5) / size as f64;
+        let v = 1.0 - (y as f64 + 0.5) / size as f64;
+        let (cell_u, cell_v) = ((u * CELLS as f64) as usize, (v * CELLS as f64) as usize);
+        match grid_line_weight(x, y, size, CELLS) {
+            2 => [20, 20, 20, 255],
+            1 => [70, 70, 70, 255],
+            _ => {
+                let level = |cell: usize| (60 + 180 * cell / (CELLS - 1)) as u8;
+                let blue = if (cell_u + cell_v) % 2 == 0 { 200 } else { 120 };
+                [level(cell_u), level(cell_v), blue, 255]
+            }
+        }
+    })
+}
+
+/// For pixel (x, y) of a `size`-pixel texture with `cells` cells per side: 2 on a bold line
+/// (every 4 cells, 4 pixels wide up to 1024 pixels), 1 on a thin line (every cell, 2 pixels
+/// wide), 0 elsewhere. Line widths grow with the image size beyond 1024 pixels.
+fn grid_line_weight(x: usize, y: usize, size: usize, cells: usize) -> u8 {
+    let scale = (size as f64 / 1024.0).max(1.0);
+    // distance (pixels) from the pixel centre to the nearest line of the given period (cells)
+    let distance = |p: usize, period_cells: usize| {
+        let period = size as f64 * period_cells as f64 / cells as f64;
+        let centre = p as f64 + 0.5;
+        (centre - (centre / period).round() * period).abs()
+    };
+    let near = |period_cells, width| distance(x, period_cells) < width || distance(y, period_cells) < width;
+    if near(4, 2.0 * scale) {
+        2
+    } else if near(1, 1.0 * scale) {
+        1
+    } else {
+        0
+    }
+}
+
+/// The images placed left to right, top-aligned, `gap` pixels apart, on white. The height is
+/// that of the tallest image; no images give an empty image.
+pub fn side_by_side(images: &[&Image<Rgba8>], gap: usize) -> Image<Rgba8> {
+    let width = images.iter().map(|i| i.width).sum::<usize>() + gap * images.len().saturating_sub(1);
+    let height = images.iter().map(|i| i.height).max().unwrap_or(0);
+    let mut out = Image::new(width, height, [255, 255, 255, 255]);
+    let mut left = 0;
+    for image in images {
+        for y in 0..image.height {
+            let row = &image.pixels[y * image.width..(y + 1) * image.width];
+            out.pixels[y * width + left..y * width + left + image.width].copy_from_slice(row);
+        }
+        left += image.width + gap;
+    }
+    out
+}
