@@ -29,12 +29,21 @@ fn samples(bpm: &Bpm, per_face: usize) -> Vec<Sample> {
         [0.7, 0.25, 0.05],
     ];
     (0..bpm.maps.len() as u32)
-        .flat_map(|face| (0..per_face).map(move |k| Sample { face, bary: B[k % 8] }))
+        .flat_map(|face| {
+            (0..per_face).map(move |k| Sample {
+                face,
+                bary: B[k % 8],
+            })
+        })
         .collect()
 }
 
 fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
-    rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(f)
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
 }
 
 fn bench_precompute(c: &mut Criterion) {
@@ -44,7 +53,11 @@ fn bench_precompute(c: &mut Criterion) {
     group.throughput(Throughput::Elements(mesh.face_count() as u64));
     for threads in [1, 2] {
         group.bench_function(format!("torus_1M_f64_{threads}threads"), |b| {
-            b.iter(|| in_pool(threads, || black_box(precompute(&mesh, BpmOptions::default()).unwrap())))
+            b.iter(|| {
+                in_pool(threads, || {
+                    black_box(precompute(&mesh, BpmOptions::default()).unwrap())
+                })
+            })
         });
     }
     group.finish();
@@ -59,9 +72,10 @@ fn bench_eval(c: &mut Criterion) {
     group.throughput(Throughput::Elements(samples.len() as u64));
     for threads in [1, 2] {
         for interp in [Interp::Bpm, Interp::Linear] {
-            group.bench_function(format!("{interp:?}_f64_{threads}threads").to_lowercase(), |b| {
-                b.iter(|| in_pool(threads, || black_box(bpm.eval_many(&samples, interp))))
-            });
+            group.bench_function(
+                format!("{interp:?}_f64_{threads}threads").to_lowercase(),
+                |b| b.iter(|| in_pool(threads, || black_box(bpm.eval_many(&samples, interp)))),
+            );
         }
     }
     #[cfg(feature = "gpu")]
@@ -70,7 +84,11 @@ fn bench_eval(c: &mut Criterion) {
         let gpu_samples = reparam::bpm::gpu::samples_to_gpu(&samples);
         for interp in [Interp::Bpm, Interp::Linear] {
             group.bench_function(format!("{interp:?}_f32_gpu").to_lowercase(), |b| {
-                b.iter(|| black_box(reparam::bpm::gpu::eval_gpu(&gpu, &maps, &gpu_samples, interp).unwrap()))
+                b.iter(|| {
+                    black_box(
+                        reparam::bpm::gpu::eval_gpu(&gpu, &maps, &gpu_samples, interp).unwrap(),
+                    )
+                })
             });
         }
     }

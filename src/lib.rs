@@ -4,8 +4,9 @@ pub mod bpm;
 pub mod crosscheck;
 pub mod error;
 pub mod mesh;
-pub mod report;
 pub mod raster;
+pub mod reference_data;
+pub mod report;
 pub mod texture;
 
 pub use error::{Error, Result};

@@ -60,7 +60,11 @@ impl Camera {
     ///
     /// A zero or non-finite `view_dir` is replaced by −z; an empty mesh frames the unit sphere.
     pub fn frame_mesh(mesh: &TriMesh, view_dir: Vector3<f64>, aspect: f64) -> Camera {
-        let aspect = if aspect.is_finite() && aspect > 0.0 { aspect } else { 1.0 };
+        let aspect = if aspect.is_finite() && aspect > 0.0 {
+            aspect
+        } else {
+            1.0
+        };
         let view_dir = view_dir
             .try_normalize(1e-12)
             .filter(|v| v.iter().all(|x| x.is_finite()))
@@ -70,7 +74,11 @@ impl Camera {
         let half_y = fov_y_degrees.to_radians() / 2.0;
         let half_x = (aspect * half_y.tan()).atan();
         let distance = FRAME_MARGIN * radius / half_y.min(half_x).sin();
-        let up = if view_dir.y.abs() > 0.99 { Vector3::z() } else { Vector3::y() };
+        let up = if view_dir.y.abs() > 0.99 {
+            Vector3::z()
+        } else {
+            Vector3::y()
+        };
         Camera {
             eye: centre - view_dir * distance,
             target: centre,
@@ -122,7 +130,11 @@ fn bounding_sphere(mesh: &TriMesh) -> (Point3<f64>, f64) {
     }
     let (lo, hi) = mesh.bounding_box();
     let centre = nalgebra::center(&lo, &hi);
-    let radius = mesh.positions.iter().map(|p| (p - centre).norm()).fold(0.0, f64::max);
+    let radius = mesh
+        .positions
+        .iter()
+        .map(|p| (p - centre).norm())
+        .fold(0.0, f64::max);
     if !(centre.iter().all(|x| x.is_finite()) && radius.is_finite()) {
         return (Point3::origin(), 1.0);
     }
@@ -132,7 +144,10 @@ fn bounding_sphere(mesh: &TriMesh) -> (Point3<f64>, f64) {
 /// Pixel coordinates of an NDC point: `x = (ndc.x + 1) / 2 · W`, `y = (1 − ndc.y) / 2 · H`
 /// (origin at the top-left corner of the picture; pixel (i, j) has its centre at (i + ½, j + ½)).
 pub fn ndc_to_pixel(ndc_x: f64, ndc_y: f64, width: usize, height: usize) -> [f64; 2] {
-    [(ndc_x + 1.0) / 2.0 * width as f64, (1.0 - ndc_y) / 2.0 * height as f64]
+    [
+        (ndc_x + 1.0) / 2.0 * width as f64,
+        (1.0 - ndc_y) / 2.0 * height as f64,
+    ]
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -186,7 +201,12 @@ const BAND_ROWS: usize = 16;
 /// - Parallel over bands of 16 rows; the result does not depend on the number of threads.
 ///
 /// The mesh's indices must be in range (see [`TriMesh::validate`]); otherwise this panics.
-pub fn rasterize(mesh: &TriMesh, view_proj: &Matrix4<f64>, width: usize, height: usize) -> FrameBuffer {
+pub fn rasterize(
+    mesh: &TriMesh,
+    view_proj: &Matrix4<f64>,
+    width: usize,
+    height: usize,
+) -> FrameBuffer {
     let clip: Vec<Vector4<f64>> = mesh
         .positions
         .par_iter()
@@ -216,7 +236,12 @@ pub fn rasterize(mesh: &TriMesh, view_proj: &Matrix4<f64>, width: usize, height:
         .zip(bins.par_iter())
         .enumerate()
         .for_each(|(band, ((fragments, depth), members))| {
-            let mut target = BandTarget { first_row: band * BAND_ROWS, width, fragments, depth };
+            let mut target = BandTarget {
+                first_row: band * BAND_ROWS,
+                width,
+                fragments,
+                depth,
+            };
             for &t in members {
                 target.draw(&triangles[t as usize]);
             }
@@ -244,7 +269,8 @@ impl ScreenTriangle {
     /// Project the clip-space corners; `None` when the triangle is skipped (see [`rasterize`]) or
     /// covers no pixel centre of the picture.
     fn new(face: u32, clip: &[Vector4<f64>; 3], width: usize, height: usize) -> Option<Self> {
-        let drawable = |c: &Vector4<f64>| c.iter().all(|x| x.is_finite()) && c.w > 0.0 && c.z >= 0.0;
+        let drawable =
+            |c: &Vector4<f64>| c.iter().all(|x| x.is_finite()) && c.w > 0.0 && c.z >= 0.0;
         if !clip.iter().all(drawable) {
             return None;
         }
@@ -289,7 +315,13 @@ impl ScreenTriangle {
         let weighted = [0, 1, 2].map(|i| lambda[i] * self.inv_w[i]);
         let total: f64 = weighted.iter().sum();
         let bary = weighted.map(|x| x / total);
-        Some((Fragment { face: self.face, bary }, depth))
+        Some((
+            Fragment {
+                face: self.face,
+                bary,
+            },
+            depth,
+        ))
     }
 }
 
@@ -347,7 +379,9 @@ impl BandTarget<'_> {
     fn z_test_and_write(&mut self, i: usize, fragment: Fragment, depth: f64) {
         let nearer = match self.fragments[i] {
             None => true,
-            Some(old) => depth < self.depth[i] || (depth == self.depth[i] && fragment.face < old.face),
+            Some(old) => {
+                depth < self.depth[i] || (depth == self.depth[i] && fragment.face < old.face)
+            }
         };
         if nearer {
             self.fragments[i] = Some(fragment);

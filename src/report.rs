@@ -42,7 +42,10 @@ impl Report {
 
     /// An embedded picture (path relative to the report).
     pub fn image(&mut self, caption: &str, relative_path: &str) {
-        let _ = write!(self.text, "![{caption}]({relative_path})\n\n*{caption}*\n\n");
+        let _ = write!(
+            self.text,
+            "![{caption}]({relative_path})\n\n*{caption}*\n\n"
+        );
     }
 
     /// The Markdown text.

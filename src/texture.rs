@@ -37,8 +37,15 @@ impl<T: Copy> Image<T> {
 
     /// An image whose pixel (x, y) is `f(x, y)`.
     pub fn from_fn(width: usize, height: usize, f: impl Fn(usize, usize) -> T) -> Self {
-        let pixels = (0..height).flat_map(|y| (0..width).map(move |x| (x, y))).map(|(x, y)| f(x, y)).collect();
-        Image { width, height, pixels }
+        let pixels = (0..height)
+            .flat_map(|y| (0..width).map(move |x| (x, y)))
+            .map(|(x, y)| f(x, y))
+            .collect();
+        Image {
+            width,
+            height,
+            pixels,
+        }
     }
 
     /// Pixel (x, y); panics when outside the image (a programming error, not bad input).
@@ -53,7 +60,12 @@ impl<T: Copy> Image<T> {
     }
 
     fn index(&self, x: usize, y: usize) -> usize {
-        assert!(x < self.width && y < self.height, "pixel ({x}, {y}) outside {}x{}", self.width, self.height);
+        assert!(
+            x < self.width && y < self.height,
+            "pixel ({x}, {y}) outside {}x{}",
+            self.width,
+            self.height
+        );
         y * self.width + x
     }
 }
@@ -67,7 +79,11 @@ pub fn load_rgba8(path: &Path) -> Result<Image<Rgba8>> {
     let rgba = open_image(path)?.to_rgba8();
     let (width, height) = (rgba.width() as usize, rgba.height() as usize);
     let pixels = rgba.pixels().map(|p| p.0).collect();
-    Ok(Image { width, height, pixels })
+    Ok(Image {
+        width,
+        height,
+        pixels,
+    })
 }
 
 /// Save an RGBA image as PNG, creating the parent directories.
@@ -75,9 +91,17 @@ pub fn save_png(image: &Image<Rgba8>, path: &Path) -> Result<()> {
     create_parent_dir(path)?;
     let size_error = || Error::Image {
         path: path.to_path_buf(),
-        message: format!("image size {}x{} does not fit a PNG", image.width, image.height),
+        message: format!(
+            "cannot encode {} pixels as a {}x{} PNG",
+            image.pixels.len(),
+            image.width,
+            image.height
+        ),
     };
-    let (width, height) = (u32::try_from(image.width).map_err(|_| size_error())?, u32::try_from(image.height).map_err(|_| size_error())?);
+    let (width, height) = (
+        u32::try_from(image.width).map_err(|_| size_error())?,
+        u32::try_from(image.height).map_err(|_| size_error())?,
+    );
     let raw: Vec<u8> = image.pixels.iter().flatten().copied().collect();
     let buffer = image::RgbaImage::from_raw(width, height, raw).ok_or_else(size_error)?;
     buffer
@@ -91,7 +115,9 @@ pub fn save_png(image: &Image<Rgba8>, path: &Path) -> Result<()> {
 /// Rec. 709 luminance `0.2126 R + 0.7152 G + 0.0722 B` if R, G, B are present, else `R`, else
 /// the first channel (alphabetical order, as EXR stores them).
 pub fn load_gray_f32(path: &Path) -> Result<Image<f32>> {
-    let is_exr = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    let is_exr = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
     if is_exr {
         return load_exr_gray(path);
     }
@@ -130,7 +156,9 @@ pub fn save_exr_rg(path: &Path, width: usize, height: usize, values: &[[f32; 2]]
 
 fn open_image(path: &Path) -> Result<image::DynamicImage> {
     let reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
-    let reader = reader.with_guessed_format().map_err(|e| Error::io(path, e))?;
+    let reader = reader
+        .with_guessed_format()
+        .map_err(|e| Error::io(path, e))?;
     reader.decode().map_err(|e| image_error(path, e))
 }
 
@@ -176,17 +204,27 @@ fn load_exr_gray(path: &Path) -> Result<Image<f32>> {
     let pixels = if let Some(y) = channel("Y") {
         y
     } else if let (Some(r), Some(g), Some(b)) = (channel("R"), channel("G"), channel("B")) {
-        (0..width * height).map(|i| 0.2126 * r[i] + 0.7152 * g[i] + 0.0722 * b[i]).collect()
+        (0..width * height)
+            .map(|i| 0.2126 * r[i] + 0.7152 * g[i] + 0.0722 * b[i])
+            .collect()
     } else if let Some(r) = channel("R") {
         r
     } else {
-        let first = layer.channel_data.list.first().ok_or_else(|| Error::Image {
-            path: path.to_path_buf(),
-            message: "the EXR layer has no channels".into(),
-        })?;
+        let first = layer
+            .channel_data
+            .list
+            .first()
+            .ok_or_else(|| Error::Image {
+                path: path.to_path_buf(),
+                message: "the EXR layer has no channels".into(),
+            })?;
         first.sample_data.values_as_f32().collect()
     };
-    Ok(Image { width, height, pixels })
+    Ok(Image {
+        width,
+        height,
+        pixels,
+    })
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -288,7 +326,9 @@ fn grid_line_weight(x: usize, y: usize, size: usize, cells: usize) -> u8 {
         let centre = p as f64 + 0.5;
         (centre - (centre / period).round() * period).abs()
     };
-    let near = |period_cells, width| distance(x, period_cells) < width || distance(y, period_cells) < width;
+    let near = |period_cells, width| {
+        distance(x, period_cells) < width || distance(y, period_cells) < width
+    };
     if near(4, 2.0 * scale) {
         2
     } else if near(1, 1.0 * scale) {
@@ -301,7 +341,8 @@ fn grid_line_weight(x: usize, y: usize, size: usize, cells: usize) -> u8 {
 /// The images placed left to right, top-aligned, `gap` pixels apart, on white. The height is
 /// that of the tallest image; no images give an empty image.
 pub fn side_by_side(images: &[&Image<Rgba8>], gap: usize) -> Image<Rgba8> {
-    let width = images.iter().map(|i| i.width).sum::<usize>() + gap * images.len().saturating_sub(1);
+    let width =
+        images.iter().map(|i| i.width).sum::<usize>() + gap * images.len().saturating_sub(1);
     let height = images.iter().map(|i| i.height).max().unwrap_or(0);
     let mut out = Image::new(width, height, [255, 255, 255, 255]);
     let mut left = 0;

@@ -51,7 +51,11 @@ fn interpolates_the_vertex_uvs() {
             for c in 0..3 {
                 let got = bpm.eval(f, corner(c), Interp::Bpm);
                 let err = (got - C::new(uvs[c].x, uvs[c].y)).norm();
-                assert!(err <= tol, "{}: face {f} corner {c}: error {err:e}", mesh.name);
+                assert!(
+                    err <= tol,
+                    "{}: face {f} corner {c}: error {err:e}",
+                    mesh.name
+                );
             }
         }
     }
@@ -66,7 +70,9 @@ fn continuous_across_every_interior_edge() {
         let mut checked = 0;
         for f in 0..mesh.face_count() {
             for e in 0..3 {
-                let Some((g, e2)) = adjacency.neighbour(f, e) else { continue };
+                let Some((g, e2)) = adjacency.neighbour(f, e) else {
+                    continue;
+                };
                 if bpm.maps[f].fallback_linear || bpm.maps[g].fallback_linear {
                     continue;
                 }
@@ -80,7 +86,11 @@ fn continuous_across_every_interior_edge() {
                 }
             }
         }
-        assert!(checked > 0 || mesh.face_count() == 1, "{}: no interior edge", mesh.name);
+        assert!(
+            checked > 0 || mesh.face_count() == 1,
+            "{}: no interior edge",
+            mesh.name
+        );
     }
 }
 
@@ -145,9 +155,13 @@ fn does_not_reproduce_an_affine_non_conformal_map() {
     let mut max_diff: f64 = 0.0;
     for f in 0..mesh.face_count() {
         let b = [0.2, 0.3, 0.5];
-        max_diff = max_diff.max((bpm.eval(f, b, Interp::Bpm) - bpm.eval(f, b, Interp::Linear)).norm());
+        max_diff =
+            max_diff.max((bpm.eval(f, b, Interp::Bpm) - bpm.eval(f, b, Interp::Linear)).norm());
     }
-    assert!(max_diff > 1e-3 * uv_extent(&mesh), "max difference {max_diff:e}");
+    assert!(
+        max_diff > 1e-3 * uv_extent(&mesh),
+        "max difference {max_diff:e}"
+    );
     // ... while for a similarity both coincide.
     let mesh = procedural::flat_star(7);
     let bpm = precompute(&mesh, BpmOptions::default()).unwrap();
@@ -161,7 +175,13 @@ fn does_not_reproduce_an_affine_non_conformal_map() {
 #[test]
 fn equivariant_under_a_mobius_change_of_uvs() {
     // f for G∘w equals G∘f. The UVs move by G, so the tolerance scales with |G'| ≲ 4 here.
-    let g = Mobius::new(C::new(1.0, 0.2), C::new(0.3, -0.1), C::new(0.15, 0.05), C::new(0.9, 0.0)).normalized();
+    let g = Mobius::new(
+        C::new(1.0, 0.2),
+        C::new(0.3, -0.1),
+        C::new(0.15, 0.05),
+        C::new(0.9, 0.0),
+    )
+    .normalized();
     for mesh in test_meshes() {
         let mut moved = mesh.clone();
         for t in &mut moved.uvs {
@@ -190,7 +210,8 @@ fn invariant_under_a_similarity_of_positions() {
     for mesh in test_meshes() {
         let mut moved = mesh.clone();
         for p in &mut moved.positions {
-            *p = nalgebra::Point3::from(rotation * (p.coords * 3.7)) + nalgebra::Vector3::new(5.0, -2.0, 1.0);
+            *p = nalgebra::Point3::from(rotation * (p.coords * 3.7))
+                + nalgebra::Vector3::new(5.0, -2.0, 1.0);
         }
         let a = precompute(&mesh, BpmOptions::default()).unwrap();
         let b = precompute(&moved, BpmOptions::default()).unwrap();
@@ -208,7 +229,14 @@ fn invariant_under_a_similarity_of_positions() {
 fn left_and_right_forms_agree() {
     for mesh in test_meshes() {
         let right = precompute(&mesh, BpmOptions::default()).unwrap();
-        let left = precompute(&mesh, BpmOptions { order: Order::Left, ..Default::default() }).unwrap();
+        let left = precompute(
+            &mesh,
+            BpmOptions {
+                order: Order::Left,
+                ..Default::default()
+            },
+        )
+        .unwrap();
         let tol = 1e-11 * uv_extent(&mesh);
         let mut rng = Rng(13);
         for f in 0..mesh.face_count() {
@@ -226,7 +254,14 @@ fn a_mixed_multiplication_order_breaks_interpolation_and_continuity() {
     // Left-form logs with right multiplication: the combination the seed's report warns about.
     // Notes: it breaks vertex interpolation (≈5e-3) and continuity (≈8e-3) on real data.
     let mesh = procedural::cone_fan(7, 0.8);
-    let left = precompute(&mesh, BpmOptions { order: Order::Left, ..Default::default() }).unwrap();
+    let left = precompute(
+        &mesh,
+        BpmOptions {
+            order: Order::Left,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let adjacency = Adjacency::new(&mesh);
     let mixed = |f: usize, b: [f64; 3]| eval_bpm(&left.maps[f], b, ExpLog::Entire, Order::Right);
     let (mut vertex_err, mut jump): (f64, f64) = (0.0, 0.0);
@@ -267,15 +302,28 @@ fn distance_and_product_forms_of_the_edge_weights_agree() {
         }
     }
     // The seed's epsilon cases: at a vertex the two adjacent edges get ½ each.
-    assert_eq!(edge_weights_distance([1.0, 0.0, 0.0], &z, 1e-9), [0.5, 0.0, 0.5]);
-    assert_eq!(edge_weights_distance([0.5, 0.5, 0.0], &z, 1e-9), [1.0, 0.0, 0.0]);
+    assert_eq!(
+        edge_weights_distance([1.0, 0.0, 0.0], &z, 1e-9),
+        [0.5, 0.0, 0.5]
+    );
+    assert_eq!(
+        edge_weights_distance([0.5, 0.5, 0.0], &z, 1e-9),
+        [1.0, 0.0, 0.0]
+    );
 }
 
 #[test]
 fn determinant_and_local_fits_agree_in_f64() {
     for mesh in test_meshes() {
         let local = precompute(&mesh, BpmOptions::default()).unwrap();
-        let det = precompute(&mesh, BpmOptions { fit: Fit::Determinant, ..Default::default() }).unwrap();
+        let det = precompute(
+            &mesh,
+            BpmOptions {
+                fit: Fit::Determinant,
+                ..Default::default()
+            },
+        )
+        .unwrap();
         // In f64 the determinants lose ~log10(|w|/|Δw|)² digits: ≲ 1e-9 here (tiny_far_uv: UVs
         // 2.6 from the origin, triangles 0.004 wide, (2.6/0.004)² ≈ 4e5 → 1e-16·4e5·extent).
         let tol = 1e-9 * uv_extent(&mesh).max(1e-3);
@@ -292,8 +340,14 @@ fn determinant_and_local_fits_agree_in_f64() {
 fn the_orientation_fix_keeps_mirrored_charts_inside_their_triangles() {
     let mesh = procedural::two_charts_mirrored(4);
     let bpm = precompute(&mesh, BpmOptions::default()).unwrap();
-    assert!(bpm.report.mirrored_faces > 0, "the fixture must contain a mirrored chart");
-    assert!(bpm.report.mirrored_faces < mesh.face_count(), "... and a normal one");
+    assert!(
+        bpm.report.mirrored_faces > 0,
+        "the fixture must contain a mirrored chart"
+    );
+    assert!(
+        bpm.report.mirrored_faces < mesh.face_count(),
+        "... and a normal one"
+    );
     // With the fix every Möbius map keeps its pole outside the triangle: the image of the
     // centroid lies inside the UV triangle and no sub-triangle folds.
     for f in 0..mesh.face_count() {
@@ -303,8 +357,15 @@ fn the_orientation_fix_keeps_mirrored_charts_inside_their_triangles() {
             let (u, v) = (b - a, w - a);
             u.re * v.im - u.im * v.re
         };
-        let s = [inside(uv[0], uv[1]), inside(uv[1], uv[2]), inside(uv[2], uv[0])];
-        assert!(s.iter().all(|&x| x > 0.0) || s.iter().all(|&x| x < 0.0), "face {f}: centroid maps outside");
+        let s = [
+            inside(uv[0], uv[1]),
+            inside(uv[1], uv[2]),
+            inside(uv[2], uv[0]),
+        ];
+        assert!(
+            s.iter().all(|&x| x > 0.0) || s.iter().all(|&x| x < 0.0),
+            "face {f}: centroid maps outside"
+        );
     }
     let qc = qc_protocol(&bpm, Interp::Bpm, 3);
     assert_eq!(qc.folded, 0);
@@ -319,7 +380,10 @@ fn no_folds_and_bounded_distortion_on_a_well_shaped_mesh() {
         let qc = qc_protocol(&bpm, interp, 3);
         assert_eq!(qc.folded, 0, "{qc:?}");
         assert_eq!(qc.collapsed, 0, "{qc:?}");
-        assert!(qc.mean >= 1.0 && qc.p50 <= qc.p95 && qc.p95 <= qc.p99 && qc.p99 <= qc.max, "{qc:?}");
+        assert!(
+            qc.mean >= 1.0 && qc.p50 <= qc.p95 && qc.p95 <= qc.p99 && qc.p99 <= qc.max,
+            "{qc:?}"
+        );
     }
 }
 
@@ -343,11 +407,17 @@ fn quasi_conformal_distortion_of_known_maps() {
 fn results_are_bit_identical_with_one_and_two_threads() {
     let mesh = procedural::torus(24, 12, 1.0, 0.35);
     let run = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let bpm = precompute(&mesh, BpmOptions::default()).unwrap();
             let samples: Vec<Sample> = (0..mesh.face_count() as u32)
-                .map(|face| Sample { face, bary: [0.2, 0.3, 0.5] })
+                .map(|face| Sample {
+                    face,
+                    bary: [0.2, 0.3, 0.5],
+                })
                 .collect();
             let values = bpm.eval_many(&samples, Interp::Bpm);
             let qc = qc_protocol(&bpm, Interp::Bpm, 2);
@@ -356,7 +426,10 @@ fn results_are_bit_identical_with_one_and_two_threads() {
     };
     let (v1, q1) = run(1);
     let (v2, q2) = run(2);
-    assert!(v1.iter().zip(&v2).all(|(a, b)| a.re.to_bits() == b.re.to_bits() && a.im.to_bits() == b.im.to_bits()));
+    assert!(v1
+        .iter()
+        .zip(&v2)
+        .all(|(a, b)| a.re.to_bits() == b.re.to_bits() && a.im.to_bits() == b.im.to_bits()));
     assert_eq!(format!("{q1:?}"), format!("{q2:?}"));
 }
 

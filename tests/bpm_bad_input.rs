@@ -10,21 +10,37 @@ use reparam::Error;
 
 /// Two triangles sharing the edge 1–2, plus whatever `extra` adds; UVs = positions' x, y.
 fn quad(extra_positions: &[[f64; 3]], extra_faces: &[[u32; 3]]) -> TriMesh {
-    let mut p = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.1]];
+    let mut p = vec![
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.1],
+    ];
     p.extend_from_slice(extra_positions);
     let mut faces = vec![[0, 1, 2], [1, 3, 2]];
     faces.extend_from_slice(extra_faces);
     let positions: Vec<Point3<f64>> = p.iter().map(|q| Point3::new(q[0], q[1], q[2])).collect();
-    let uvs = positions.iter().map(|q| Point2::new(0.3 + 0.5 * q.x, 0.2 + 0.5 * q.y + 0.1 * q.z)).collect();
+    let uvs = positions
+        .iter()
+        .map(|q| Point2::new(0.3 + 0.5 * q.x, 0.2 + 0.5 * q.y + 0.1 * q.z))
+        .collect();
     TriMesh::with_shared_indices("test:quad", positions, uvs, faces)
 }
 
 fn all_finite(mesh: &TriMesh) {
     let bpm = precompute(mesh, BpmOptions::default()).unwrap();
     for f in 0..mesh.face_count() {
-        for b in [[1.0 / 3.0; 3], [0.5, 0.5, 0.0], [1.0, 0.0, 0.0], [0.1, 0.2, 0.7]] {
+        for b in [
+            [1.0 / 3.0; 3],
+            [0.5, 0.5, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.1, 0.2, 0.7],
+        ] {
             let w = bpm.eval(f, b, Interp::Bpm);
-            assert!(w.re.is_finite() && w.im.is_finite(), "face {f} at {b:?}: {w}");
+            assert!(
+                w.re.is_finite() && w.im.is_finite(),
+                "face {f} at {b:?}: {w}"
+            );
         }
     }
 }
@@ -65,7 +81,17 @@ fn out_of_range_indices_are_typed_errors_naming_the_face() {
     let mut mesh = quad(&[], &[]);
     mesh.faces[1] = [1, 7, 2];
     let err = precompute(&mesh, BpmOptions::default()).unwrap_err();
-    assert!(matches!(err, Error::IndexOutOfRange { face: 1, index: 7, .. }), "{err:?}");
+    assert!(
+        matches!(
+            err,
+            Error::IndexOutOfRange {
+                face: 1,
+                index: 7,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
 }
 
 #[test]
@@ -111,7 +137,10 @@ fn a_missing_material_texture_is_a_typed_error_naming_both_files() {
     let err = resolve_texture(&mesh, None).unwrap_err();
     assert!(matches!(err, Error::MissingTexture { .. }), "{err:?}");
     let text = err.to_string();
-    assert!(text.contains("/data/model.obj") && text.contains("does_not_exist.png"), "{text}");
+    assert!(
+        text.contains("/data/model.obj") && text.contains("does_not_exist.png"),
+        "{text}"
+    );
     // No texture at all: the built-in UV grid.
     mesh.texture = None;
     assert!(resolve_texture(&mesh, None).unwrap().width > 0);
@@ -124,7 +153,11 @@ fn a_missing_material_texture_is_a_typed_error_naming_both_files() {
 fn a_mirrored_face_next_to_a_normal_one_stays_finite() {
     // Flip the UVs of face 1 only (different uv indices → a seam, as in a real mirrored chart).
     let mut mesh = quad(&[], &[]);
-    let flipped: Vec<Point2<f64>> = mesh.uvs.iter().map(|t| Point2::new(1.0 - t.x, t.y)).collect();
+    let flipped: Vec<Point2<f64>> = mesh
+        .uvs
+        .iter()
+        .map(|t| Point2::new(1.0 - t.x, t.y))
+        .collect();
     let base = mesh.uvs.len() as u32;
     mesh.uvs.extend(flipped);
     mesh.uv_faces[1] = mesh.faces[1].map(|v| v + base);

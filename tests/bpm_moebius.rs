@@ -19,7 +19,11 @@ fn sl2_dist(a: &Sl2, b: &Sl2) -> f64 {
 }
 
 fn random_sl2(rng: &mut Rng, r: f64) -> Sl2 {
-    Sl2 { a: rng.complex(r), b: rng.complex(r), c: rng.complex(r) }
+    Sl2 {
+        a: rng.complex(r),
+        b: rng.complex(r),
+        c: rng.complex(r),
+    }
 }
 
 #[test]
@@ -32,12 +36,27 @@ fn exp_log_at_identity_minus_identity_and_nilpotent() {
     // Nilpotent N = [[0, 1], [0, 0]]: exp(εN) = I + εN and log(I + εN) = εN exactly (p = q = 0,
     // where published closed forms divide 0 by 0).
     for eps in [1e-300, 1e-8, 1.0, 1e8] {
-        let n = Sl2 { a: C::new(0.0, 0.0), b: C::new(eps, 0.0), c: C::new(0.0, 0.0) };
+        let n = Sl2 {
+            a: C::new(0.0, 0.0),
+            b: C::new(eps, 0.0),
+            c: C::new(0.0, 0.0),
+        };
         let e = exp_sl2(&n);
-        assert_eq!(e, Mobius::new(C::new(1.0, 0.0), C::new(eps, 0.0), C::new(0.0, 0.0), C::new(1.0, 0.0)));
+        assert_eq!(
+            e,
+            Mobius::new(
+                C::new(1.0, 0.0),
+                C::new(eps, 0.0),
+                C::new(0.0, 0.0),
+                C::new(1.0, 0.0)
+            )
+        );
         assert_eq!(log_sl2(&e), n);
         // −(I + εN) has the same log after the sign fix.
-        assert_eq!(log_sl2(&e.scale(C::new(-1.0, 0.0))), n.scale(C::new(-1.0, 0.0)).scale(C::new(-1.0, 0.0)));
+        assert_eq!(
+            log_sl2(&e.scale(C::new(-1.0, 0.0))),
+            n.scale(C::new(-1.0, 0.0)).scale(C::new(-1.0, 0.0))
+        );
     }
 }
 
@@ -67,7 +86,12 @@ fn exp_log_round_trip_on_random_arguments() {
 fn log_exp_round_trip_on_random_sl2_matrices() {
     let mut rng = Rng(2);
     for _ in 0..5000 {
-        let m = Mobius::new(rng.complex(2.0), rng.complex(2.0), rng.complex(2.0), rng.complex(2.0));
+        let m = Mobius::new(
+            rng.complex(2.0),
+            rng.complex(2.0),
+            rng.complex(2.0),
+            rng.complex(2.0),
+        );
         if m.det().norm() < 1e-3 {
             continue;
         }
@@ -78,8 +102,14 @@ fn log_exp_round_trip_on_random_sl2_matrices() {
         // where log is ill-conditioned: dlog ~ 1/sqrt(q+1)) the error is a few ulps × |A|².
         if sign_fix(&m).trace().re > 0.05 {
             let back = exp_sl2(&l);
-            let scale = [m.a, m.b, m.c, m.d].iter().map(|x| x.norm()).fold(1.0, f64::max);
-            assert!(back.distance_up_to_sign(&m) < 1e-12 * scale * scale, "{m:?} -> {back:?}");
+            let scale = [m.a, m.b, m.c, m.d]
+                .iter()
+                .map(|x| x.norm())
+                .fold(1.0, f64::max);
+            assert!(
+                back.distance_up_to_sign(&m) < 1e-12 * scale * scale,
+                "{m:?} -> {back:?}"
+            );
         }
     }
 }
@@ -94,7 +124,12 @@ fn series_and_closed_forms_agree_at_the_switch_points() {
         let (cs, ss) = cosh_sinhc_series(dir);
         let (cc, sc) = cosh_sinhc_closed(dir);
         // |p| = 1: C, S are O(1); cosh, sinh of |r| = 1 are accurate to a few ε.
-        assert!((cs - cc).norm() < 1e-15 && (ss - sc).norm() < 1e-15, "exp at {dir}: {} {}", (cs - cc).norm(), (ss - sc).norm());
+        assert!(
+            (cs - cc).norm() < 1e-15 && (ss - sc).norm() < 1e-15,
+            "exp at {dir}: {} {}",
+            (cs - cc).norm(),
+            (ss - sc).norm()
+        );
         let q = dir * 0.1;
         // The closed form ln(r + √(q+1))/r has relative error ≈ ε/|ln(..)| ≈ 3ε at |q| = 0.1;
         // 16 series terms leave ≈ 0.1¹⁶·0.01 (below ε).
@@ -124,7 +159,12 @@ fn both_fits_pass_through_the_three_points() {
     for _ in 0..1000 {
         let z = [rng.complex(1.0), rng.complex(1.0), rng.complex(1.0)];
         let w = [rng.complex(1.0), rng.complex(1.0), rng.complex(1.0)];
-        let min_gap = |p: &[C; 3]| (p[0] - p[1]).norm().min((p[1] - p[2]).norm()).min((p[2] - p[0]).norm());
+        let min_gap = |p: &[C; 3]| {
+            (p[0] - p[1])
+                .norm()
+                .min((p[1] - p[2]).norm())
+                .min((p[2] - p[0]).norm())
+        };
         if min_gap(&z) < 0.05 || min_gap(&w) < 0.05 {
             continue;
         }
@@ -138,7 +178,10 @@ fn both_fits_pass_through_the_three_points() {
             }
         }
         // The same map: equal up to the sign of SL(2,C).
-        assert!(local.distance_up_to_sign(&det) < 1e-8 * (1.0 + local.a.norm().max(local.d.norm())).powi(2));
+        assert!(
+            local.distance_up_to_sign(&det)
+                < 1e-8 * (1.0 + local.a.norm().max(local.d.norm())).powi(2)
+        );
     }
 }
 
@@ -149,8 +192,18 @@ fn cross_ratio_identity_for_the_ratio_of_two_fits() {
     let mut rng = Rng(5);
     let mut tested = 0;
     while tested < 500 {
-        let z = [rng.complex(1.0), rng.complex(1.0), rng.complex(1.0), rng.complex(1.0)];
-        let w = [rng.complex(1.0), rng.complex(1.0), rng.complex(1.0), rng.complex(1.0)];
+        let z = [
+            rng.complex(1.0),
+            rng.complex(1.0),
+            rng.complex(1.0),
+            rng.complex(1.0),
+        ];
+        let w = [
+            rng.complex(1.0),
+            rng.complex(1.0),
+            rng.complex(1.0),
+            rng.complex(1.0),
+        ];
         let m_t = fit_mobius_local([z[0], z[1], z[2]], [w[0], w[1], w[2]]);
         let m_u = fit_mobius_local([z[1], z[0], z[3]], [w[1], w[0], w[3]]);
         let delta = mobius_mul(&mobius_inverse(&m_t), &m_u);
@@ -161,7 +214,43 @@ fn cross_ratio_identity_for_the_ratio_of_two_fits() {
         if lhs.norm() > 1e3 || !rhs.norm().is_finite() {
             continue;
         }
-        assert!((lhs - rhs).norm() < 1e-8 * (1.0 + rhs.norm()), "lhs {lhs} rhs {rhs}");
+        assert!(
+            (lhs - rhs).norm() < 1e-8 * (1.0 + rhs.norm()),
+            "lhs {lhs} rhs {rhs}"
+        );
         tested += 1;
     }
+}
+
+#[test]
+fn algebraic_square_root_matches_the_polar_one() {
+    // c_sqrt (algebraic, as in the WGSL twin) against num-complex's polar √r·e^{iθ/2}: both are
+    // accurate to a few ulps of |√z|, and they must pick the same branch, including on the cut.
+    let mut rng = Rng(6);
+    let mut cases: Vec<C> = (0..20_000)
+        .map(|_| {
+            let scale = 10f64.powf(rng.uniform(-8.0, 8.0));
+            rng.complex(scale)
+        })
+        .collect();
+    cases.extend([
+        C::new(-4.0, 0.0),
+        C::new(-4.0, -0.0),
+        C::new(4.0, 0.0),
+        C::new(0.0, 2.0),
+        C::new(0.0, -2.0),
+        C::new(1e-300, 0.0),
+    ]);
+    for z in cases {
+        let (a, b) = (c_sqrt(z), z.sqrt());
+        assert!(
+            (a - b).norm() <= 4.0 * f64::EPSILON * b.norm(),
+            "{z}: {a} vs {b}"
+        );
+        assert!(
+            (a * a - z).norm() <= 8.0 * f64::EPSILON * z.norm(),
+            "{z}: {a}² ≠ z"
+        );
+    }
+    assert_eq!(c_sqrt(C::new(0.0, 0.0)), C::new(0.0, 0.0));
 }

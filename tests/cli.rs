@@ -17,13 +17,17 @@ fn reparam(args: &[&str]) -> (bool, String, String) {
 
 #[test]
 fn bpm_qc_prints_json() {
-    let (ok, stdout, stderr) = reparam(&["bpm", "qc", "procedural:cone", "--subdiv", "2", "--json"]);
+    let (ok, stdout, stderr) =
+        reparam(&["bpm", "qc", "procedural:cone", "--subdiv", "2", "--json"]);
     assert!(ok, "{stderr}");
     let v: serde_json::Value = serde_json::from_str(&stdout).expect("valid JSON");
     for interp in ["linear", "bpm"] {
         let mean = v[interp]["mean"].as_f64().unwrap();
         assert!(mean >= 1.0, "{interp}: {mean}");
-        assert_eq!(v[interp]["sub_triangles"].as_u64().unwrap(), 16 * v["precompute"]["faces"].as_u64().unwrap());
+        assert_eq!(
+            v[interp]["sub_triangles"].as_u64().unwrap(),
+            16 * v["precompute"]["faces"].as_u64().unwrap()
+        );
     }
 }
 
@@ -32,7 +36,14 @@ fn bpm_render_writes_a_png() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("cone.png");
     let (ok, stdout, stderr) = reparam(&[
-        "bpm", "render", "procedural:cone", "--size", "64x48", "-o", out.to_str().unwrap(), "--json",
+        "bpm",
+        "render",
+        "procedural:cone",
+        "--size",
+        "64x48",
+        "-o",
+        out.to_str().unwrap(),
+        "--json",
     ]);
     assert!(ok, "{stderr}");
     let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
@@ -48,7 +59,10 @@ fn an_obj_without_uvs_gives_a_clear_error_naming_the_file() {
     std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     let (ok, _, stderr) = reparam(&["bpm", "qc", path.to_str().unwrap()]);
     assert!(!ok);
-    assert!(stderr.contains("no_uv.obj") && stderr.contains("texture coordinates"), "{stderr}");
+    assert!(
+        stderr.contains("no_uv.obj") && stderr.contains("texture coordinates"),
+        "{stderr}"
+    );
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
 
@@ -59,15 +73,30 @@ fn a_missing_texture_and_a_missing_file_give_clear_errors() {
     std::fs::write(dir.path().join("m.mtl"), "newmtl a\nmap_Kd gone.png\n").unwrap();
     std::fs::write(&obj, "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl a\nf 1/1 2/2 3/3\n").unwrap();
     let out = dir.path().join("x.png");
-    let (ok, _, stderr) = reparam(&["bpm", "render", obj.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let (ok, _, stderr) = reparam(&[
+        "bpm",
+        "render",
+        obj.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     assert!(!ok);
-    assert!(stderr.contains("gone.png") && stderr.contains("--texture"), "{stderr}");
+    assert!(
+        stderr.contains("gone.png") && stderr.contains("--texture"),
+        "{stderr}"
+    );
 
     let (ok, _, stderr) = reparam(&["bpm", "qc", "/definitely/not/here.obj"]);
     assert!(!ok);
-    assert!(stderr.contains("/definitely/not/here.obj") && !stderr.contains("panicked"), "{stderr}");
+    assert!(
+        stderr.contains("/definitely/not/here.obj") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
 
     let (ok, _, stderr) = reparam(&["bpm", "qc", "procedural:no_such_mesh"]);
     assert!(!ok);
-    assert!(stderr.contains("no_such_mesh") && stderr.contains("cone"), "{stderr}");
+    assert!(
+        stderr.contains("no_such_mesh") && stderr.contains("cone"),
+        "{stderr}"
+    );
 }

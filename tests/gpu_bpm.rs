@@ -13,7 +13,10 @@ use reparam::texture::checker;
 use reparam_gpu::{gpu_or_skip, Gpu};
 
 fn crosscheck_all(gpu: &Gpu) -> Vec<BpmCrosscheck> {
-    procedural::all_small().iter().map(|m| crosscheck_bpm(gpu, m).unwrap()).collect()
+    procedural::all_small()
+        .iter()
+        .map(|m| crosscheck_bpm(gpu, m).unwrap())
+        .collect()
 }
 
 #[test]
@@ -35,7 +38,12 @@ fn local_fit_pipeline_meets_the_texel_targets() {
         // Issue #2 targets for the local-frame fit: p99 ≤ 0.01 texel, max ≤ 0.1 texel of a 4096²
         // texture. The GPU also lays out the star and fits the maps in f32 here.
         assert_eq!(r.local.non_finite, 0, "{}: {:?}", r.mesh, r.local);
-        assert!(r.local.max_abs <= LOCAL_PIPELINE_MAX, "{}: {:?}", r.mesh, r.local);
+        assert!(
+            r.local.max_abs <= LOCAL_PIPELINE_MAX,
+            "{}: {:?}",
+            r.mesh,
+            r.local
+        );
         assert!(r.local.p99 <= 0.01, "{}: {:?}", r.mesh, r.local);
     }
 }
@@ -48,7 +56,12 @@ fn determinant_fit_speckles_where_the_local_fit_does_not() {
     let r = crosscheck_bpm(&gpu, &procedural::tiny_far_uv(8)).unwrap();
     assert!(r.speckle_det > 0.01, "determinant fit: {:?}", r.det);
     assert_eq!(r.speckle_local, 0.0, "local fit: {:?}", r.local);
-    assert!(r.det.p50 > 100.0 * r.local.p50, "det {:?} local {:?}", r.det, r.local);
+    assert!(
+        r.det.p50 > 100.0 * r.local.p50,
+        "det {:?} local {:?}",
+        r.det,
+        r.local
+    );
 }
 
 #[test]
@@ -66,9 +79,18 @@ fn error_summaries_snapshot_on_lavapipe() {
         .map(|r| {
             let f = |s: &reparam::crosscheck::ErrorSummary| {
                 let s = s.rounded(1);
-                format!("max {:e} p50 {:e} p99 {:e} rms {:e}", s.max_abs, s.p50, s.p99, s.rms)
+                format!(
+                    "max {:e} p50 {:e} p99 {:e} rms {:e}",
+                    s.max_abs, s.p50, s.p99, s.rms
+                )
             };
-            format!("{}\n  eval  {}\n  local {}\n  det   {}", r.mesh, f(&r.eval_kernel), f(&r.local), f(&r.det))
+            format!(
+                "{}\n  eval  {}\n  local {}\n  det   {}",
+                r.mesh,
+                f(&r.eval_kernel),
+                f(&r.local),
+                f(&r.det)
+            )
         })
         .collect();
     insta::assert_snapshot!(table.join("\n"));
@@ -80,19 +102,34 @@ fn gpu_render_matches_the_cpu_render() {
     let texture = checker(512, 16);
     for (mesh, view) in [
         (procedural::cone_fan(8, 0.8), Vector3::new(0.0, -0.35, 1.0)),
-        (procedural::torus(24, 12, 1.0, 0.35), Vector3::new(0.3, 0.6, 1.0)),
+        (
+            procedural::torus(24, 12, 1.0, 0.35),
+            Vector3::new(0.3, 0.6, 1.0),
+        ),
     ] {
         let bpm = precompute(&mesh, BpmOptions::default()).unwrap();
         for interp in [Interp::Bpm, Interp::Linear] {
-            let options = RenderOptions { width: 256, height: 256, view_dir: view, interp, ..Default::default() };
+            let options = RenderOptions {
+                width: 256,
+                height: 256,
+                view_dir: view,
+                interp,
+                ..Default::default()
+            };
             let cpu = render_cpu(&mesh, &bpm, &texture, &options);
-            let gpu_image = reparam::bpm::gpu::render_gpu(&gpu, &mesh, bpm.options.fit, &texture, &options).unwrap();
+            let gpu_image =
+                reparam::bpm::gpu::render_gpu(&gpu, &mesh, bpm.options.fit, &texture, &options)
+                    .unwrap();
             let d = image_diff(&cpu, &gpu_image).unwrap();
             // Inside triangles the UVs agree to ≈1e-3 texel (cross-check above), so colours agree
             // to the last unit after bilinear filtering and rounding. Pixels differ where the two
             // rasterisers disagree on coverage (a pixel centre within f32 rounding of an edge
             // between faces or the silhouette): a few per thousand at most.
-            assert!(d.fraction_over_1_of_255 < 0.005, "{} {interp:?}: {d:?}", mesh.name);
+            assert!(
+                d.fraction_over_1_of_255 < 0.005,
+                "{} {interp:?}: {d:?}",
+                mesh.name
+            );
             assert!(d.psnr_db > 40.0, "{} {interp:?}: {d:?}", mesh.name);
         }
     }

@@ -16,7 +16,8 @@ fn every_small_mesh_is_valid_named_and_deterministic() {
     let second = procedural::all_small();
     assert_eq!(first.len(), 8);
     for (a, b) in first.iter().zip(&second) {
-        a.validate_with_uvs().unwrap_or_else(|e| panic!("{}: {e}", a.name));
+        a.validate_with_uvs()
+            .unwrap_or_else(|e| panic!("{}: {e}", a.name));
         assert!(a.name.starts_with("procedural:"), "{}", a.name);
         assert_eq!(a.positions, b.positions, "{}", a.name);
         assert_eq!(a.uvs, b.uvs, "{}", a.name);
@@ -28,9 +29,22 @@ fn every_small_mesh_is_valid_named_and_deterministic() {
 
 #[test]
 fn fans_have_n_triangles() {
-    for mesh in [procedural::flat_star(7), procedural::flat_star_affine(7), procedural::cone_fan(7, 1.0)] {
-        assert_eq!((mesh.faces.len(), mesh.positions.len(), mesh.uvs.len()), (7, 8, 8), "{}", mesh.name);
-        assert!((0..7).all(|f| signed_uv_area(&mesh, f) > 0.0), "{}", mesh.name);
+    for mesh in [
+        procedural::flat_star(7),
+        procedural::flat_star_affine(7),
+        procedural::cone_fan(7, 1.0),
+    ] {
+        assert_eq!(
+            (mesh.faces.len(), mesh.positions.len(), mesh.uvs.len()),
+            (7, 8, 8),
+            "{}",
+            mesh.name
+        );
+        assert!(
+            (0..7).all(|f| signed_uv_area(&mesh, f) > 0.0),
+            "{}",
+            mesh.name
+        );
     }
     assert_eq!(procedural::flat_star(1).faces.len(), 3, "n is raised to 3");
 }
@@ -62,22 +76,32 @@ fn star_uvs_are_a_similarity_and_affine_star_is_not() {
     let similar = ratios(&procedural::flat_star(10));
     assert!(similar.iter().all(|r| (r - 0.35).abs() < 1e-12));
     let affine = ratios(&procedural::flat_star_affine(10));
-    let spread = affine.iter().cloned().fold(f64::MIN, f64::max) - affine.iter().cloned().fold(f64::MAX, f64::min);
-    assert!(spread > 0.05, "affine star edge ratios should vary, spread {spread}");
+    let spread = affine.iter().cloned().fold(f64::MIN, f64::max)
+        - affine.iter().cloned().fold(f64::MAX, f64::min);
+    assert!(
+        spread > 0.05,
+        "affine star edge ratios should vary, spread {spread}"
+    );
 }
 
 #[test]
 fn torus_is_closed_with_seams_in_both_directions() {
     let (major, minor) = (8, 5);
     let torus = procedural::torus(major, minor, 1.0, 0.3);
-    assert_eq!(torus.faces.len(), procedural::torus_triangle_count(major, minor));
+    assert_eq!(
+        torus.faces.len(),
+        procedural::torus_triangle_count(major, minor)
+    );
     assert_eq!(torus.faces.len(), 80);
     assert_eq!(torus.positions.len(), 40);
     assert_eq!(torus.uvs.len(), 54);
     let adjacency = Adjacency::new(&torus);
     assert_eq!(adjacency.boundary_edges, 0);
     assert_eq!(adjacency.seam_edges, major + minor);
-    assert!(torus.uvs.iter().all(|t| (0.0..=1.0).contains(&t.x) && (0.0..=1.0).contains(&t.y)));
+    assert!(torus
+        .uvs
+        .iter()
+        .all(|t| (0.0..=1.0).contains(&t.x) && (0.0..=1.0).contains(&t.y)));
     assert!((0..torus.faces.len()).all(|f| signed_uv_area(&torus, f) > 0.0));
 }
 
@@ -131,7 +155,9 @@ fn second_chart_is_mirrored_and_the_ridge_is_a_seam() {
     let adjacency = Adjacency::new(&mesh);
     assert_eq!(adjacency.seam_edges, n);
     // Slopes are 1 long: both UV charts are the 3D slopes scaled by 0.4.
-    let total_uv: f64 = (0..mesh.faces.len()).map(|f| signed_uv_area(&mesh, f).abs()).sum();
+    let total_uv: f64 = (0..mesh.faces.len())
+        .map(|f| signed_uv_area(&mesh, f).abs())
+        .sum();
     approx::assert_relative_eq!(total_uv, 2.0 * 0.16, epsilon = 1e-12);
 }
 
@@ -144,7 +170,10 @@ fn tiny_far_uv_triangles_are_tiny_and_far() {
     }
     for f in 0..mesh.faces.len() {
         let area = signed_uv_area(&mesh, f);
-        assert!(area > 0.0 && area < procedural::TINY_UV_CELL.powi(2), "face {f}: {area}");
+        assert!(
+            area > 0.0 && area < procedural::TINY_UV_CELL.powi(2),
+            "face {f}: {area}"
+        );
     }
 }
 

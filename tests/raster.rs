@@ -8,8 +8,14 @@ use reparam::texture::{sample_bilinear, Image};
 
 /// A mesh of triangles given by their corners (no UVs).
 fn triangles(corners: &[[[f64; 3]; 3]]) -> TriMesh {
-    let positions = corners.iter().flatten().map(|p| Point3::new(p[0], p[1], p[2])).collect();
-    let faces = (0..corners.len() as u32).map(|f| [3 * f, 3 * f + 1, 3 * f + 2]).collect();
+    let positions = corners
+        .iter()
+        .flatten()
+        .map(|p| Point3::new(p[0], p[1], p[2]))
+        .collect();
+    let faces = (0..corners.len() as u32)
+        .map(|f| [3 * f, 3 * f + 1, 3 * f + 2])
+        .collect();
     TriMesh::with_shared_indices("test", positions, Vec::new(), faces)
 }
 
@@ -25,7 +31,11 @@ fn half_screen_triangle_covers_the_pixels_on_and_below_the_diagonal() {
             assert_eq!(fragment.is_some(), y >= x, "pixel ({x}, {y})");
             if let Some(fr) = fragment {
                 let (nx, ny) = ((x as f64 + 0.5) / 2.0 - 1.0, 1.0 - (y as f64 + 0.5) / 2.0);
-                let expected = [1.0 - (nx + 1.0) / 2.0 - (ny + 1.0) / 2.0, (nx + 1.0) / 2.0, (ny + 1.0) / 2.0];
+                let expected = [
+                    1.0 - (nx + 1.0) / 2.0 - (ny + 1.0) / 2.0,
+                    (nx + 1.0) / 2.0,
+                    (ny + 1.0) / 2.0,
+                ];
                 for k in 0..3 {
                     assert_relative_eq!(fr.bary[k], expected[k], epsilon = 1e-12);
                 }
@@ -47,14 +57,21 @@ fn barycentrics_are_perspective_correct() {
         ..Camera::default()
     };
     let (w, h) = (40, 30);
-    let vp = Camera { aspect: w as f64 / h as f64, ..camera }.view_proj();
+    let vp = Camera {
+        aspect: w as f64 / h as f64,
+        ..camera
+    }
+    .view_proj();
     let fb = rasterize(&mesh, &vp, w, h);
     assert!(fb.covered_pixels() > 100);
     let p = mesh.face_positions(0);
     for y in 0..h {
         for x in 0..w {
-            let Some(fr) = fb.fragment(x, y) else { continue };
-            let point = p[0].coords * fr.bary[0] + p[1].coords * fr.bary[1] + p[2].coords * fr.bary[2];
+            let Some(fr) = fb.fragment(x, y) else {
+                continue;
+            };
+            let point =
+                p[0].coords * fr.bary[0] + p[1].coords * fr.bary[1] + p[2].coords * fr.bary[2];
             let clip: Vector4<f64> = vp * point.push(1.0);
             let pixel = reparam::raster::ndc_to_pixel(clip.x / clip.w, clip.y / clip.w, w, h);
             assert_relative_eq!(pixel[0], x as f64 + 0.5, epsilon = 1e-9);
@@ -81,12 +98,19 @@ fn front_triangle_hides_back_one_whatever_the_order() {
 #[test]
 fn triangles_in_front_of_the_near_plane_are_skipped() {
     let mesh = triangles(&[[[-1.0, -1.0, -0.1], [1.0, -1.0, 0.5], [-1.0, 1.0, 0.5]]]);
-    assert_eq!(rasterize(&mesh, &Matrix4::identity(), 8, 8).covered_pixels(), 0);
+    assert_eq!(
+        rasterize(&mesh, &Matrix4::identity(), 8, 8).covered_pixels(),
+        0
+    );
 }
 
 #[test]
 fn projection_maps_near_to_0_and_far_to_1() {
-    let camera = Camera { near: 0.5, far: 20.0, ..Camera::default() };
+    let camera = Camera {
+        near: 0.5,
+        far: 20.0,
+        ..Camera::default()
+    };
     let depth = |z: f64| {
         let c = camera.projection() * Vector4::new(0.0, 0.0, z, 1.0);
         c.z / c.w
@@ -98,13 +122,20 @@ fn projection_maps_near_to_0_and_far_to_1() {
 #[test]
 fn framed_mesh_is_entirely_visible() {
     let mesh = procedural::torus(16, 8, 1.0, 0.4);
-    for view in [Vector3::new(0.3, -1.0, -0.6), Vector3::new(0.0, 1.0, 0.0), Vector3::zeros()] {
+    for view in [
+        Vector3::new(0.3, -1.0, -0.6),
+        Vector3::new(0.0, 1.0, 0.0),
+        Vector3::zeros(),
+    ] {
         let camera = Camera::frame_mesh(&mesh, view, 16.0 / 9.0);
         let vp = camera.view_proj();
         for p in &mesh.positions {
             let c = vp * p.to_homogeneous();
             let ndc = c.xyz() / c.w;
-            assert!(ndc.x.abs() < 1.0 && ndc.y.abs() < 1.0 && ndc.z > 0.0 && ndc.z < 1.0, "{ndc:?}");
+            assert!(
+                ndc.x.abs() < 1.0 && ndc.y.abs() < 1.0 && ndc.z > 0.0 && ndc.z < 1.0,
+                "{ndc:?}"
+            );
         }
     }
 }
@@ -114,7 +145,10 @@ fn same_result_with_one_and_two_threads() {
     let mesh = procedural::torus(48, 24, 1.0, 0.4);
     let vp = Camera::frame_mesh(&mesh, Vector3::new(0.2, -1.0, -0.7), 1.5).view_proj();
     let render = |threads| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| rasterize(&mesh, &vp, 120, 80))
     };
     let (one, two) = (render(1), render(2));
@@ -131,7 +165,10 @@ fn shade_and_diff() {
     assert_eq!(image.get(3, 0), [0, 0, 0, 255]);
 
     let same = image_diff(&image, &image).unwrap();
-    assert_eq!((same.psnr_db, same.fraction_over_1_of_255, same.max_abs), (f64::INFINITY, 0.0, 0));
+    assert_eq!(
+        (same.psnr_db, same.fraction_over_1_of_255, same.max_abs),
+        (f64::INFINITY, 0.0, 0)
+    );
     let mut changed = image.clone();
     changed.set(1, 1, [202, 0, 0, 255]);
     changed.set(2, 2, [201, 0, 0, 0]);
@@ -175,14 +212,30 @@ fn bilinear_sampling_wraps_around_the_edges() {
     let value = |x, y| texture.get(x, y)[0] as f64;
     // u = 0 lies halfway between the last and the first column (REPEAT).
     let [_, v] = texel_centre_uv(0, 1);
-    assert_relative_eq!(sample_bilinear(&texture, [0.0, v])[0], 0.5 * (value(2, 1) + value(0, 1)), epsilon = 1e-9);
+    assert_relative_eq!(
+        sample_bilinear(&texture, [0.0, v])[0],
+        0.5 * (value(2, 1) + value(0, 1)),
+        epsilon = 1e-9
+    );
     // v = 0 (the bottom edge) lies halfway between the bottom and the top row.
     let [u, _] = texel_centre_uv(1, 0);
-    assert_relative_eq!(sample_bilinear(&texture, [u, 0.0])[0], 0.5 * (value(1, 1) + value(1, 0)), epsilon = 1e-9);
+    assert_relative_eq!(
+        sample_bilinear(&texture, [u, 0.0])[0],
+        0.5 * (value(1, 1) + value(1, 0)),
+        epsilon = 1e-9
+    );
     // The corner mixes the four corner texels equally.
     let corner = 0.25 * (value(0, 0) + value(2, 0) + value(0, 1) + value(2, 1));
-    assert_relative_eq!(sample_bilinear(&texture, [0.0, 0.0])[0], corner, epsilon = 1e-9);
-    assert_relative_eq!(sample_bilinear(&texture, [5.0, -2.0])[0], corner, epsilon = 1e-9);
+    assert_relative_eq!(
+        sample_bilinear(&texture, [0.0, 0.0])[0],
+        corner,
+        epsilon = 1e-9
+    );
+    assert_relative_eq!(
+        sample_bilinear(&texture, [5.0, -2.0])[0],
+        corner,
+        epsilon = 1e-9
+    );
 }
 
 #[test]

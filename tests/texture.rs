@@ -24,7 +24,10 @@ fn sixteen_bit_png_loads_as_8_bit_and_as_unit_gray() {
         .save(&path)
         .unwrap();
     let rgba = load_rgba8(&path).unwrap();
-    assert_eq!(rgba.pixels.iter().map(|p| p[0]).collect::<Vec<_>>(), [0, 128, 255]);
+    assert_eq!(
+        rgba.pixels.iter().map(|p| p[0]).collect::<Vec<_>>(),
+        [0, 128, 255]
+    );
     let gray = load_gray_f32(&path).unwrap();
     for (g, v) in gray.pixels.iter().zip(values) {
         approx::assert_relative_eq!(*g, v as f32 / 65535.0, epsilon = 1e-6);
@@ -35,12 +38,17 @@ fn sixteen_bit_png_loads_as_8_bit_and_as_unit_gray() {
 fn exr_rg_round_trip_reads_the_red_channel_as_gray() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("maps/offsets.exr");
-    let values: Vec<[f32; 2]> = (0..6).map(|i| [i as f32 * 1.5 - 2.0, -(i as f32)]).collect();
+    let values: Vec<[f32; 2]> = (0..6)
+        .map(|i| [i as f32 * 1.5 - 2.0, -(i as f32)])
+        .collect();
     save_exr_rg(&path, 3, 2, &values).unwrap();
     let gray = load_gray_f32(&path).unwrap();
     assert_eq!((gray.width, gray.height), (3, 2));
     assert_eq!(gray.pixels, values.iter().map(|v| v[0]).collect::<Vec<_>>());
-    assert!(matches!(save_exr_rg(&path, 4, 2, &values), Err(Error::InvalidArgument(_))));
+    assert!(matches!(
+        save_exr_rg(&path, 4, 2, &values),
+        Err(Error::InvalidArgument(_))
+    ));
 }
 
 #[test]
@@ -50,7 +58,10 @@ fn missing_and_corrupt_images_are_typed_errors() {
     assert!(matches!(load_rgba8(&missing), Err(Error::Io { path, .. }) if path == missing));
     let corrupt = dir.path().join("corrupt.png");
     std::fs::write(&corrupt, b"\x89PNG\r\n\x1a\nnot really").unwrap();
-    assert!(matches!(load_rgba8(&corrupt), Err(Error::Image { .. } | Error::Io { .. })));
+    assert!(matches!(
+        load_rgba8(&corrupt),
+        Err(Error::Image { .. } | Error::Io { .. })
+    ));
     let not_exr = dir.path().join("bad.exr");
     std::fs::write(&not_exr, b"hello").unwrap();
     assert!(load_gray_f32(&not_exr).is_err());

@@ -3,7 +3,7 @@
 //
 // Twin of the f64 reference: src/bpm/moebius.rs (SL(2,C) maps, the two fits, exp/log) and
 // src/bpm/eval.rs (edge weights, blending, evaluation). Same function names, same order of
-// operations; the differences are noted where they occur (the complex square root).
+// operations.
 //
 // Complex numbers are vec2<f32> (re, im). A Möbius map z ↦ (a z + b)/(c z + d) is the SL(2,C)
 // matrix Mobius { a, b, c, d }; an element of sl(2,C) is Sl2 { a, b, c } = [[a, b], [c, −a]].
@@ -63,8 +63,7 @@ fn is_finite_f32(x: f32) -> bool {
 }
 
 // Principal square root, branch cut on the negative real axis (−0 imaginary part below it, as
-// in num-complex). Algebraic form, accurate in f32 (the reference's num-complex uses the polar
-// form √r e^{iθ/2}, equal up to rounding; GPU sin/cos/atan2 are far less accurate):
+// in num-complex). Algebraic form, no trigonometry (twin of `c_sqrt` in moebius.rs):
 //   re z ≥ 0: t = √((|z| + re z)/2), √z = (t, im z / (2t));
 //   re z < 0: t = √((|z| − re z)/2), √z = (|im z| / (2t), ±t) with the sign of im z.
 fn c_sqrt(z: vec2<f32>) -> vec2<f32> {
@@ -176,11 +175,6 @@ fn mobius_inverse(m: Mobius) -> Mobius {
     return Mobius(m.d, -m.b, -m.c, m.a);
 }
 
-// The translation z ↦ z + t: [[1, t], [0, 1]].
-fn translation(t: vec2<f32>) -> Mobius {
-    return Mobius(C_ONE, t, C_ZERO, C_ONE);
-}
-
 // The Möbius map through three points z_n ↦ w_n, fitted in a local frame: z' = z − z₀,
 // w' = w − w₀; the shifted map fixes 0 and 1/F(z) = c + d/z is affine in 1/z:
 //   d = (1/w'₁ − 1/w'₂) / (1/z'₁ − 1/z'₂),  c = 1/w'₁ − d/z'₁,  F = [[1, 0], [c, d]] / √d,
@@ -193,8 +187,12 @@ fn fit_mobius_local(z: array<vec2<f32>, 3>, w: array<vec2<f32>, 3>) -> Mobius {
     let d = c_div(c_inv(w1) - c_inv(w2), c_inv(z1) - c_inv(z2));
     let c = c_inv(w1) - c_div(d, z1);
     let s = c_inv(c_sqrt(d));
-    let f = Mobius(s, C_ZERO, c_mul(c, s), c_mul(d, s));
-    return mobius_mul(mobius_mul(translation(w[0]), f), translation(-z[0]));
+    // F = [[s, 0], [c s, d s]]; M = T(w₀) · F · T(−z₀) multiplied out:
+    //   F · T(−z₀) = [[s, −s z₀], [c s, d s − c s z₀]],  then add w₀ × the second row to the first.
+    let cs = c_mul(c, s);
+    let ds = c_mul(d, s);
+    let row2 = array<vec2<f32>, 2>(cs, ds - c_mul(cs, z[0]));
+    return Mobius(s + c_mul(w[0], row2[0]), -c_mul(s, z[0]) + c_mul(w[0], row2[1]), row2[0], row2[1]);
 }
 
 // The Möbius map through three points by the seed's 3×3 determinants (rows n = 0, 1, 2):

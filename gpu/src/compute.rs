@@ -58,12 +58,25 @@ impl Gpu {
         l.max_storage_buffer_binding_size.min(l.max_buffer_size)
     }
 
-    /// [`GpuError::TooLarge`] unless a storage buffer of `bytes` bytes can be bound.
-    fn check_storage_size(&self, label: &str, bytes: u64) -> Result<(), GpuError> {
-        let max = self.max_storage_bytes();
+    /// [`GpuError::TooLarge`] unless a buffer of `bytes` bytes can be created (max_buffer_size;
+    /// binding it whole needs [`Gpu::max_storage_bytes`], checked by [`Gpu::dispatch`]).
+    fn check_buffer_size(&self, label: &str, bytes: u64) -> Result<(), GpuError> {
+        let max = self.limits().max_buffer_size;
         if bytes > max {
             return Err(GpuError::TooLarge(format!(
-                "buffer '{label}' needs {bytes} bytes, the device binds at most {max}"
+                "buffer '{label}' needs {bytes} bytes, the device allows {max}"
+            )));
+        }
+        Ok(())
+    }
+
+    /// [`GpuError::TooLarge`] if a storage buffer is larger than a binding may be.
+    fn check_binding_size(&self, buffer: &wgpu::Buffer) -> Result<(), GpuError> {
+        let max = self.max_storage_bytes();
+        if buffer.usage().contains(wgpu::BufferUsages::STORAGE) && buffer.size() > max {
+            return Err(GpuError::TooLarge(format!(
+                "a storage buffer of {} bytes, the device binds at most {max}",
+                buffer.size()
             )));
         }
         Ok(())
@@ -71,33 +84,44 @@ impl Gpu {
 
     /// A storage buffer (STORAGE | COPY_SRC) holding `data`. An empty slice gives one zeroed
     /// element, since a binding cannot be empty.
-    pub fn upload_storage<T: Pod>(&self, label: &str, data: &[T]) -> Result<wgpu::Buffer, GpuError> {
+    pub fn upload_storage<T: Pod>(
+        &self,
+        label: &str,
+        data: &[T],
+    ) -> Result<wgpu::Buffer, GpuError> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
         let zero = vec![0u8; std::mem::size_of::<T>()];
         let contents = if bytes.is_empty() { &zero[..] } else { bytes };
-        self.check_storage_size(label, contents.len() as u64)?;
-        Ok(self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        }))
+        self.check_buffer_size(label, contents.len() as u64)?;
+        Ok(self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            }))
     }
 
     /// A uniform buffer holding `value` (its size must be a multiple of 16 bytes to match a
     /// WGSL uniform struct).
     pub fn upload_uniform<T: Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
-        self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: bytemuck::bytes_of(value),
-            usage: wgpu::BufferUsages::UNIFORM,
-        })
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::bytes_of(value),
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
     }
 
     /// A zeroed storage buffer (STORAGE | COPY_SRC) for `len` elements of `T` (at least one),
     /// for a kernel to write and [`Gpu::read_back`] to copy from.
-    pub fn output_storage<T: Pod>(&self, label: &str, len: usize) -> Result<wgpu::Buffer, GpuError> {
+    pub fn output_storage<T: Pod>(
+        &self,
+        label: &str,
+        len: usize,
+    ) -> Result<wgpu::Buffer, GpuError> {
         let bytes = (len.max(1) * std::mem::size_of::<T>()) as u64;
-        self.check_storage_size(label, bytes)?;
+        self.check_buffer_size(label, bytes)?;
         Ok(self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
             size: bytes,
@@ -109,20 +133,29 @@ impl Gpu {
     /// Compile `source` and build the compute pipeline of its entry point `entry`, with the
     /// bind group layout inferred from the shader. Invalid WGSL gives [`GpuError::Validation`]
     /// with the compiler's message.
-    pub fn compute_kernel(&self, label: &str, source: &str, entry: &str) -> Result<ComputeKernel, GpuError> {
+    pub fn compute_kernel(
+        &self,
+        label: &str,
+        source: &str,
+        entry: &str,
+    ) -> Result<ComputeKernel, GpuError> {
         self.checked(|| {
-            let module = self.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
-            let pipeline = self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(label),
-                layout: None,
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            });
+            let module = self
+                .device
+                .create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(label),
+                    source: wgpu::ShaderSource::Wgsl(source.into()),
+                });
+            let pipeline = self
+                .device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(label),
+                    layout: None,
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                });
             Ok(ComputeKernel {
                 pipeline,
                 label: label.to_string(),
@@ -132,11 +165,19 @@ impl Gpu {
 
     /// Run `kernel` over `count` invocations with `buffers[n]` bound at `@group(0)
     /// @binding(n)`, on the grid of [`workgroup_grid`], and submit. Does nothing for
-    /// `count == 0`.
-    pub fn dispatch(&self, kernel: &ComputeKernel, buffers: &[&wgpu::Buffer], count: u32) -> Result<(), GpuError> {
+    /// `count == 0`; [`GpuError::TooLarge`] if a storage buffer exceeds the binding limit.
+    pub fn dispatch(
+        &self,
+        kernel: &ComputeKernel,
+        buffers: &[&wgpu::Buffer],
+        count: u32,
+    ) -> Result<(), GpuError> {
         let [x, y] = workgroup_grid(count, self.limits().max_compute_workgroups_per_dimension)?;
         if x == 0 {
             return Ok(());
+        }
+        for buffer in buffers {
+            self.check_binding_size(buffer)?;
         }
         self.checked(|| {
             let entries: Vec<wgpu::BindGroupEntry> = buffers
@@ -280,5 +321,25 @@ impl Gpu {
             .to_vec();
         staging.unmap();
         Ok(bytes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn workgroup_grid_wraps_into_rows() {
+        assert_eq!(workgroup_grid(0, 65535).unwrap(), [0, 0]);
+        assert_eq!(workgroup_grid(1, 65535).unwrap(), [1, 1]);
+        assert_eq!(workgroup_grid(64, 65535).unwrap(), [1, 1]);
+        assert_eq!(workgroup_grid(65, 65535).unwrap(), [2, 1]);
+        // 70 000 workgroups: one full row and a partial second one.
+        assert_eq!(workgroup_grid(64 * 70_000, 65535).unwrap(), [65535, 2]);
+        assert_eq!(workgroup_grid(64 * 10 + 1, 4).unwrap(), [4, 3]);
+        assert!(matches!(
+            workgroup_grid(64 * 17, 4),
+            Err(GpuError::TooLarge(_))
+        ));
     }
 }

@@ -69,7 +69,10 @@ impl Gpu {
     /// raised by anything `work` does on this device is returned as [`GpuError::Validation`]
     /// (or [`GpuError::TooLarge`] for out-of-memory) instead of reaching wgpu's default handler,
     /// which panics. Scopes are per thread, so concurrent callers do not see each other's errors.
-    pub(crate) fn checked<R>(&self, work: impl FnOnce() -> Result<R, GpuError>) -> Result<R, GpuError> {
+    pub(crate) fn checked<R>(
+        &self,
+        work: impl FnOnce() -> Result<R, GpuError>,
+    ) -> Result<R, GpuError> {
         let memory = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let result = work();

@@ -8,7 +8,7 @@
 use num_complex::Complex64 as C;
 use rayon::prelude::*;
 
-use super::moebius::{exp_with, mobius_apply, ExpLog, Sl2};
+use super::moebius::{c_abs, exp_with, mobius_apply, ExpLog, Sl2};
 use super::precompute::{Bpm, Order, TriangleMaps};
 
 /// Which interpolant to evaluate.
@@ -27,7 +27,9 @@ impl std::str::FromStr for Interp {
         match s {
             "bpm" => Ok(Interp::Bpm),
             "linear" => Ok(Interp::Linear),
-            _ => Err(format!("unknown interpolation '{s}' (expected bpm or linear)")),
+            _ => Err(format!(
+                "unknown interpolation '{s}' (expected bpm or linear)"
+            )),
         }
     }
 }
@@ -47,9 +49,9 @@ pub struct Sample {
 /// without distances or epsilon bands. 0/0 happens only exactly at a vertex, where the
 /// interpolant equals the vertex's UV whatever the weights: there all weights are 0.
 pub fn edge_weights(b: [f64; 3], z: &[C; 3]) -> [f64; 3] {
-    let l_ij = (z[1] - z[0]).norm();
-    let l_jk = (z[2] - z[1]).norm();
-    let l_ki = (z[0] - z[2]).norm();
+    let l_ij = c_abs(z[1] - z[0]);
+    let l_jk = c_abs(z[2] - z[1]);
+    let l_ki = c_abs(z[0] - z[2]);
     let g = [l_ij * b[0] * b[1], l_jk * b[1] * b[2], l_ki * b[2] * b[0]];
     let s = g[0] + g[1] + g[2];
     if s > 0.0 {
@@ -68,15 +70,14 @@ pub fn edge_weights_distance(b: [f64; 3], z: &[C; 3], eps: f64) -> [f64; 3] {
     let point = z[0] * b[0] + z[1] * b[1] + z[2] * b[2];
     let vertex_edges = [[2, 0], [0, 1], [1, 2]]; // edges (ki, ij) meet at i, (ij, jk) at j, ...
     for (v, edges) in vertex_edges.iter().enumerate() {
-        if (point - z[v]).norm() < eps {
+        if c_abs(point - z[v]) < eps {
             let mut g = [0.0; 3];
             g[edges[0]] = 0.5;
             g[edges[1]] = 0.5;
             return g;
         }
     }
-    let d: [f64; 3] =
-        std::array::from_fn(|e| distance_to_line(point, z[e], z[(e + 1) % 3]));
+    let d: [f64; 3] = std::array::from_fn(|e| distance_to_line(point, z[e], z[(e + 1) % 3]));
     if let Some(e) = (0..3).find(|&e| d[e] < eps) {
         let mut g = [0.0; 3];
         g[e] = 1.0;
@@ -88,7 +89,7 @@ pub fn edge_weights_distance(b: [f64; 3], z: &[C; 3], eps: f64) -> [f64; 3] {
 
 fn distance_to_line(p: C, a: C, b: C) -> f64 {
     let (u, v) = (b - a, p - a);
-    (u.re * v.im - u.im * v.re).abs() / u.norm()
+    (u.re * v.im - u.im * v.re).abs() / c_abs(u)
 }
 
 /// Blended log ratio ℓ_t(z) = γ_ij ℓ_ij + γ_jk ℓ_jk + γ_ki ℓ_ki (seed step 7): a linear

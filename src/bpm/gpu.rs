@@ -33,7 +33,10 @@ fn f32x2(z: C) -> [f32; 2] {
 pub fn stars(mesh: &TriMesh) -> Result<Vec<Star>> {
     mesh.validate_with_uvs()?;
     let adjacency = Adjacency::new(mesh);
-    let degenerate: Vec<bool> = (0..mesh.face_count()).into_par_iter().map(|f| is_degenerate(mesh, f)).collect();
+    let degenerate: Vec<bool> = (0..mesh.face_count())
+        .into_par_iter()
+        .map(|f| is_degenerate(mesh, f))
+        .collect();
     Ok((0..mesh.face_count())
         .into_par_iter()
         .map(|f| gather_star(mesh, &adjacency, &degenerate, f))
@@ -60,7 +63,10 @@ pub fn star_to_gpu(star: &Star) -> StarInput {
 }
 
 fn sl2_to_gpu(l: &Sl2) -> [[f32; 4]; 2] {
-    [[l.a.re as f32, l.a.im as f32, l.b.re as f32, l.b.im as f32], [l.c.re as f32, l.c.im as f32, 0.0, 0.0]]
+    [
+        [l.a.re as f32, l.a.im as f32, l.b.re as f32, l.b.im as f32],
+        [l.c.re as f32, l.c.im as f32, 0.0, 0.0],
+    ]
 }
 
 /// The reference's per-triangle data rounded to the GPU layout (input of `bpm_eval` when the
@@ -72,9 +78,24 @@ pub fn maps_to_gpu(bpm: &Bpm) -> Vec<GpuTriangleMaps> {
             let [l0, l1, l2] = t.logs.map(|l| sl2_to_gpu(&l));
             let m = &t.m_t;
             GpuTriangleMaps {
-                z: [t.z[1].re as f32, t.z[1].im as f32, t.z[2].re as f32, t.z[2].im as f32],
-                uv_ij: [t.uv[0].re as f32, t.uv[0].im as f32, t.uv[1].re as f32, t.uv[1].im as f32],
-                uv_k_origin: [t.uv[2].re as f32, t.uv[2].im as f32, t.w_origin.re as f32, t.w_origin.im as f32],
+                z: [
+                    t.z[1].re as f32,
+                    t.z[1].im as f32,
+                    t.z[2].re as f32,
+                    t.z[2].im as f32,
+                ],
+                uv_ij: [
+                    t.uv[0].re as f32,
+                    t.uv[0].im as f32,
+                    t.uv[1].re as f32,
+                    t.uv[1].im as f32,
+                ],
+                uv_k_origin: [
+                    t.uv[2].re as f32,
+                    t.uv[2].im as f32,
+                    t.w_origin.re as f32,
+                    t.w_origin.im as f32,
+                ],
                 m: [
                     [m.a.re as f32, m.a.im as f32, m.b.re as f32, m.b.im as f32],
                     [m.c.re as f32, m.c.im as f32, m.d.re as f32, m.d.im as f32],
@@ -91,7 +112,11 @@ pub fn maps_to_gpu(bpm: &Bpm) -> Vec<GpuTriangleMaps> {
 pub fn samples_to_gpu(samples: &[Sample]) -> Vec<GpuSample> {
     samples
         .iter()
-        .map(|s| GpuSample { face: s.face, _pad: 0, b: [s.bary[1] as f32, s.bary[2] as f32] })
+        .map(|s| GpuSample {
+            face: s.face,
+            _pad: 0,
+            b: [s.bary[1] as f32, s.bary[2] as f32],
+        })
         .collect()
 }
 
@@ -99,7 +124,10 @@ pub fn samples_to_gpu(samples: &[Sample]) -> Vec<GpuSample> {
 /// b_j, b_k rounded to f32 (the CPU reference is evaluated at exactly these points).
 pub fn sample_as_gpu_sees_it(s: &Sample) -> Sample {
     let (bj, bk) = (s.bary[1] as f32 as f64, s.bary[2] as f32 as f64);
-    Sample { face: s.face, bary: [1.0 - bj - bk, bj, bk] }
+    Sample {
+        face: s.face,
+        bary: [1.0 - bj - bk, bj, bk],
+    }
 }
 
 fn fit_to_gpu(fit: Fit) -> GpuFit {
@@ -123,23 +151,39 @@ pub fn precompute_gpu(gpu: &Gpu, mesh: &TriMesh, fit: Fit) -> Result<Vec<GpuTria
 }
 
 /// Run the `bpm_eval` kernel: UVs at `samples` from per-triangle data `maps`.
-pub fn eval_gpu(gpu: &Gpu, maps: &[GpuTriangleMaps], samples: &[GpuSample], interp: Interp) -> Result<Vec<C>> {
+pub fn eval_gpu(
+    gpu: &Gpu,
+    maps: &[GpuTriangleMaps],
+    samples: &[GpuSample],
+    interp: Interp,
+) -> Result<Vec<C>> {
     let uv = kernels::eval(gpu, maps, samples, interp_to_gpu(interp)).map_err(gpu_error)?;
-    Ok(uv.into_iter().map(|[u, v]| C::new(u as f64, v as f64)).collect())
+    Ok(uv
+        .into_iter()
+        .map(|[u, v]| C::new(u as f64, v as f64))
+        .collect())
 }
 
 /// Render `mesh` on the GPU: `bpm_precompute` with `fit`, then the `bpm_render` fragment shader
 /// (the same evaluation as `bpm_eval`), with the camera of the CPU render.
-pub fn render_gpu(gpu: &Gpu, mesh: &TriMesh, fit: Fit, texture: &Image<[u8; 4]>, options: &RenderOptions) -> Result<Image<[u8; 4]>> {
+pub fn render_gpu(
+    gpu: &Gpu,
+    mesh: &TriMesh,
+    fit: Fit,
+    texture: &Image<[u8; 4]>,
+    options: &RenderOptions,
+) -> Result<Image<[u8; 4]>> {
     let maps = precompute_gpu(gpu, mesh, fit)?;
     let view_proj = camera_for(mesh, options).view_proj();
     let corners: Vec<[f32; 4]> = mesh
         .faces
         .iter()
-        .flat_map(|f| f.map(|v| {
-            let p = mesh.positions[v as usize];
-            [p.x as f32, p.y as f32, p.z as f32, 1.0]
-        }))
+        .flat_map(|f| {
+            f.map(|v| {
+                let p = mesh.positions[v as usize];
+                [p.x as f32, p.y as f32, p.z as f32, 1.0]
+            })
+        })
         .collect();
     let input = kernels::RenderInput {
         width: options.width,

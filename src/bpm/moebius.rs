@@ -53,7 +53,7 @@ impl Mobius {
 
     /// The matrix divided by √det (principal root), so that det = 1.
     pub fn normalized(&self) -> Mobius {
-        self.scale(1.0 / self.det().sqrt())
+        self.scale(1.0 / c_sqrt(self.det()))
     }
 
     /// Every entry multiplied by `s` (the same Möbius map for s ≠ 0).
@@ -111,7 +111,14 @@ impl Sl2 {
 
     /// Largest entry modulus.
     pub fn max_abs(&self) -> f64 {
-        self.a.norm().max(self.b.norm()).max(self.c.norm())
+        c_abs(self.a).max(c_abs(self.b)).max(c_abs(self.c))
+    }
+
+    /// Whether every entry is finite.
+    pub fn is_finite(&self) -> bool {
+        [self.a, self.b, self.c]
+            .iter()
+            .all(|x| x.re.is_finite() && x.im.is_finite())
     }
 }
 
@@ -135,11 +142,6 @@ pub fn mobius_inverse(m: &Mobius) -> Mobius {
     Mobius::new(m.d, -m.b, -m.c, m.a)
 }
 
-/// The translation z ↦ z + t as the matrix [[1, t], [0, 1]].
-pub fn translation(t: C) -> Mobius {
-    Mobius::new(ONE, t, ZERO, ONE)
-}
-
 /// The Möbius map through three points, fitted in a local frame (notes, "Stable formulas").
 ///
 /// Shift so that point 0 is the origin on both sides: z' = z − z₀, w' = w − w₀. The shifted map
@@ -154,9 +156,18 @@ pub fn fit_mobius_local(z: [C; 3], w: [C; 3]) -> Mobius {
     let (w1, w2) = (w[1] - w[0], w[2] - w[0]);
     let d = (w1.inv() - w2.inv()) / (z1.inv() - z2.inv());
     let c = w1.inv() - d / z1;
-    let s = d.sqrt().inv();
-    let f = Mobius::new(s, ZERO, c * s, d * s);
-    mobius_mul(&mobius_mul(&translation(w[0]), &f), &translation(-z[0]))
+    let s = c_sqrt(d).inv();
+    // F = [[s, 0], [c s, d s]]; M = T(w₀) · F · T(−z₀) multiplied out (the products with the
+    // zeros and ones of the translations cost as much as the fit itself):
+    //   F · T(−z₀) = [[s, −s z₀], [c s, d s − c s z₀]],  then add w₀ × the second row to the first.
+    let (cs, ds) = (c * s, d * s);
+    let row2 = [cs, ds - cs * z[0]];
+    Mobius::new(
+        s + w[0] * row2[0],
+        -s * z[0] + w[0] * row2[1],
+        row2[0],
+        row2[1],
+    )
 }
 
 /// The Möbius map through three points by the seed's 3×3 determinants (seed step 3):
@@ -205,7 +216,7 @@ const EXP_SERIES_TERMS: usize = 10;
 /// Both are entire functions of p (no branch of √p survives), so there is nothing singular at
 /// p = 0: the series is used for |p| < 1, the closed form with the principal √p beyond.
 pub fn cosh_sinhc(p: C) -> (C, C) {
-    if p.norm() < EXP_SERIES_RADIUS {
+    if c_abs(p) < EXP_SERIES_RADIUS {
         cosh_sinhc_series(p)
     } else {
         cosh_sinhc_closed(p)
@@ -217,15 +228,26 @@ pub fn cosh_sinhc(p: C) -> (C, C) {
 pub fn cosh_sinhc_series(p: C) -> (C, C) {
     let (mut c, mut s) = (ZERO, ZERO);
     for n in (0..EXP_SERIES_TERMS).rev() {
-        c = c * p + 1.0 / factorial(2 * n);
-        s = s * p + 1.0 / factorial(2 * n + 1);
+        c = c * p + INV_FACTORIAL[2 * n];
+        s = s * p + INV_FACTORIAL[2 * n + 1];
     }
     (c, s)
 }
 
+/// 1/n! for n < 2·EXP_SERIES_TERMS, computed at compile time.
+const INV_FACTORIAL: [f64; 2 * EXP_SERIES_TERMS] = {
+    let mut t = [1.0; 2 * EXP_SERIES_TERMS];
+    let mut n = 1;
+    while n < t.len() {
+        t[n] = t[n - 1] / n as f64;
+        n += 1;
+    }
+    t
+};
+
 /// The closed branch of [`cosh_sinhc`]: r = √p (principal), (cosh r, sinh r / r).
 pub fn cosh_sinhc_closed(p: C) -> (C, C) {
-    let r = p.sqrt();
+    let r = c_sqrt(p);
     (r.cosh(), r.sinh() / r)
 }
 
@@ -240,7 +262,7 @@ const LOG_SERIES_TERMS: usize = 16;
 /// asinh(r)/r with r = √q and asinh(r) = ln(r + √(q + 1)) beyond (Re r ≥ 0, so the sum does not
 /// cancel).
 pub fn asinhc(q: C) -> C {
-    if q.norm() < LOG_SERIES_RADIUS {
+    if c_abs(q) < LOG_SERIES_RADIUS {
         asinhc_series(q)
     } else {
         asinhc_closed(q)
@@ -251,30 +273,73 @@ pub fn asinhc(q: C) -> C {
 pub fn asinhc_series(q: C) -> C {
     let mut h = ZERO;
     for n in (0..LOG_SERIES_TERMS).rev() {
-        h = h * q + asinhc_coefficient(n);
+        h = h * q + ASINHC_COEFFICIENTS[n];
     }
     h
 }
 
 /// The closed branch of [`asinhc`]: r = √q, ln(r + √(q + 1)) / r.
 pub fn asinhc_closed(q: C) -> C {
-    let r = q.sqrt();
-    (r + (q + 1.0).sqrt()).ln() / r
+    let r = c_sqrt(q);
+    c_ln(r + c_sqrt(q + 1.0)) / r
 }
 
-/// n-th coefficient of the asinhc series, (−1)ⁿ (2n)! / (4ⁿ (n!)² (2n+1)), built by the ratio
-/// of consecutive terms to avoid huge factorials: c₀ = 1, cₙ/cₙ₋₁ = −(2n−1)²/(2n(2n+1)).
-fn asinhc_coefficient(n: usize) -> f64 {
-    let mut c = 1.0;
-    for k in 1..=n {
-        let k = k as f64;
-        c *= -(2.0 * k - 1.0) * (2.0 * k - 1.0) / (2.0 * k * (2.0 * k + 1.0));
+/// Coefficients of the asinhc series, (−1)ⁿ (2n)! / (4ⁿ (n!)² (2n+1)), built at compile time by
+/// the ratio of consecutive terms (no huge factorials): c₀ = 1, cₙ/cₙ₋₁ = −(2n−1)²/(2n(2n+1)).
+const ASINHC_COEFFICIENTS: [f64; LOG_SERIES_TERMS] = {
+    let mut c = [1.0; LOG_SERIES_TERMS];
+    let mut n = 1;
+    while n < c.len() {
+        let k = n as f64;
+        c[n] = -c[n - 1] * (2.0 * k - 1.0) * (2.0 * k - 1.0) / (2.0 * k * (2.0 * k + 1.0));
+        n += 1;
     }
     c
+};
+
+/// Modulus |z| = √(re² + im²), falling back to `hypot` only when re² + im² under- or
+/// overflows (|z| outside ≈ [1e-154, 1e154]). `hypot`, which num-complex's `norm` calls, costs
+/// several times more and was a quarter of the precompute time. The WGSL twin is `length`.
+#[inline]
+pub fn c_abs(z: C) -> f64 {
+    let s = z.re * z.re + z.im * z.im;
+    if s.is_normal() {
+        s.sqrt()
+    } else {
+        z.re.hypot(z.im)
+    }
 }
 
-fn factorial(n: usize) -> f64 {
-    (1..=n).map(|k| k as f64).product()
+/// Principal logarithm ln z = ln|z| + i arg z, with ln|z| = ½ ln(re² + im²) (the same range
+/// guard as [`c_abs`]).
+#[inline]
+pub fn c_ln(z: C) -> C {
+    let s = z.re * z.re + z.im * z.im;
+    let ln_abs = if s.is_normal() {
+        0.5 * s.ln()
+    } else {
+        z.re.hypot(z.im).ln()
+    };
+    C::new(ln_abs, z.im.atan2(z.re))
+}
+
+/// Principal square root, branch cut on the negative real axis, in algebraic form (no
+/// trigonometry; the WGSL twin `c_sqrt` is the same formula):
+///   Re z ≥ 0: t = √((|z| + Re z)/2), √z = (t, Im z / 2t);
+///   Re z < 0: t = √((|z| − Re z)/2), √z = (|Im z| / 2t, ±t) with the sign of Im z.
+/// Both branches avoid cancellation.
+pub fn c_sqrt(z: C) -> C {
+    let r = c_abs(z);
+    if r == 0.0 {
+        return ZERO;
+    }
+    if z.re >= 0.0 {
+        let t = ((r + z.re) * 0.5).sqrt();
+        C::new(t, z.im / (2.0 * t))
+    } else {
+        let t = ((r - z.re) * 0.5).sqrt();
+        C::new(z.im.abs() / (2.0 * t), t.copysign(z.im))
+    }
 }
 
 /// exp of a traceless matrix Y = [[a, b], [c, −a]] (notes, "exp on sl(2,C)").

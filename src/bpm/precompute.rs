@@ -9,7 +9,8 @@ use num_complex::Complex64 as C;
 use rayon::prelude::*;
 
 use super::moebius::{
-    fit_mobius_det, fit_mobius_local, log_with, mobius_inverse, mobius_mul, ExpLog, Mobius, Sl2,
+    c_abs, fit_mobius_det, fit_mobius_local, log_with, mobius_inverse, mobius_mul, ExpLog, Mobius,
+    Sl2,
 };
 use crate::error::Result;
 use crate::mesh::{Adjacency, EdgeKind, TriMesh, EDGE_CORNERS};
@@ -237,7 +238,7 @@ pub fn place_apex(z_a: C, z_b: C, p_a: &Point3<f64>, p_b: &Point3<f64>, p_apex: 
     let r = p_apex - p_a;
     let along = r.dot(&u);
     let perp = u.cross(&r).norm();
-    let dir = (z_b - z_a) / (z_b - z_a).norm();
+    let dir = (z_b - z_a) / c_abs(z_b - z_a);
     z_a + dir * C::new(along, -perp)
 }
 
@@ -287,7 +288,7 @@ pub fn triangle_maps(star: &Star, options: BpmOptions) -> TriangleMaps {
         };
         let log = log_with(&ratio, options.exp_log);
         // A non-finite ratio (a neighbour whose fit blew up) is treated like a boundary edge.
-        if log.max_abs().is_finite() {
+        if log.is_finite() {
             maps.logs[e] = log;
         }
     }
@@ -298,5 +299,7 @@ pub fn triangle_maps(star: &Star, options: BpmOptions) -> TriangleMaps {
 }
 
 fn is_finite(m: &Mobius) -> bool {
-    [m.a, m.b, m.c, m.d].iter().all(|x| x.re.is_finite() && x.im.is_finite())
+    [m.a, m.b, m.c, m.d]
+        .iter()
+        .all(|x| x.re.is_finite() && x.im.is_finite())
 }

@@ -6,6 +6,7 @@ use num_complex::Complex64 as C;
 use rayon::prelude::*;
 
 use super::eval::Interp;
+use super::moebius::c_abs;
 use super::precompute::Bpm;
 
 /// Distortion statistics over all sub-triangles. Percentiles and the mean are weighted by the
@@ -40,7 +41,7 @@ pub fn quasi_conformal(z: [C; 3], w: [C; 3]) -> (f64, bool) {
     let det = dz1 * dz2.conj() - dz2 * dz1.conj();
     let alpha = (dw1 * dz2.conj() - dw2 * dz1.conj()) / det;
     let beta = (dz1 * dw2 - dz2 * dw1) / det;
-    let (a, b) = (alpha.norm(), beta.norm());
+    let (a, b) = (c_abs(alpha), c_abs(beta));
     ((a + b) / (a - b).abs(), b > a)
 }
 
@@ -80,7 +81,10 @@ pub fn qc_protocol(bpm: &Bpm, interp: Interp, subdiv: u32) -> QcStats {
             }
             let point = |(r, s): (usize, usize)| {
                 let b = grid_bary(r, s, n);
-                (t.z[0] * b[0] + t.z[1] * b[1] + t.z[2] * b[2], bpm.eval(f, b, interp))
+                (
+                    t.z[0] * b[0] + t.z[1] * b[1] + t.z[2] * b[2],
+                    bpm.eval(f, b, interp),
+                )
             };
             subs.iter()
                 .map(|tri| {
@@ -93,7 +97,12 @@ pub fn qc_protocol(bpm: &Bpm, interp: Interp, subdiv: u32) -> QcStats {
         })
         .collect();
     let skipped_faces = bpm.maps.iter().filter(|t| t.fallback_linear).count();
-    summarise(per_face.into_iter().flatten().collect(), interp, subdiv, skipped_faces)
+    summarise(
+        per_face.into_iter().flatten().collect(),
+        interp,
+        subdiv,
+        skipped_faces,
+    )
 }
 
 fn summarise(mut v: Vec<(f64, f64, bool)>, interp: Interp, subdiv: u32, skipped: usize) -> QcStats {

@@ -5,9 +5,9 @@ use nalgebra::Vector3;
 
 use super::eval::Interp;
 use super::precompute::Bpm;
+use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::raster::{rasterize, shade, Camera};
-use crate::error::{Error, Result};
 use crate::texture::{self, sample_bilinear, Image};
 
 /// How to frame and size a picture. Defaults: 768×768, viewed from (0.4, 0.3, 1) (in front,
@@ -37,15 +37,29 @@ impl Default for RenderOptions {
 /// The camera that frames `mesh` for `options` (shared by the CPU and GPU renders so their
 /// pictures align pixel for pixel).
 pub fn camera_for(mesh: &TriMesh, options: &RenderOptions) -> Camera {
-    Camera::frame_mesh(mesh, options.view_dir, options.width as f64 / options.height as f64)
+    Camera::frame_mesh(
+        mesh,
+        options.view_dir,
+        options.width as f64 / options.height as f64,
+    )
 }
 
 /// Render `mesh` textured with `texture` under the interpolant `options.interp`: per pixel,
 /// colour = bilinear(texture, f(face, barycentrics)) with f the BPM or linear UV. No lighting,
 /// so the picture shows the parameterisation only.
-pub fn render_cpu(mesh: &TriMesh, bpm: &Bpm, texture: &Image<[u8; 4]>, options: &RenderOptions) -> Image<[u8; 4]> {
+pub fn render_cpu(
+    mesh: &TriMesh,
+    bpm: &Bpm,
+    texture: &Image<[u8; 4]>,
+    options: &RenderOptions,
+) -> Image<[u8; 4]> {
     let view_proj = camera_for(mesh, options).view_proj();
-    let frame = rasterize(mesh, &view_proj, options.width as usize, options.height as usize);
+    let frame = rasterize(
+        mesh,
+        &view_proj,
+        options.width as usize,
+        options.height as usize,
+    );
     shade(&frame, options.background, |face, bary| {
         let uv = bpm.eval(face as usize, bary, options.interp);
         let c = sample_bilinear(texture, [uv.re, uv.im]);
@@ -56,7 +70,10 @@ pub fn render_cpu(mesh: &TriMesh, bpm: &Bpm, texture: &Image<[u8; 4]>, options: 
 /// The texture to render `mesh` with: `override_path` if given, else the mesh's material texture
 /// (an error naming both files if the material names one that does not exist), else a built-in
 /// UV grid.
-pub fn resolve_texture(mesh: &TriMesh, override_path: Option<&std::path::Path>) -> Result<Image<[u8; 4]>> {
+pub fn resolve_texture(
+    mesh: &TriMesh,
+    override_path: Option<&std::path::Path>,
+) -> Result<Image<[u8; 4]>> {
     if let Some(path) = override_path {
         return texture::load_rgba8(path);
     }

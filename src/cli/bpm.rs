@@ -129,7 +129,10 @@ struct RenderResult {
 
 fn render(args: RenderArgs) -> Result<()> {
     let mesh = load_mesh(&args.mesh)?;
-    let bpm_options = BpmOptions { fit: args.fit.into(), ..Default::default() };
+    let bpm_options = BpmOptions {
+        fit: args.fit.into(),
+        ..Default::default()
+    };
     let bpm = precompute(&mesh, bpm_options)?;
     let texture = resolve_texture(&mesh, args.texture.as_deref())?;
     let options = RenderOptions {
@@ -161,16 +164,33 @@ fn render(args: RenderArgs) -> Result<()> {
     if args.json {
         return super::print_json(&result);
     }
-    println!("wrote {} ({}×{}, {:?}, {} backend, {} s)", args.output.display(), options.width, options.height, options.interp, result.backend, sig(seconds, 3));
+    println!(
+        "wrote {} ({}×{}, {:?}, {} backend, {} s)",
+        args.output.display(),
+        options.width,
+        options.height,
+        options.interp,
+        result.backend,
+        sig(seconds, 3)
+    );
     print_precompute_report(&bpm.report);
     if let Some(d) = &result.versus_cpu {
-        println!("versus the CPU render: PSNR {} dB, {}% of pixels differ by more than 1/255, max {}", sig(d.psnr_db, 3), sig(100.0 * d.fraction_over_1_of_255, 2), d.max_abs);
+        println!(
+            "versus the CPU render: PSNR {} dB, {}% of pixels differ by more than 1/255, max {}",
+            sig(d.psnr_db, 3),
+            sig(100.0 * d.fraction_over_1_of_255, 2),
+            d.max_abs
+        );
     }
     Ok(())
 }
 
 #[cfg(feature = "gpu")]
-type GpuRender = (reparam::texture::Image<[u8; 4]>, Option<String>, Option<reparam::raster::DiffStats>);
+type GpuRender = (
+    reparam::texture::Image<[u8; 4]>,
+    Option<String>,
+    Option<reparam::raster::DiffStats>,
+);
 
 #[cfg(feature = "gpu")]
 fn render_gpu(
@@ -183,7 +203,10 @@ fn render_gpu(
     let gpu = reparam::bpm::gpu::context()?;
     let image = reparam::bpm::gpu::render_gpu(&gpu, mesh, bpm.options.fit, texture, options)?;
     let diff = match compare {
-        true => Some(reparam::raster::image_diff(&image, &render_cpu(mesh, bpm, texture, options))?),
+        true => Some(reparam::raster::image_diff(
+            &image,
+            &render_cpu(mesh, bpm, texture, options),
+        )?),
         false => None,
     };
     Ok((image, Some(gpu.adapter_summary()), diff))
@@ -196,8 +219,14 @@ fn render_gpu(
     _: &reparam::texture::Image<[u8; 4]>,
     _: &RenderOptions,
     _: bool,
-) -> Result<(reparam::texture::Image<[u8; 4]>, Option<String>, Option<reparam::raster::DiffStats>)> {
-    Err(reparam::Error::Gpu("this build has no GPU support (feature `gpu` is off)".into()))
+) -> Result<(
+    reparam::texture::Image<[u8; 4]>,
+    Option<String>,
+    Option<reparam::raster::DiffStats>,
+)> {
+    Err(reparam::Error::Gpu(
+        "this build has no GPU support (feature `gpu` is off)".into(),
+    ))
 }
 
 pub fn print_precompute_report(r: &PrecomputeReport) {
@@ -227,7 +256,13 @@ struct QcResult {
 fn qc(args: QcArgs) -> Result<()> {
     let mesh = load_mesh(&args.mesh)?;
     let start = Instant::now();
-    let bpm = precompute(&mesh, BpmOptions { fit: args.fit.into(), ..Default::default() })?;
+    let bpm = precompute(
+        &mesh,
+        BpmOptions {
+            fit: args.fit.into(),
+            ..Default::default()
+        },
+    )?;
     let linear = qc_protocol(&bpm, Interp::Linear, args.subdiv);
     let bpm_stats = qc_protocol(&bpm, Interp::Bpm, args.subdiv);
     let result = QcResult {
@@ -242,7 +277,10 @@ fn qc(args: QcArgs) -> Result<()> {
         return super::print_json(&result);
     }
     print_precompute_report(&bpm.report);
-    println!("QC = σmax/σmin over {} sub-triangles ({} subdivisions per face), area-weighted:", result.bpm.sub_triangles, args.subdiv);
+    println!(
+        "QC = σmax/σmin over {} sub-triangles ({} subdivisions per face), area-weighted:",
+        result.bpm.sub_triangles, args.subdiv
+    );
     println!("{}", qc_table(&[&result.linear, &result.bpm]));
     println!("({} s)", sig(result.seconds, 3));
     Ok(())
@@ -250,7 +288,10 @@ fn qc(args: QcArgs) -> Result<()> {
 
 /// A plain-text table of QC statistics, one row per interpolant.
 pub fn qc_table(rows: &[&QcStats]) -> String {
-    let mut s = format!("{:<8} {:>9} {:>9} {:>9} {:>9} {:>11} {:>8}\n", "interp", "mean", "p50", "p95", "p99", "max", "folded");
+    let mut s = format!(
+        "{:<8} {:>9} {:>9} {:>9} {:>9} {:>11} {:>8}\n",
+        "interp", "mean", "p50", "p95", "p99", "max", "folded"
+    );
     for q in rows {
         s += &format!(
             "{:<8} {:>9} {:>9} {:>9} {:>9} {:>11} {:>8}\n",

@@ -31,16 +31,27 @@ fn bpm(args: CrosscheckBpmArgs) -> Result<()> {
     let meshes = if args.mesh.is_empty() {
         reparam::mesh::procedural::all_small()
     } else {
-        args.mesh.iter().map(|m| super::inputs::load_mesh(m)).collect::<Result<Vec<_>>>()?
+        args.mesh
+            .iter()
+            .map(|m| super::inputs::load_mesh(m))
+            .collect::<Result<Vec<_>>>()?
     };
     let gpu = reparam::bpm::gpu::context()?;
-    let results = meshes.iter().map(|m| crosscheck_bpm(&gpu, m)).collect::<Result<Vec<_>>>()?;
+    let results = meshes
+        .iter()
+        .map(|m| crosscheck_bpm(&gpu, m))
+        .collect::<Result<Vec<_>>>()?;
     if args.json {
         let rounded: Vec<_> = results
             .iter()
             .map(|r| {
                 let mut r = r.clone();
-                for s in [&mut r.eval_kernel, &mut r.linear_kernel, &mut r.local, &mut r.det] {
+                for s in [
+                    &mut r.eval_kernel,
+                    &mut r.linear_kernel,
+                    &mut r.local,
+                    &mut r.det,
+                ] {
                     *s = s.rounded(3);
                 }
                 r
@@ -52,9 +63,22 @@ fn bpm(args: CrosscheckBpmArgs) -> Result<()> {
     println!("errors in {UNIT}; f32 GPU against f64 CPU from identical (f32-rounded) inputs");
     let (header, rows) = crosscheck_table(&results);
     let widths: Vec<usize> = (0..header.len())
-        .map(|c| rows.iter().map(|r| r[c].len()).chain([header[c].len()]).max().unwrap_or(0))
+        .map(|c| {
+            rows.iter()
+                .map(|r| r[c].len())
+                .chain([header[c].len()])
+                .max()
+                .unwrap_or(0)
+        })
         .collect();
-    let line = |cells: &[String]| cells.iter().zip(&widths).map(|(c, w)| format!("{c:>w$}")).collect::<Vec<_>>().join("  ");
+    let line = |cells: &[String]| {
+        cells
+            .iter()
+            .zip(&widths)
+            .map(|(c, w)| format!("{c:>w$}"))
+            .collect::<Vec<_>>()
+            .join("  ")
+    };
     println!("{}", line(&header));
     for r in &rows {
         println!("{}", line(r));
@@ -64,5 +88,7 @@ fn bpm(args: CrosscheckBpmArgs) -> Result<()> {
 
 #[cfg(not(feature = "gpu"))]
 fn bpm(_: CrosscheckBpmArgs) -> Result<()> {
-    Err(reparam::Error::Gpu("this build has no GPU support (feature `gpu` is off)".into()))
+    Err(reparam::Error::Gpu(
+        "this build has no GPU support (feature `gpu` is off)".into(),
+    ))
 }

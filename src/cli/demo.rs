@@ -39,9 +39,21 @@ pub fn run(args: DemoArgs) -> Result<()> {
 }
 
 /// Render `mesh` linear | BPM side by side with `texture` and save it as `out/<file>`.
-fn side_by_side_pictures(out: &Path, file: &str, mesh: &TriMesh, texture: &Image<[u8; 4]>, view: Vector3<f64>) -> Result<String> {
+fn side_by_side_pictures(
+    out: &Path,
+    file: &str,
+    mesh: &TriMesh,
+    texture: &Image<[u8; 4]>,
+    view: Vector3<f64>,
+) -> Result<String> {
     let bpm = precompute(mesh, BpmOptions::default())?;
-    let options = |interp| RenderOptions { width: 512, height: 512, view_dir: view, interp, ..Default::default() };
+    let options = |interp| RenderOptions {
+        width: 512,
+        height: 512,
+        view_dir: view,
+        interp,
+        ..Default::default()
+    };
     let linear = render_cpu(mesh, &bpm, texture, &options(Interp::Linear));
     let blended = render_cpu(mesh, &bpm, texture, &options(Interp::Bpm));
     save_png(&side_by_side(&[&linear, &blended], 8), &out.join(file))?;
@@ -49,17 +61,44 @@ fn side_by_side_pictures(out: &Path, file: &str, mesh: &TriMesh, texture: &Image
 }
 
 fn bpm_demo(out: &Path, report: &mut Report, use_gpu: bool) -> Result<()> {
-    println!("bpm: pictures, quality protocol{}", if use_gpu { ", cross-check" } else { "" });
+    println!(
+        "bpm: pictures, quality protocol{}",
+        if use_gpu { ", cross-check" } else { "" }
+    );
     report.section("BPM — Blended Piecewise Möbius Maps (seed 004)");
     report.paragraph(
         "Each picture: piecewise-linear UVs on the left, BPM on the right, same mesh, same texture, \
          no lighting (CPU f64 reference rasteriser).",
     );
     let pictures = [
-        ("bpm_cone_checker.png", "cone fan, apex UV at 0, rim on the unit circle: a checker", procedural::cone_fan(8, 0.8), checker(1024, 16), Vector3::new(0.0, -0.35, 1.0)),
-        ("bpm_torus_grid.png", "torus with UV seams: a UV grid", procedural::torus(24, 12, 1.0, 0.35), uv_grid_texture(1024), Vector3::new(0.3, 0.6, 1.0)),
-        ("bpm_star_affine.png", "flat star with an anisotropic affine UV map (BPM is not affine-exact)", procedural::flat_star_affine(7), checker(1024, 12), Vector3::new(0.0, 0.0, 1.0)),
-        ("bpm_mobius.png", "planar grid whose UVs are a global Möbius map (BPM reproduces it exactly)", procedural::mobius_mesh(6, procedural::default_mobius()), checker(1024, 16), Vector3::new(0.0, 0.0, 1.0)),
+        (
+            "bpm_cone_checker.png",
+            "cone fan, apex UV at 0, rim on the unit circle: a checker",
+            procedural::cone_fan(8, 0.8),
+            checker(1024, 16),
+            Vector3::new(0.0, -0.35, 1.0),
+        ),
+        (
+            "bpm_torus_grid.png",
+            "torus with UV seams: a UV grid",
+            procedural::torus(24, 12, 1.0, 0.35),
+            uv_grid_texture(1024),
+            Vector3::new(0.3, 0.6, 1.0),
+        ),
+        (
+            "bpm_star_affine.png",
+            "flat star with an anisotropic affine UV map (BPM is not affine-exact)",
+            procedural::flat_star_affine(7),
+            checker(1024, 12),
+            Vector3::new(0.0, 0.0, 1.0),
+        ),
+        (
+            "bpm_mobius.png",
+            "planar grid whose UVs are a global Möbius map (BPM reproduces it exactly)",
+            procedural::mobius_mesh(6, procedural::default_mobius()),
+            checker(1024, 16),
+            Vector3::new(0.0, 0.0, 1.0),
+        ),
     ];
     for (file, caption, mesh, texture, view) in pictures.iter() {
         let file = side_by_side_pictures(out, file, mesh, texture, *view)?;
@@ -85,7 +124,12 @@ fn bpm_demo(out: &Path, report: &mut Report, use_gpu: bool) -> Result<()> {
         }
     }
     report.paragraph("Quasi-conformal distortion QC = σmax/σmin (authors' protocol, 4 subdivisions = 256 sub-triangles per face, area-weighted):");
-    report.table(&["mesh", "interp", "mean", "p50", "p95", "p99", "max", "folded"], &rows);
+    report.table(
+        &[
+            "mesh", "interp", "mean", "p50", "p95", "p99", "max", "folded",
+        ],
+        &rows,
+    );
 
     // Timings on a mid-size mesh.
     let mesh = procedural::torus(256, 128, 1.0, 0.35);
@@ -93,14 +137,30 @@ fn bpm_demo(out: &Path, report: &mut Report, use_gpu: bool) -> Result<()> {
     let bpm = precompute(&mesh, BpmOptions::default())?;
     let t_pre = start.elapsed().as_secs_f64();
     let samples: Vec<reparam::bpm::Sample> = (0..mesh.face_count() as u32)
-        .flat_map(|face| [[0.2, 0.3, 0.5], [0.6, 0.2, 0.2], [1.0 / 3.0; 3], [0.1, 0.45, 0.45]].map(|bary| reparam::bpm::Sample { face, bary }))
+        .flat_map(|face| {
+            [
+                [0.2, 0.3, 0.5],
+                [0.6, 0.2, 0.2],
+                [1.0 / 3.0; 3],
+                [0.1, 0.45, 0.45],
+            ]
+            .map(|bary| reparam::bpm::Sample { face, bary })
+        })
         .collect();
-    let mut timing_rows = vec![vec![format!("precompute, {} faces", mesh.face_count()), sig(t_pre * 1e3, 3), sig(mesh.face_count() as f64 / t_pre / 1e6, 3) + " M faces/s"]];
+    let mut timing_rows = vec![vec![
+        format!("precompute, {} faces", mesh.face_count()),
+        sig(t_pre * 1e3, 3),
+        sig(mesh.face_count() as f64 / t_pre / 1e6, 3) + " M faces/s",
+    ]];
     for interp in [Interp::Bpm, Interp::Linear] {
         let start = Instant::now();
         std::hint::black_box(bpm.eval_many(&samples, interp));
         let t = start.elapsed().as_secs_f64();
-        timing_rows.push(vec![format!("eval {interp:?}, {} samples", samples.len()), sig(t * 1e3, 3), sig(samples.len() as f64 / t / 1e6, 3) + " M samples/s"]);
+        timing_rows.push(vec![
+            format!("eval {interp:?}, {} samples", samples.len()),
+            sig(t * 1e3, 3),
+            sig(samples.len() as f64 / t / 1e6, 3) + " M samples/s",
+        ]);
     }
     report.paragraph("Timings (CPU f64; `cargo bench --bench bpm` gives the careful figures):");
     report.table(&["what", "ms", "throughput"], &timing_rows);
@@ -134,18 +194,33 @@ fn gpu_section(out: &Path, report: &mut Report) -> Result<()> {
          `>1 texel` is the speckle rate.",
     );
     let (header, rows) = crosscheck_table(&results);
-    report.table(&header.iter().map(|s| s.as_str()).collect::<Vec<_>>(), &rows);
+    report.table(
+        &header.iter().map(|s| s.as_str()).collect::<Vec<_>>(),
+        &rows,
+    );
 
     // The GPU renderer beside the CPU one.
     let mesh = procedural::cone_fan(8, 0.8);
     let bpm = precompute(&mesh, BpmOptions::default())?;
     let texture = checker(1024, 16);
-    let options = RenderOptions { width: 512, height: 512, view_dir: Vector3::new(0.0, -0.35, 1.0), ..Default::default() };
+    let options = RenderOptions {
+        width: 512,
+        height: 512,
+        view_dir: Vector3::new(0.0, -0.35, 1.0),
+        ..Default::default()
+    };
     let cpu = render_cpu(&mesh, &bpm, &texture, &options);
-    let gpu_image = reparam::bpm::gpu::render_gpu(&gpu, &mesh, bpm.options.fit, &texture, &options)?;
-    save_png(&side_by_side(&[&cpu, &gpu_image], 8), &out.join("bpm_cone_cpu_vs_gpu.png"))?;
+    let gpu_image =
+        reparam::bpm::gpu::render_gpu(&gpu, &mesh, bpm.options.fit, &texture, &options)?;
+    save_png(
+        &side_by_side(&[&cpu, &gpu_image], 8),
+        &out.join("bpm_cone_cpu_vs_gpu.png"),
+    )?;
     let d = reparam::raster::image_diff(&cpu, &gpu_image)?;
-    report.image("cone, BPM: CPU f64 render (left) and GPU f32 render (right)", "bpm_cone_cpu_vs_gpu.png");
+    report.image(
+        "cone, BPM: CPU f64 render (left) and GPU f32 render (right)",
+        "bpm_cone_cpu_vs_gpu.png",
+    );
     report.paragraph(&format!(
         "GPU render versus CPU render: PSNR {} dB, {}% of pixels differ by more than 1/255 (max difference {}).",
         sig(d.psnr_db, 3),

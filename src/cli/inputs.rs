@@ -11,7 +11,10 @@ use reparam::{Error, Result};
 pub fn load_mesh(spec: &str) -> Result<TriMesh> {
     match spec.strip_prefix("procedural:") {
         Some(name) => builtin_mesh(name).ok_or_else(|| {
-            Error::InvalidArgument(format!("unknown built-in mesh '{name}'; known: {}", BUILTIN_MESHES.join(", ")))
+            Error::InvalidArgument(format!(
+                "unknown built-in mesh '{name}'; known: {}",
+                BUILTIN_MESHES.join(", ")
+            ))
         }),
         None => load_obj(Path::new(spec)),
     }
@@ -19,8 +22,14 @@ pub fn load_mesh(spec: &str) -> Result<TriMesh> {
 
 /// Parse `WxH` (e.g. `1024x768`).
 pub fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
-    let (w, h) = s.split_once('x').ok_or_else(|| format!("expected WIDTHxHEIGHT, got '{s}'"))?;
-    let parse = |x: &str| x.trim().parse::<u32>().map_err(|_| format!("bad size '{s}'"));
+    let (w, h) = s
+        .split_once('x')
+        .ok_or_else(|| format!("expected WIDTHxHEIGHT, got '{s}'"))?;
+    let parse = |x: &str| {
+        x.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("bad size '{s}'"))
+    };
     let (w, h) = (parse(w)?, parse(h)?);
     if w == 0 || h == 0 || w > 16384 || h > 16384 {
         return Err(format!("size '{s}' out of range (1..16384)"));
@@ -32,10 +41,16 @@ pub fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
 pub fn parse_direction(s: &str) -> std::result::Result<Vector3<f64>, String> {
     let v: Vec<f64> = s
         .split(',')
-        .map(|x| x.trim().parse::<f64>().map_err(|_| format!("bad direction '{s}'")))
+        .map(|x| {
+            x.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("bad direction '{s}'"))
+        })
         .collect::<std::result::Result<_, _>>()?;
     match v[..] {
-        [x, y, z] if (x * x + y * y + z * z) > 0.0 && x.is_finite() && y.is_finite() && z.is_finite() => {
+        [x, y, z]
+            if (x * x + y * y + z * z) > 0.0 && x.is_finite() && y.is_finite() && z.is_finite() =>
+        {
             Ok(Vector3::new(x, y, z))
         }
         _ => Err(format!("expected a non-zero direction x,y,z, got '{s}'")),
@@ -43,7 +58,17 @@ pub fn parse_direction(s: &str) -> std::result::Result<Vector3<f64>, String> {
 }
 
 /// Names accepted after `procedural:`.
-pub const BUILTIN_MESHES: [&str; 9] = ["star", "star_affine", "cone", "torus", "mobius", "mirrored", "tiny_far_uv", "wavy", "big_torus"];
+pub const BUILTIN_MESHES: [&str; 9] = [
+    "star",
+    "star_affine",
+    "cone",
+    "torus",
+    "mobius",
+    "mirrored",
+    "tiny_far_uv",
+    "wavy",
+    "big_torus",
+];
 
 /// The built-in mesh called `name` (see [`BUILTIN_MESHES`]), at the size the demo uses.
 pub fn builtin_mesh(name: &str) -> Option<TriMesh> {

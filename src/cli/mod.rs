@@ -29,6 +29,12 @@ enum Command {
     /// Compare a GPU f32 kernel with the f64 reference from identical inputs.
     #[command(subcommand)]
     Crosscheck(crosscheck::CrosscheckCommand),
+    /// Regenerate reference_data/: canonical meshes and golden f64 outputs.
+    ReferenceData {
+        /// Output folder.
+        #[arg(long, default_value = "reference_data")]
+        out: std::path::PathBuf,
+    },
 }
 
 pub fn main() -> ExitCode {
@@ -37,6 +43,11 @@ pub fn main() -> ExitCode {
         Command::Demo(args) => demo::run(args),
         Command::Bpm(cmd) => bpm::run(cmd),
         Command::Crosscheck(cmd) => crosscheck::run(cmd),
+        Command::ReferenceData { out } => reparam::reference_data::write_all(&out).map(|files| {
+            for f in files {
+                println!("wrote {}", f.display());
+            }
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

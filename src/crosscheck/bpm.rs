@@ -13,7 +13,9 @@ use reparam_gpu::Gpu;
 use serde::Serialize;
 
 use super::{to_f32_precision, ErrorSummary};
-use crate::bpm::gpu::{eval_gpu, maps_to_gpu, precompute_gpu, sample_as_gpu_sees_it, samples_to_gpu};
+use crate::bpm::gpu::{
+    eval_gpu, maps_to_gpu, precompute_gpu, sample_as_gpu_sees_it, samples_to_gpu,
+};
 use crate::bpm::{precompute, Bpm, BpmOptions, Fit, Interp, Sample};
 use crate::error::Result;
 use crate::mesh::TriMesh;
@@ -94,7 +96,10 @@ pub fn crosscheck_samples(faces: usize) -> Vec<Sample> {
         [0.0, 0.0, 1.0],
     ];
     (0..faces as u32)
-        .flat_map(|face| B.iter().map(move |&bary| sample_as_gpu_sees_it(&Sample { face, bary })))
+        .flat_map(|face| {
+            B.iter()
+                .map(move |&bary| sample_as_gpu_sees_it(&Sample { face, bary }))
+        })
         .collect()
 }
 
@@ -124,12 +129,24 @@ pub fn crosscheck_bpm(gpu: &Gpu, mesh: &TriMesh) -> Result<BpmCrosscheck> {
     let tol = eval_kernel_tolerance(uv_max);
 
     let rounded = maps_to_gpu(&reference);
-    let (eval_kernel, _) = summary(&cpu_bpm, &eval_gpu(gpu, &rounded, &gpu_samples, Interp::Bpm)?, tol);
-    let (linear_kernel, _) = summary(&cpu_linear, &eval_gpu(gpu, &rounded, &gpu_samples, Interp::Linear)?, tol);
+    let (eval_kernel, _) = summary(
+        &cpu_bpm,
+        &eval_gpu(gpu, &rounded, &gpu_samples, Interp::Bpm)?,
+        tol,
+    );
+    let (linear_kernel, _) = summary(
+        &cpu_linear,
+        &eval_gpu(gpu, &rounded, &gpu_samples, Interp::Linear)?,
+        tol,
+    );
 
     let pipeline = |fit: Fit, tolerance: f64| -> Result<(ErrorSummary, f64)> {
         let maps = precompute_gpu(gpu, &mesh, fit)?;
-        Ok(summary(&cpu_bpm, &eval_gpu(gpu, &maps, &gpu_samples, Interp::Bpm)?, tolerance))
+        Ok(summary(
+            &cpu_bpm,
+            &eval_gpu(gpu, &maps, &gpu_samples, Interp::Bpm)?,
+            tolerance,
+        ))
     };
     let (local, speckle_local) = pipeline(Fit::Local, LOCAL_PIPELINE_MAX)?;
     let (det, speckle_det) = pipeline(Fit::Determinant, SPECKLE_THRESHOLD)?;
@@ -148,7 +165,18 @@ pub fn crosscheck_bpm(gpu: &Gpu, mesh: &TriMesh) -> Result<BpmCrosscheck> {
 
 /// A table of cross-check results: one row per mesh and comparison.
 pub fn crosscheck_table(results: &[BpmCrosscheck]) -> (Vec<String>, Vec<Vec<String>>) {
-    let header = ["mesh", "faces", "kernel", "max", "p50", "p99", "RMS", "tolerance", "over", ">1 texel"];
+    let header = [
+        "mesh",
+        "faces",
+        "kernel",
+        "max",
+        "p50",
+        "p99",
+        "RMS",
+        "tolerance",
+        "over",
+        ">1 texel",
+    ];
     let mut rows = Vec::new();
     for r in results {
         for (name, s, speckle) in [

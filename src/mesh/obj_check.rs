@@ -1,42 +1,59 @@
-//! Line-level checks of an OBJ text, run before `tobj` parses it.
+//! The OBJ parser: one pass over the text that checks every statement and builds the
+//! [`TriMesh`] in file order.
 //!
-//! `tobj` does the real parsing, but it cannot tell *where* a problem is, and on some bad input
-//! it misbehaves instead of failing:
-//! - `nan` and `inf` parse as numbers (Rust's `f64::from_str` accepts them);
-//! - a face corner without a `vt` index, in a file that has `vt` lines, silently reuses the
-//!   previous corner's texture coordinate;
-//! - a relative index reaching far before the first element overflows (a panic in debug
-//!   builds); an out-of-range index is reported without the face.
+//! Nothing is renumbered or merged: vertex `i` of the mesh is the `i`-th `v` line of the file
+//! and texture coordinate `j` the `j`-th `vt` line (both counted from 0), and face `f` in an
+//! error is the `f`-th `f` statement (from 0; for a file of triangles, the triangle index). So a
+//! vertex or face named in an error, here or in any algorithm downstream, can be found in the
+//! file.
 //!
-//! This pass reads every `v`, `vt`, `vn` and `f` statement once, so that these cases become
-//! typed errors naming the file, the line (as `path:line`), the face and the vertex.
+//! Statements read:
+//! - `v x y z [w]` and `v x y z r g b`: a position (the weight and the colour are ignored);
+//! - `vt u v [w]`: a texture coordinate (`w` is ignored);
+//! - `vn`: only counted, so that face corners referring to normals can be checked;
+//! - `f c₁ c₂ c₃ …`: a polygon, split into the triangle fan `(c₁, cₖ, cₖ₊₁)`. A corner is `v`,
+//!   `v/vt`, `v//vn` or `v/vt/vn`; an index is 1-based, or negative: relative to the elements
+//!   read *so far* (`-1` is the last one). Positive indices may refer further down the file;
+//! - `mtllib name`: a material library, for the texture lookup.
+//!
+//! Everything else (`o`, `g`, `s`, `usemtl`, `vp`, `l`, `p`, free-form geometry) is ignored: all
+//! faces form one mesh. `#` starts a comment, and a line ending in `\` continues on the next.
+//!
+//! Problems become typed errors naming the file and the line (as `path:line`), the face and the
+//! vertex: a `nan` or `inf` coordinate (Rust's `f64::from_str` accepts them), an index out of
+//! range or reaching before the first element, a face with fewer than 3 corners, a face
+//! without texture coordinates when other faces have them.
 
+use std::borrow::Cow;
 use std::path::Path;
 
+use nalgebra::{Point2, Point3};
+
+use super::trimesh::TriMesh;
 use crate::error::{Error, Result};
 
-/// What the checked text contains, for the loader.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub(crate) struct ObjSummary {
-    /// Number of `v`, `vt` and `vn` statements, in that order.
-    pub counts: [usize; 3],
-    /// The material libraries named by `mtllib` statements, in file order.
+/// A parsed OBJ file: the mesh (named after the file, without texture) and the material
+/// libraries named by `mtllib` statements, in file order.
+#[derive(Clone, Debug)]
+pub(crate) struct ParsedObj {
+    pub mesh: TriMesh,
     pub material_libraries: Vec<String>,
 }
 
 /// The three kinds of indexed element a face corner `v/vt/vn` refers to.
 const ELEMENT_NAMES: [&str; 3] = ["vertex", "texture coordinate", "normal"];
 
-/// Check `text` (the contents of the OBJ file `path`): finite vertex and texture coordinates,
-/// face corners that parse and refer to existing elements, and either all or no face corners
-/// with texture coordinates. Returns the element counts and material libraries.
+/// Parse `text`, the contents of the OBJ file `path` (see the module documentation).
 ///
-/// Faces are numbered from 0 in the order of the `f` statements (for a file of triangles this
-/// is the triangle index); vertices from 0 in the order of the `v` statements.
-pub(crate) fn check_obj_text(text: &str, path: &Path) -> Result<ObjSummary> {
-    let summary = check_element_lines(text, path)?;
-    check_face_lines(text, path, &summary)?;
-    Ok(summary)
+/// The mesh is not validated beyond what the statements themselves require: an empty mesh is
+/// returned as such (the caller runs [`TriMesh::validate`]).
+pub(crate) fn parse_obj(text: &str, path: &Path) -> Result<ParsedObj> {
+    let mut parser = Parser::new(path);
+    for (line_no, statement) in statements(text) {
+        parser.line_no = line_no;
+        parser.statement(&statement)?;
+    }
+    parser.finish()
 }
 
 /// `path:line` (1-based line), the location used as the mesh name in errors.
@@ -54,163 +71,279 @@ pub(crate) fn statement_argument<'a>(line: &'a str, keyword: &str) -> &'a str {
     line.trim_start()[keyword.len()..].trim()
 }
 
-/// First pass: count `v`, `vt`, `vn`; require finite numbers in `v` (3) and `vt` (2).
-fn check_element_lines(text: &str, path: &Path) -> Result<ObjSummary> {
-    let mut summary = ObjSummary::default();
-    for (line_index, line) in text.lines().enumerate() {
-        let line_no = line_index + 1;
-        match keyword(line) {
-            Some("v") => {
-                check_coordinates(line, 3, "vertex", summary.counts[0], path, line_no)?;
-                summary.counts[0] += 1;
-            }
-            Some("vt") => {
-                check_coordinates(line, 2, "texture coordinate", summary.counts[1], path, line_no)?;
-                summary.counts[1] += 1;
-            }
-            Some("vn") => summary.counts[2] += 1,
-            Some("mtllib") => summary
-                .material_libraries
-                .push(statement_argument(line, "mtllib").to_string()),
-            _ => {}
+/// The statements of `text`, each with the number (from 1) of the line it starts on: comments
+/// removed, and a line ending in `\` joined with the next one.
+fn statements(text: &str) -> impl Iterator<Item = (usize, Cow<'_, str>)> {
+    let mut lines = text.lines().enumerate();
+    std::iter::from_fn(move || {
+        let (index, first) = lines.next()?;
+        let mut statement = Cow::Borrowed(without_comment(first));
+        while let Some(start) = statement.trim_end().strip_suffix('\\') {
+            let next = lines.next().map_or("", |(_, line)| without_comment(line));
+            statement = Cow::Owned(format!("{start} {next}"));
         }
-    }
-    Ok(summary)
-}
-
-/// The first `needed` numbers after the keyword must parse and be finite.
-fn check_coordinates(
-    line: &str,
-    needed: usize,
-    what: &'static str,
-    index: usize,
-    path: &Path,
-    line_no: usize,
-) -> Result<()> {
-    let words: Vec<&str> = line.split_whitespace().skip(1).take(needed).collect();
-    let values: Option<Vec<f64>> = words.iter().map(|w| w.parse::<f64>().ok()).collect();
-    let values = match values {
-        Some(v) if v.len() == needed => v,
-        _ => {
-            return Err(Error::MeshParse {
-                path: path.to_path_buf(),
-                message: format!("line {line_no}: {what} {index} needs {needed} numbers: `{}`", line.trim()),
-            })
-        }
-    };
-    if values.iter().all(|x| x.is_finite()) {
-        return Ok(());
-    }
-    Err(Error::NonFinite {
-        mesh: location(path, line_no),
-        what,
-        index,
-        value: words.join(" "),
+        Some((index + 1, statement))
     })
 }
 
-/// Second pass: every `f` statement has at least 3 corners, each corner's indices resolve to
-/// existing elements, and corners have a `vt` index exactly when the file has `vt` lines.
-fn check_face_lines(text: &str, path: &Path, summary: &ObjSummary) -> Result<()> {
-    let mut seen = [0usize; 3]; // elements defined so far, for relative (negative) indices
-    let mut face = 0;
-    for (line_index, line) in text.lines().enumerate() {
-        let line_no = line_index + 1;
-        match keyword(line) {
-            Some("v") => seen[0] += 1,
-            Some("vt") => seen[1] += 1,
-            Some("vn") => seen[2] += 1,
-            Some("f") => {
-                let face_check = FaceCheck { path, line_no, face, seen, totals: summary.counts };
-                face_check.check(line)?;
-                face += 1;
-            }
-            _ => {}
-        }
-    }
-    Ok(())
+fn without_comment(line: &str) -> &str {
+    line.find('#').map_or(line, |hash| &line[..hash])
 }
 
-/// Everything needed to check one `f` statement and to name it in an error.
-struct FaceCheck<'a> {
-    path: &'a Path,
+/// One face corner: its position index and, when given, its texture-coordinate index.
+#[derive(Clone, Copy)]
+struct Corner {
+    vertex: u32,
+    uv: Option<u32>,
+}
+
+/// A positive index beyond the elements read so far, checked once the whole file is read.
+struct ForwardReference {
     line_no: usize,
     face: usize,
-    /// Elements defined before this line (relative indices count back from here).
-    seen: [usize; 3],
-    /// Elements in the whole file (positive indices may refer forward).
-    totals: [usize; 3],
+    kind: usize,
+    index: usize,
 }
 
-impl FaceCheck<'_> {
-    fn check(&self, line: &str) -> Result<()> {
-        let corners: Vec<&str> = line.split_whitespace().skip(1).collect();
-        if corners.len() < 3 {
-            return Err(Error::DegenerateFace {
-                mesh: location(self.path, self.line_no),
-                face: self.face,
-                reason: format!("{} corner(s), a face needs at least 3", corners.len()),
-            });
+/// The state of the one pass over the statements.
+struct Parser<'a> {
+    path: &'a Path,
+    /// Line (from 1) of the statement being read.
+    line_no: usize,
+    mesh: TriMesh,
+    material_libraries: Vec<String>,
+    normal_count: usize,
+    /// Number of the `f` statement being read (= `f` statements read so far).
+    face: usize,
+    /// Whether face 0 has texture coordinates, and its line: every face must agree with it.
+    first_face: Option<(bool, usize)>,
+    forward_references: Vec<ForwardReference>,
+}
+
+impl<'a> Parser<'a> {
+    fn new(path: &'a Path) -> Self {
+        Parser {
+            path,
+            line_no: 0,
+            mesh: TriMesh {
+                name: path.display().to_string(),
+                ..Default::default()
+            },
+            material_libraries: Vec::new(),
+            normal_count: 0,
+            face: 0,
+            first_face: None,
+            forward_references: Vec::new(),
         }
-        corners.iter().try_for_each(|corner| self.check_corner(corner))
     }
 
-    /// A corner is `v`, `v/vt`, `v//vn` or `v/vt/vn`, each index 1-based or negative (relative).
-    fn check_corner(&self, corner: &str) -> Result<()> {
-        let parts: Vec<&str> = corner.split('/').collect();
-        if parts.len() > 3 || parts[0].is_empty() {
-            return Err(self.parse_error(format!("cannot read face corner `{corner}`")));
-        }
-        for (kind, part) in parts.iter().enumerate() {
-            if !part.is_empty() {
-                self.check_index(kind, part)?;
+    fn statement(&mut self, line: &str) -> Result<()> {
+        match keyword(line) {
+            Some("v") => self.vertex(line),
+            Some("vt") => self.texture_coordinate(line),
+            Some("vn") => {
+                self.normal_count += 1;
+                Ok(())
             }
+            Some("f") => self.face(line),
+            Some("mtllib") => {
+                let library = statement_argument(line, "mtllib");
+                self.material_libraries.push(library.to_string());
+                Ok(())
+            }
+            _ => Ok(()),
         }
-        let has_uv = parts.get(1).is_some_and(|p| !p.is_empty());
-        if self.totals[1] > 0 && !has_uv {
-            return Err(Error::PartialUvs {
-                mesh: location(self.path, self.line_no),
-                face: self.face,
-            });
-        }
+    }
+
+    /// `v x y z`, optionally followed by a weight or a colour (ignored).
+    fn vertex(&mut self, line: &str) -> Result<()> {
+        let [x, y, z] = self.coordinates(line, "vertex", self.mesh.positions.len())?;
+        self.mesh.positions.push(Point3::new(x, y, z));
         Ok(())
     }
 
-    /// Resolve one OBJ index of element `kind` (0 = v, 1 = vt, 2 = vn) and check its range.
-    fn check_index(&self, kind: usize, text: &str) -> Result<()> {
+    /// `vt u v`, optionally followed by a depth `w` (ignored).
+    fn texture_coordinate(&mut self, line: &str) -> Result<()> {
+        let [u, v] = self.coordinates(line, "texture coordinate", self.mesh.uvs.len())?;
+        self.mesh.uvs.push(Point2::new(u, v));
+        Ok(())
+    }
+
+    /// `f c₁ c₂ c₃ …`: fan-triangulated into `faces` (and `uv_faces` when it has UVs).
+    fn face(&mut self, line: &str) -> Result<()> {
+        let words: Vec<&str> = line.split_whitespace().skip(1).collect();
+        if words.len() < 3 {
+            return Err(Error::DegenerateFace {
+                mesh: self.here(),
+                face: self.face,
+                reason: format!("{} corner(s), a face needs at least 3", words.len()),
+            });
+        }
+        let corners = words
+            .iter()
+            .map(|word| self.corner(word))
+            .collect::<Result<Vec<Corner>>>()?;
+        // `Some` when every corner has a texture coordinate.
+        let uvs: Option<Vec<u32>> = corners.iter().map(|c| c.uv).collect();
+        let some_uvs = corners.iter().any(|c| c.uv.is_some());
+        self.check_uvs_all_or_none(uvs.is_some(), some_uvs)?;
+        for k in 1..corners.len() - 1 {
+            let fan = [0, k, k + 1];
+            self.mesh.faces.push(fan.map(|i| corners[i].vertex));
+            if let Some(uvs) = &uvs {
+                self.mesh.uv_faces.push(fan.map(|i| uvs[i]));
+            }
+        }
+        self.face += 1;
+        Ok(())
+    }
+
+    /// A corner is `v`, `v/vt`, `v//vn` or `v/vt/vn`.
+    fn corner(&mut self, word: &str) -> Result<Corner> {
+        let parts: Vec<&str> = word.split('/').collect();
+        if parts.len() > 3 || parts[0].is_empty() {
+            return Err(self.parse_error(format!("cannot read face corner `{word}`")));
+        }
+        let given = |k: usize| parts.get(k).filter(|part| !part.is_empty());
+        let vertex = self.index(0, parts[0])?;
+        let uv = match given(1) {
+            Some(part) => Some(self.index(1, part)?),
+            None => None,
+        };
+        if let Some(part) = given(2) {
+            self.index(2, part)?;
+        }
+        Ok(Corner { vertex, uv })
+    }
+
+    /// Resolve one OBJ index of element `kind` (0 = v, 1 = vt, 2 = vn) to a 0-based index.
+    /// Indices beyond the elements read so far are checked in [`finish`](Self::finish).
+    fn index(&mut self, kind: usize, text: &str) -> Result<u32> {
         let raw: i64 = text
             .parse()
             .map_err(|_| self.parse_error(format!("`{text}` is not an index")))?;
-        let resolved = match raw {
+        let seen = self.element_count(kind);
+        let index = match raw {
             0 => return Err(self.parse_error("index 0 is invalid (OBJ indices start at 1)".into())),
-            r if r > 0 => (r - 1) as u64,
+            r if r > 0 => (r - 1) as usize,
             r => {
-                let back = r.unsigned_abs();
-                if back > self.seen[kind] as u64 {
+                let back = r.unsigned_abs() as usize;
+                if back > seen {
                     return Err(self.parse_error(format!(
                         "relative index {r} reaches before the first {}",
                         ELEMENT_NAMES[kind]
                     )));
                 }
-                self.seen[kind] as u64 - back
+                seen - back
             }
         };
-        if resolved >= self.totals[kind] as u64 {
-            return Err(Error::IndexOutOfRange {
-                mesh: location(self.path, self.line_no),
+        if index >= seen {
+            self.forward_references.push(ForwardReference {
+                line_no: self.line_no,
                 face: self.face,
-                what: ELEMENT_NAMES[kind],
-                index: resolved as usize,
-                count: self.totals[kind],
+                kind,
+                index,
             });
+        }
+        Ok(index as u32)
+    }
+
+    /// Every corner of every face has a texture coordinate, or none has. `all_uvs` / `some_uvs`:
+    /// whether all / some corners of the face being read have one.
+    fn check_uvs_all_or_none(&mut self, all_uvs: bool, some_uvs: bool) -> Result<()> {
+        let partial_uvs = |mesh, face| Err(Error::PartialUvs { mesh, face });
+        if some_uvs && !all_uvs {
+            return partial_uvs(self.here(), self.face);
+        }
+        match self.first_face {
+            None => self.first_face = Some((all_uvs, self.line_no)),
+            Some((true, _)) if !all_uvs => return partial_uvs(self.here(), self.face),
+            // Face 0 is the one without texture coordinates.
+            Some((false, line_no)) if all_uvs => {
+                return partial_uvs(location(self.path, line_no), 0)
+            }
+            _ => {}
         }
         Ok(())
     }
 
+    /// The first `N` numbers after the keyword; they must parse and be finite.
+    fn coordinates<const N: usize>(
+        &self,
+        line: &str,
+        what: &'static str,
+        index: usize,
+    ) -> Result<[f64; N]> {
+        let words: Vec<&str> = line.split_whitespace().skip(1).take(N).collect();
+        let values: Vec<f64> = words.iter().map_while(|w| w.parse().ok()).collect();
+        let Ok(values) = <[f64; N]>::try_from(values) else {
+            return Err(self.parse_error_at_line(format!(
+                "{what} {index} needs {N} numbers: `{}`",
+                line.trim()
+            )));
+        };
+        if !values.iter().all(|x| x.is_finite()) {
+            return Err(Error::NonFinite {
+                mesh: self.here(),
+                what,
+                index,
+                value: words.join(" "),
+            });
+        }
+        Ok(values)
+    }
+
+    /// Check the indices that referred further down the file, and return the mesh.
+    fn finish(self) -> Result<ParsedObj> {
+        for reference in &self.forward_references {
+            let count = self.element_count(reference.kind);
+            if reference.index >= count {
+                return Err(Error::IndexOutOfRange {
+                    mesh: location(self.path, reference.line_no),
+                    face: reference.face,
+                    what: ELEMENT_NAMES[reference.kind],
+                    index: reference.index,
+                    count,
+                });
+            }
+        }
+        Ok(ParsedObj {
+            mesh: self.mesh,
+            material_libraries: self.material_libraries,
+        })
+    }
+
+    /// Number of elements of `kind` (0 = v, 1 = vt, 2 = vn) read so far.
+    fn element_count(&self, kind: usize) -> usize {
+        [
+            self.mesh.positions.len(),
+            self.mesh.uvs.len(),
+            self.normal_count,
+        ][kind]
+    }
+
+    /// `path:line` of the statement being read.
+    fn here(&self) -> String {
+        location(self.path, self.line_no)
+    }
+
+    /// A syntax error in the face being read.
     fn parse_error(&self, message: String) -> Error {
+        self.syntax_error(format!(
+            "line {}, face {}: {message}",
+            self.line_no, self.face
+        ))
+    }
+
+    /// A syntax error in the statement being read.
+    fn parse_error_at_line(&self, message: String) -> Error {
+        self.syntax_error(format!("line {}: {message}", self.line_no))
+    }
+
+    fn syntax_error(&self, message: String) -> Error {
         Error::MeshParse {
             path: self.path.to_path_buf(),
-            message: format!("line {}, face {}: {message}", self.line_no, self.face),
+            message,
         }
     }
 }

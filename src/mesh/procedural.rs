@@ -24,7 +24,10 @@ pub fn flat_star(n: usize) -> TriMesh {
     let (cos, sin) = (0.3f64.cos(), 0.3f64.sin());
     let similarity = |p: &Point3<f64>| {
         let s = 0.35;
-        Point2::new(0.5 + s * (cos * p.x - sin * p.y), 0.5 + s * (sin * p.x + cos * p.y))
+        Point2::new(
+            0.5 + s * (cos * p.x - sin * p.y),
+            0.5 + s * (sin * p.x + cos * p.y),
+        )
     };
     fan_mesh("flat_star", star_positions(n), similarity)
 }
@@ -34,7 +37,8 @@ pub fn flat_star(n: usize) -> TriMesh {
 ///
 /// For tests where the UV map is not conformal, so BPM differs from linear interpolation.
 pub fn flat_star_affine(n: usize) -> TriMesh {
-    let affine = |p: &Point3<f64>| Point2::new(0.5 + 0.45 * p.x + 0.15 * p.y, 0.5 - 0.05 * p.x + 0.2 * p.y);
+    let affine =
+        |p: &Point3<f64>| Point2::new(0.5 + 0.45 * p.x + 0.15 * p.y, 0.5 - 0.05 * p.x + 0.2 * p.y);
     fan_mesh("flat_star_affine", star_positions(n), affine)
 }
 
@@ -75,7 +79,11 @@ pub fn torus(major: usize, minor: usize, big_r: f64, small_r: f64) -> TriMesh {
         for i in 0..major {
             let theta = TAU * i as f64 / major as f64;
             let ring = big_r + small_r * phi.cos();
-            positions.push(Point3::new(ring * theta.cos(), ring * theta.sin(), small_r * phi.sin()));
+            positions.push(Point3::new(
+                ring * theta.cos(),
+                ring * theta.sin(),
+                small_r * phi.sin(),
+            ));
         }
     }
     let uvs = grid_points(major, minor, |i, j| {
@@ -143,7 +151,12 @@ pub fn mobius_mesh(n: usize, m: Mobius) -> TriMesh {
             Point2::new(w.re, w.im)
         })
         .collect();
-    TriMesh::with_shared_indices(name("mobius"), positions, uvs, grid_faces(n, n, grid_index(n)))
+    TriMesh::with_shared_indices(
+        name("mobius"),
+        positions,
+        uvs,
+        grid_faces(n, n, grid_index(n)),
+    )
 }
 
 /// Two charts meeting at a 3D edge: a tent (roof) of `2n × n` cells (`n ≥ 1`) with its ridge
@@ -159,18 +172,25 @@ pub fn two_charts_mirrored(n: usize) -> TriMesh {
     let (half_width, height) = (0.8, 0.6); // slope length √(0.8² + 0.6²) = 1
     let positions = grid_points(2 * n, n, |i, j| {
         let x = half_width * (i as f64 / n as f64 - 1.0);
-        Point3::new(x, j as f64 / n as f64, height * (1.0 - x.abs() / half_width))
+        Point3::new(
+            x,
+            j as f64 / n as f64,
+            height * (1.0 - x.abs() / half_width),
+        )
     });
     let chart_uv = |u0: f64, du: f64| {
         grid_points(n, n, move |i, j| {
-            Point2::new(u0 + du * i as f64 / n as f64, 0.3 + 0.4 * j as f64 / n as f64)
+            Point2::new(
+                u0 + du * i as f64 / n as f64,
+                0.3 + 0.4 * j as f64 / n as f64,
+            )
         })
     };
     let mut uvs = chart_uv(0.05, 0.4);
     uvs.extend(chart_uv(0.95, -0.4));
 
     let position_index = grid_index(2 * n);
-    let mut faces = grid_faces(n, n, |i, j| position_index(i, j));
+    let mut faces = grid_faces(n, n, &position_index);
     faces.extend(grid_faces(n, n, |i, j| position_index(i + n, j)));
     let chart_offset = ((n + 1) * (n + 1)) as u32;
     let uv_index = grid_index(n);
@@ -194,7 +214,9 @@ pub const TINY_UV_CELL: f64 = 0.004;
 /// the f32 stress case (UV differences lose most of their f32 digits).
 pub fn tiny_far_uv(n: usize) -> TriMesh {
     let n = n.max(1);
-    let positions = grid_points(n, n, |i, j| Point3::new(i as f64 / n as f64, j as f64 / n as f64, 0.0));
+    let positions = grid_points(n, n, |i, j| {
+        Point3::new(i as f64 / n as f64, j as f64 / n as f64, 0.0)
+    });
     let uvs = grid_points(n, n, |i, j| {
         let (x, y) = (i as f64, j as f64);
         let jitter = if is_interior(n, i, j) { 0.2 } else { 0.0 };
@@ -203,7 +225,12 @@ pub fn tiny_far_uv(n: usize) -> TriMesh {
             2.6 + TINY_UV_CELL * (y + jitter * unit_hash(i, j, 8)),
         )
     });
-    TriMesh::with_shared_indices(name("tiny_far_uv"), positions, uvs, grid_faces(n, n, grid_index(n)))
+    TriMesh::with_shared_indices(
+        name("tiny_far_uv"),
+        positions,
+        uvs,
+        grid_faces(n, n, grid_index(n)),
+    )
 }
 
 /// A curved, well-shaped height field: `n × n` cells (`n ≥ 1`) on [0, 1]² with
@@ -216,7 +243,12 @@ pub fn wavy_grid(n: usize) -> TriMesh {
         Point3::new(x, y, 0.15 * (TAU * x).sin() * (0.5 * TAU * y).sin())
     });
     let uvs = positions.iter().map(|p| Point2::new(p.x, p.y)).collect();
-    TriMesh::with_shared_indices(name("wavy_grid"), positions, uvs, grid_faces(n, n, grid_index(n)))
+    TriMesh::with_shared_indices(
+        name("wavy_grid"),
+        positions,
+        uvs,
+        grid_faces(n, n, grid_index(n)),
+    )
 }
 
 /// The small built-in meshes (each under a few thousand triangles), for cross-check loops.
@@ -255,7 +287,11 @@ fn star_positions(n: usize) -> Vec<Point3<f64>> {
 }
 
 /// A fan mesh around vertex 0 whose UVs are `uv_of(position)`.
-fn fan_mesh(short: &str, positions: Vec<Point3<f64>>, uv_of: impl Fn(&Point3<f64>) -> Point2<f64>) -> TriMesh {
+fn fan_mesh(
+    short: &str,
+    positions: Vec<Point3<f64>>,
+    uv_of: impl Fn(&Point3<f64>) -> Point2<f64>,
+) -> TriMesh {
     let uvs = positions.iter().map(uv_of).collect();
     let n = positions.len() - 1;
     TriMesh::with_shared_indices(name(short), positions, uvs, fan_faces(n))
@@ -263,12 +299,17 @@ fn fan_mesh(short: &str, positions: Vec<Point3<f64>>, uv_of: impl Fn(&Point3<f64
 
 /// Triangles `(0, k, k+1)` of a closed fan around vertex 0 with rim vertices `1..=n`.
 fn fan_faces(n: usize) -> Vec<[u32; 3]> {
-    (0..n).map(|k| [0, 1 + k as u32, 1 + ((k + 1) % n) as u32]).collect()
+    (0..n)
+        .map(|k| [0, 1 + k as u32, 1 + ((k + 1) % n) as u32])
+        .collect()
 }
 
 /// The `(nx + 1) × (ny + 1)` grid points `f(i, j)`, row-major (index `j (nx + 1) + i`).
 fn grid_points<T>(nx: usize, ny: usize, f: impl Fn(usize, usize) -> T) -> Vec<T> {
-    (0..=ny).flat_map(|j| (0..=nx).map(move |i| (i, j))).map(|(i, j)| f(i, j)).collect()
+    (0..=ny)
+        .flat_map(|j| (0..=nx).map(move |i| (i, j)))
+        .map(|(i, j)| f(i, j))
+        .collect()
 }
 
 /// Index of grid point (i, j) in [`grid_points`] order for a grid `nx` cells wide.
@@ -283,7 +324,12 @@ fn grid_faces(nx: usize, ny: usize, index: impl Fn(usize, usize) -> u32) -> Vec<
     let mut faces = Vec::with_capacity(2 * nx * ny);
     for j in 0..ny {
         for i in 0..nx {
-            let (a, b, c, d) = (index(i, j), index(i + 1, j), index(i + 1, j + 1), index(i, j + 1));
+            let (a, b, c, d) = (
+                index(i, j),
+                index(i + 1, j),
+                index(i + 1, j + 1),
+                index(i, j + 1),
+            );
             faces.push([a, b, c]);
             faces.push([a, c, d]);
         }
@@ -300,7 +346,11 @@ fn is_interior(n: usize, i: usize, j: usize) -> bool {
 /// quarter cell in x and y.
 fn jittered_square_point(n: usize, i: usize, j: usize) -> (f64, f64) {
     let cell = 2.0 / n as f64;
-    let jitter = if is_interior(n, i, j) { 0.25 * cell } else { 0.0 };
+    let jitter = if is_interior(n, i, j) {
+        0.25 * cell
+    } else {
+        0.0
+    };
     (
         -1.0 + cell * i as f64 + jitter * unit_hash(i, j, 3),
         -1.0 + cell * j as f64 + jitter * unit_hash(i, j, 4),

@@ -34,7 +34,11 @@ impl TriMesh {
         uvs: Vec<Point2<f64>>,
         faces: Vec<[u32; 3]>,
     ) -> Self {
-        let uv_faces = if uvs.is_empty() { Vec::new() } else { faces.clone() };
+        let uv_faces = if uvs.is_empty() {
+            Vec::new()
+        } else {
+            faces.clone()
+        };
         TriMesh {
             positions,
             uvs,
@@ -68,7 +72,11 @@ impl TriMesh {
     /// The three corner UVs of face `f` (the mesh must have UVs).
     pub fn face_uvs(&self, f: usize) -> [Point2<f64>; 3] {
         let [a, b, c] = self.uv_faces[f];
-        [self.uvs[a as usize], self.uvs[b as usize], self.uvs[c as usize]]
+        [
+            self.uvs[a as usize],
+            self.uvs[b as usize],
+            self.uvs[c as usize],
+        ]
     }
 
     /// Axis-aligned bounding box of the positions, `(min, max)`.
@@ -119,7 +127,12 @@ impl TriMesh {
                     face: self.uv_faces.len().min(self.faces.len()),
                 });
             }
-            check_indices(&self.uv_faces, self.uvs.len(), "texture coordinate", &self.name)?;
+            check_indices(
+                &self.uv_faces,
+                self.uvs.len(),
+                "texture coordinate",
+                &self.name,
+            )?;
         }
         Ok(())
     }

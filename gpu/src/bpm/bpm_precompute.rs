@@ -24,11 +24,22 @@ pub fn run(gpu: &Gpu, stars: &[StarInput], fit: Fit) -> Result<Vec<TriangleMaps>
 }
 
 /// [`run`] with at most `chunk_len` triangles per dispatch (smaller chunks bound memory use).
-pub fn run_chunked(gpu: &Gpu, stars: &[StarInput], fit: Fit, chunk_len: usize) -> Result<Vec<TriangleMaps>, GpuError> {
+pub fn run_chunked(
+    gpu: &Gpu,
+    stars: &[StarInput],
+    fit: Fit,
+    chunk_len: usize,
+) -> Result<Vec<TriangleMaps>, GpuError> {
     if stars.is_empty() {
         return Ok(Vec::new());
     }
     let source = shader_source(&[DISPATCH_WGSL, BPM_COMMON_WGSL, WGSL]);
     let kernel = gpu.compute_kernel("bpm_precompute", &source, "bpm_precompute")?;
-    gpu.run_per_item(&kernel, |count| KernelParams::new(count, fit.code()), &[], stars, chunk_len)
+    gpu.run_per_item(
+        &kernel,
+        |count| KernelParams::new(count, fit.code()),
+        &[],
+        stars,
+        chunk_len,
+    )
 }

@@ -50,19 +50,45 @@ struct RenderParams {
 /// colour = bilinear(texture, (u, 1 − v)) with REPEAT addressing on raw Rgba8Unorm values
 /// (texel centres at (x + ½)/W), no mipmaps, no lighting; `background` elsewhere.
 pub fn run(gpu: &Gpu, input: &RenderInput) -> Result<Vec<u8>, GpuError> {
+    run_windowed(
+        gpu,
+        input,
+        gpu.max_chunk_len(std::mem::size_of::<TriangleMaps>()),
+    )
+}
+
+/// [`run`] drawing at most `faces_per_window` faces per draw call (each window has its own
+/// corner and map buffers, so meshes larger than one storage binding render too; all windows
+/// share the pass and its z-buffer).
+pub fn run_windowed(
+    gpu: &Gpu,
+    input: &RenderInput,
+    faces_per_window: usize,
+) -> Result<Vec<u8>, GpuError> {
     check_input(gpu, input)?;
     let (staging, submission) = gpu.checked(|| {
         let colour = target_texture(gpu, input, COLOUR_FORMAT, wgpu::TextureUsages::COPY_SRC);
         let depth = target_texture(gpu, input, DEPTH_FORMAT, wgpu::TextureUsages::empty());
         let pipeline = render_pipeline(gpu);
-        let bind_group = bind_group(gpu, &pipeline, input)?;
+        let windows = bind_groups(gpu, &pipeline, input, faces_per_window.max(1))?;
         let mut encoder = gpu.encoder("bpm_render");
-        draw(&mut encoder, &pipeline, &bind_group, &colour, &depth, input);
+        draw(
+            &mut encoder,
+            &pipeline,
+            &windows,
+            &colour,
+            &depth,
+            input.background,
+        );
         let staging = copy_to_staging(gpu, &mut encoder, &colour, input);
         Ok((staging, gpu.queue.submit([encoder.finish()])))
     })?;
     let bytes = gpu.map_staging(&staging, submission)?;
-    Ok(strip_row_padding(&bytes, 4 * input.width as usize, padded_bytes_per_row(input.width) as usize))
+    Ok(strip_row_padding(
+        &bytes,
+        4 * input.width as usize,
+        padded_bytes_per_row(input.width) as usize,
+    ))
 }
 
 /// [`GpuError::Input`] for inconsistent sizes, [`GpuError::TooLarge`] beyond the device's
@@ -77,7 +103,9 @@ fn check_input(gpu: &Gpu, input: &RenderInput) -> Result<(), GpuError> {
             return Err(GpuError::Input(format!("empty {what} ({w}×{h})")));
         }
         if w > max || h > max {
-            return Err(GpuError::TooLarge(format!("{what} of {w}×{h}, the device allows {max}×{max}")));
+            return Err(GpuError::TooLarge(format!(
+                "{what} of {w}×{h}, the device allows {max}×{max}"
+            )));
         }
     }
     let texture_bytes = 4 * input.texture_width as usize * input.texture_height as usize;
@@ -89,21 +117,23 @@ fn check_input(gpu: &Gpu, input: &RenderInput) -> Result<(), GpuError> {
             input.texture_height
         )));
     }
-    if input.corners.len() % 3 != 0 || input.maps.len() < input.corners.len() / 3 {
+    if !input.corners.len().is_multiple_of(3) || input.maps.len() < input.corners.len() / 3 {
         return Err(GpuError::Input(format!(
             "{} corners (3 per face) for {} faces' maps",
             input.corners.len(),
             input.maps.len()
         )));
     }
-    if u32::try_from(input.corners.len()).is_err() {
-        return Err(GpuError::TooLarge(format!("{} corners", input.corners.len())));
-    }
     Ok(())
 }
 
 /// A picture-sized 2D render attachment of `format` with `usage` added.
-fn target_texture(gpu: &Gpu, input: &RenderInput, format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> wgpu::Texture {
+fn target_texture(
+    gpu: &Gpu,
+    input: &RenderInput,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
     gpu.device.create_texture(&wgpu::TextureDescriptor {
         label: Some("bpm_render target"),
         size: extent(input.width, input.height),
@@ -167,49 +197,58 @@ fn uv_sampler(gpu: &Gpu) -> wgpu::Sampler {
 /// Vertex pulling from the corner buffer, `eval` + texture in the fragment shader, z-buffer
 /// with `Less`, no culling, no blending; bind group layout inferred from the shader.
 fn render_pipeline(gpu: &Gpu) -> wgpu::RenderPipeline {
-    let module = gpu.device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("bpm_render"),
-        source: wgpu::ShaderSource::Wgsl(shader_source(&[BPM_COMMON_WGSL, WGSL]).into()),
-    });
-    gpu.device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("bpm_render"),
-        layout: None,
-        vertex: wgpu::VertexState {
-            module: &module,
-            entry_point: Some("bpm_render_vertex"),
-            compilation_options: Default::default(),
-            buffers: &[],
-        },
-        primitive: wgpu::PrimitiveState {
-            topology: wgpu::PrimitiveTopology::TriangleList,
-            cull_mode: None,
-            ..Default::default()
-        },
-        depth_stencil: Some(wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(true),
-            depth_compare: Some(wgpu::CompareFunction::Less),
-            stencil: Default::default(),
-            bias: Default::default(),
-        }),
-        multisample: Default::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: &module,
-            entry_point: Some("bpm_render_fragment"),
-            compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format: COLOUR_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
+    let module = gpu
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("bpm_render"),
+            source: wgpu::ShaderSource::Wgsl(shader_source(&[BPM_COMMON_WGSL, WGSL]).into()),
+        });
+    gpu.device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("bpm_render"),
+            layout: None,
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("bpm_render_vertex"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("bpm_render_fragment"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: COLOUR_FORMAT,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
 }
 
-/// Bindings 0–4 of the shader: params, corners, maps, texture, sampler.
-fn bind_group(gpu: &Gpu, pipeline: &wgpu::RenderPipeline, input: &RenderInput) -> Result<wgpu::BindGroup, GpuError> {
+/// A bind group (bindings 0–4: params, corners, maps, texture, sampler) and its vertex count
+/// for each window of `faces_per_window` faces; params, texture and sampler are shared.
+fn bind_groups(
+    gpu: &Gpu,
+    pipeline: &wgpu::RenderPipeline,
+    input: &RenderInput,
+    faces_per_window: usize,
+) -> Result<Vec<(wgpu::BindGroup, u32)>, GpuError> {
     let params = gpu.upload_uniform(
         "bpm_render params",
         &RenderParams {
@@ -218,31 +257,58 @@ fn bind_group(gpu: &Gpu, pipeline: &wgpu::RenderPipeline, input: &RenderInput) -
             _pad: [0; 3],
         },
     );
-    let corners = gpu.upload_storage("bpm_render corners", input.corners)?;
-    let maps = gpu.upload_storage("bpm_render maps", input.maps)?;
     let texture = upload_texture(gpu, input).create_view(&Default::default());
     let sampler = uv_sampler(gpu);
-    Ok(gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("bpm_render"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: params.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: corners.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 2, resource: maps.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&texture) },
-            wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&sampler) },
-        ],
-    }))
+    let layout = pipeline.get_bind_group_layout(0);
+    let faces = input.corners.len() / 3;
+    // At least one (empty) window, so that the background is drawn for an empty mesh.
+    let starts: Vec<usize> = (0..faces.max(1)).step_by(faces_per_window).collect();
+    starts
+        .into_iter()
+        .map(|start| {
+            let end = (start + faces_per_window).min(faces);
+            let corners =
+                gpu.upload_storage("bpm_render corners", &input.corners[3 * start..3 * end])?;
+            let maps = gpu.upload_storage("bpm_render maps", &input.maps[start..end])?;
+            let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("bpm_render"),
+                layout: &layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: params.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: corners.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: maps.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: wgpu::BindingResource::TextureView(&texture),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: wgpu::BindingResource::Sampler(&sampler),
+                    },
+                ],
+            });
+            Ok((group, 3 * (end - start) as u32))
+        })
+        .collect()
 }
 
-/// One render pass: clear colour to the background and depth to 1, draw all corners.
+/// One render pass: clear colour to the background and depth to 1, then one draw per window.
 fn draw(
     encoder: &mut wgpu::CommandEncoder,
     pipeline: &wgpu::RenderPipeline,
-    bind_group: &wgpu::BindGroup,
+    windows: &[(wgpu::BindGroup, u32)],
     colour: &wgpu::Texture,
     depth: &wgpu::Texture,
-    input: &RenderInput,
+    background: [u8; 4],
 ) {
     let colour_view = colour.create_view(&Default::default());
     let depth_view = depth.create_view(&Default::default());
@@ -253,7 +319,7 @@ fn draw(
             depth_slice: None,
             resolve_target: None,
             ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(background_colour(input.background)),
+                load: wgpu::LoadOp::Clear(background_colour(background)),
                 store: wgpu::StoreOp::Store,
             },
         })],
@@ -268,8 +334,10 @@ fn draw(
         ..Default::default()
     });
     pass.set_pipeline(pipeline);
-    pass.set_bind_group(0, bind_group, &[]);
-    pass.draw(0..input.corners.len() as u32, 0..1);
+    for (group, vertices) in windows {
+        pass.set_bind_group(0, group, &[]);
+        pass.draw(0..*vertices, 0..1);
+    }
 }
 
 /// The background as a clear colour: byte / 255 (stored back exactly by Rgba8Unorm).
@@ -285,9 +353,17 @@ fn padded_bytes_per_row(width: u32) -> u32 {
 }
 
 /// Copy the colour target into a new mappable buffer, rows padded to [`padded_bytes_per_row`].
-fn copy_to_staging(gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, colour: &wgpu::Texture, input: &RenderInput) -> wgpu::Buffer {
+fn copy_to_staging(
+    gpu: &Gpu,
+    encoder: &mut wgpu::CommandEncoder,
+    colour: &wgpu::Texture,
+    input: &RenderInput,
+) -> wgpu::Buffer {
     let bytes_per_row = padded_bytes_per_row(input.width);
-    let staging = gpu.staging_buffer("bpm_render readback", bytes_per_row as u64 * input.height as u64);
+    let staging = gpu.staging_buffer(
+        "bpm_render readback",
+        bytes_per_row as u64 * input.height as u64,
+    );
     encoder.copy_texture_to_buffer(
         colour.as_image_copy(),
         wgpu::TexelCopyBufferInfo {
@@ -305,7 +381,11 @@ fn copy_to_staging(gpu: &Gpu, encoder: &mut wgpu::CommandEncoder, colour: &wgpu:
 
 /// The first `row_bytes` of every `padded_row`-byte row, concatenated.
 fn strip_row_padding(bytes: &[u8], row_bytes: usize, padded_row: usize) -> Vec<u8> {
-    bytes.chunks(padded_row).flat_map(|row| &row[..row_bytes]).copied().collect()
+    bytes
+        .chunks(padded_row)
+        .flat_map(|row| &row[..row_bytes])
+        .copied()
+        .collect()
 }
 
 #[cfg(test)]
@@ -317,7 +397,9 @@ mod tests {
         assert_eq!(padded_bytes_per_row(1), 256);
         assert_eq!(padded_bytes_per_row(64), 256);
         assert_eq!(padded_bytes_per_row(65), 512);
-        let padded: Vec<u8> = (0..2).flat_map(|r| (0..8).map(move |x| (10 * r + x) as u8)).collect();
+        let padded: Vec<u8> = (0..2)
+            .flat_map(|r| (0..8).map(move |x| (10 * r + x) as u8))
+            .collect();
         assert_eq!(strip_row_padding(&padded, 3, 8), vec![0, 1, 2, 10, 11, 12]);
     }
 

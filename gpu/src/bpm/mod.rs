@@ -23,7 +23,9 @@ use bytemuck::{Pod, Zeroable};
 pub use self::bpm_eval::run as eval;
 pub use self::bpm_precompute::run as precompute;
 pub use self::bpm_render::{run as render, RenderInput};
-pub use self::{Fit as GpuFit, Interp as GpuInterp, Sample as GpuSample, TriangleMaps as GpuTriangleMaps};
+pub use self::{
+    Fit as GpuFit, Interp as GpuInterp, Sample as GpuSample, TriangleMaps as GpuTriangleMaps,
+};
 
 /// WGSL shared by the BPM kernels (`bpm_common.wgsl`).
 pub const BPM_COMMON_WGSL: &str = include_str!("../../shaders/bpm_common.wgsl");
@@ -66,8 +68,8 @@ pub struct TriangleMaps {
     pub uv_k_origin: [f32; 4],
     /// M_t: (a.re, a.im, b.re, b.im), (c.re, c.im, d.re, d.im).
     pub m: [[f32; 4]; 2],
-    /// Log ratio of edge e, [[a, b], [c, −a]]: logs[2e] = (a.re, a.im, b.re, b.im),
-    /// logs[2e + 1] = (c.re, c.im, 0, 0).
+    /// Log ratio of edge e, `[[a, b], [c, −a]]`: `logs[2e]` = (a.re, a.im, b.re, b.im),
+    /// `logs[2e + 1]` = (c.re, c.im, 0, 0).
     pub logs: [[f32; 4]; 6],
     /// [`FLAG_LINEAR_FALLBACK`] | [`FLAG_MIRRORED`].
     pub flags: u32,
@@ -181,4 +183,3 @@ impl KernelParams {
 fn shader_source(parts: &[&str]) -> String {
     parts.join("\n")
 }
-
