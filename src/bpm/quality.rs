@@ -52,6 +52,17 @@ fn grid_bary(r: usize, s: usize, n: usize) -> [f64; 3] {
     [1.0 - bj - bk, bj, bk]
 }
 
+/// The grid vertices (r, s), r + s ≤ n, row by row (s outer), in the order [`grid_index`] numbers them.
+fn grid_points(n: usize) -> impl Iterator<Item = (usize, usize)> {
+    (0..=n).flat_map(move |s| (0..=n - s).map(move |r| (r, s)))
+}
+
+/// Position of grid vertex (r, s) in [`grid_points`] order: rows s' < s hold Σ (n + 1 − s')
+/// vertices.
+fn grid_index(r: usize, s: usize, n: usize) -> usize {
+    s * (n + 1) - s * (s.saturating_sub(1)) / 2 + r
+}
+
 /// The sub-triangles of the grid as triples of (r, s) indices: "up" (r,s),(r+1,s),(r,s+1) and
 /// "down" (r+1,s),(r+1,s+1),(r,s+1); n² in all, all with the face's orientation.
 fn sub_triangles(n: usize) -> Vec<[(usize, usize); 3]> {
@@ -79,13 +90,17 @@ pub fn qc_protocol(bpm: &Bpm, interp: Interp, subdiv: u32) -> QcStats {
             if t.fallback_linear {
                 return Vec::new();
             }
-            let point = |(r, s): (usize, usize)| {
-                let b = grid_bary(r, s, n);
-                (
-                    t.z[0] * b[0] + t.z[1] * b[1] + t.z[2] * b[2],
-                    bpm.eval(f, b, interp),
-                )
-            };
+            // Each grid vertex is shared by up to six sub-triangles: evaluate it once.
+            let grid: Vec<(C, C)> = grid_points(n)
+                .map(|(r, s)| {
+                    let b = grid_bary(r, s, n);
+                    (
+                        t.z[0] * b[0] + t.z[1] * b[1] + t.z[2] * b[2],
+                        bpm.eval(f, b, interp),
+                    )
+                })
+                .collect();
+            let point = |(r, s): (usize, usize)| grid[grid_index(r, s, n)];
             subs.iter()
                 .map(|tri| {
                     let [(z0, w0), (z1, w1), (z2, w2)] = tri.map(point);
@@ -110,7 +125,7 @@ fn summarise(mut v: Vec<(f64, f64, bool)>, interp: Interp, subdiv: u32, skipped:
     let folded = v.iter().filter(|x| x.2).count();
     v.retain(|x| x.0.is_finite());
     let collapsed = sub_triangles - v.len();
-    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    v.par_sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
     let total_area: f64 = v.iter().map(|x| x.1).sum();
     let mean = v.iter().map(|x| x.0 * x.1).sum::<f64>() / total_area;
     let percentile = |p: f64| {
