@@ -8,34 +8,12 @@ use std::hint::black_box;
 use std::path::Path;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use reparam::bpm::{precompute, qc_protocol, Bpm, BpmOptions, Interp, Sample};
+use reparam::bpm::{face_samples, precompute, qc_protocol, BpmOptions, Interp};
 use reparam::mesh::{io::load_obj, procedural, TriMesh};
 
 /// torus(1024, 512) = 1,048,576 triangles.
 fn big_mesh() -> TriMesh {
     procedural::torus(1024, 512, 1.0, 0.35)
-}
-
-/// Eight fixed points per face, spread over the interior.
-fn samples(bpm: &Bpm, per_face: usize) -> Vec<Sample> {
-    const B: [[f64; 3]; 8] = [
-        [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
-        [0.6, 0.2, 0.2],
-        [0.2, 0.6, 0.2],
-        [0.2, 0.2, 0.6],
-        [0.45, 0.45, 0.1],
-        [0.1, 0.45, 0.45],
-        [0.45, 0.1, 0.45],
-        [0.7, 0.25, 0.05],
-    ];
-    (0..bpm.maps.len() as u32)
-        .flat_map(|face| {
-            (0..per_face).map(move |k| Sample {
-                face,
-                bary: B[k % 8],
-            })
-        })
-        .collect()
 }
 
 fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
@@ -66,7 +44,7 @@ fn bench_precompute(c: &mut Criterion) {
 fn bench_eval(c: &mut Criterion) {
     let mesh = procedural::torus(256, 128, 1.0, 0.35);
     let bpm = precompute(&mesh, BpmOptions::default()).unwrap();
-    let samples = samples(&bpm, 8);
+    let samples = face_samples(bpm.maps.len(), false);
     let mut group = c.benchmark_group("bpm_eval");
     group.sample_size(10);
     group.throughput(Throughput::Elements(samples.len() as u64));

@@ -71,6 +71,14 @@ pub enum Error {
     /// A GPU operation failed (no adapter, device lost, timeout, shader error).
     #[error("GPU: {0}")]
     Gpu(String),
+    /// An element of a glTF file cannot be used: `element` names it (node, mesh, primitive,
+    /// accessor, vertex, skin, animation channel, or the JSON path of a validation error).
+    #[error("{path}: {element}: {message}")]
+    Gltf {
+        path: PathBuf,
+        element: String,
+        message: String,
+    },
 }
 
 impl Error {

@@ -3,6 +3,8 @@
 pub mod bpm;
 pub mod crosscheck;
 pub mod error;
+pub mod gridwarp;
+pub mod lm;
 pub mod mesh;
 pub mod raster;
 pub mod reference_data;

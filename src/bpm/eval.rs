@@ -34,6 +34,34 @@ impl std::str::FromStr for Interp {
     }
 }
 
+/// Eight fixed barycentric points spread over a triangle's interior (centroid, near each corner,
+/// near each edge midpoint, one off-centre), used where every face is sampled alike (benchmarks,
+/// cross-checks).
+pub const INTERIOR_POINTS: [[f64; 3]; 8] = [
+    [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
+    [0.6, 0.2, 0.2],
+    [0.2, 0.6, 0.2],
+    [0.2, 0.2, 0.6],
+    [0.45, 0.45, 0.1],
+    [0.1, 0.45, 0.45],
+    [0.45, 0.1, 0.45],
+    [0.7, 0.25, 0.05],
+];
+
+/// The [`INTERIOR_POINTS`] of every face (and its three corners when `with_corners`).
+pub fn face_samples(faces: usize, with_corners: bool) -> Vec<Sample> {
+    const CORNERS: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let corners: &[[f64; 3]] = if with_corners { &CORNERS } else { &[] };
+    (0..faces as u32)
+        .flat_map(|face| {
+            INTERIOR_POINTS
+                .iter()
+                .chain(corners)
+                .map(move |&bary| Sample { face, bary })
+        })
+        .collect()
+}
+
 /// A point of the mesh: a face and the barycentric coordinates of its corners i, j, k.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {

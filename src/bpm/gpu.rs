@@ -10,7 +10,7 @@ use reparam_gpu::Gpu;
 
 use super::eval::{Interp, Sample};
 use super::moebius::Sl2;
-use super::precompute::{gather_star, is_degenerate, Bpm, Fit, Star};
+use super::precompute::{gather_stars, Bpm, Fit, Star};
 use super::render::{camera_for, RenderOptions};
 use crate::error::{Error, Result};
 use crate::mesh::{Adjacency, TriMesh};
@@ -29,18 +29,10 @@ fn f32x2(z: C) -> [f32; 2] {
     [z.re as f32, z.im as f32]
 }
 
-/// Every face's [`Star`], as the CPU precompute gathers it.
+/// Every face's [`Star`], exactly as the CPU precompute gathers it.
 pub fn stars(mesh: &TriMesh) -> Result<Vec<Star>> {
     mesh.validate_with_uvs()?;
-    let adjacency = Adjacency::new(mesh);
-    let degenerate: Vec<bool> = (0..mesh.face_count())
-        .into_par_iter()
-        .map(|f| is_degenerate(mesh, f))
-        .collect();
-    Ok((0..mesh.face_count())
-        .into_par_iter()
-        .map(|f| gather_star(mesh, &adjacency, &degenerate, f))
-        .collect())
+    Ok(gather_stars(mesh, &Adjacency::new(mesh)))
 }
 
 /// A [`Star`] in the GPU layout (positions and UVs rounded to f32).

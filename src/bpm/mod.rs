@@ -31,7 +31,10 @@ pub mod precompute;
 pub mod quality;
 pub mod render;
 
-pub use eval::{edge_weights, edge_weights_distance, eval_bpm, eval_linear, Interp, Sample};
+pub use eval::{
+    edge_weights, edge_weights_distance, eval_bpm, eval_linear, face_samples, Interp, Sample,
+    INTERIOR_POINTS,
+};
 pub use moebius::{ExpLog, Mobius, Sl2};
 pub use precompute::{precompute, Bpm, BpmOptions, Fit, Order, PrecomputeReport, TriangleMaps};
 pub use quality::{qc_protocol, QcStats};

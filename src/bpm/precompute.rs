@@ -118,15 +118,12 @@ const DEGENERATE_RELATIVE_AREA: f64 = 1e-12;
 pub fn precompute(mesh: &TriMesh, options: BpmOptions) -> Result<Bpm> {
     mesh.validate_with_uvs()?;
     let adjacency = Adjacency::new(mesh);
-    let degenerate: Vec<bool> = (0..mesh.face_count())
-        .into_par_iter()
-        .map(|f| is_degenerate(mesh, f))
+    let stars = gather_stars(mesh, &adjacency);
+    let maps: Vec<TriangleMaps> = stars
+        .par_iter()
+        .map(|star| triangle_maps(star, options))
         .collect();
-    let maps: Vec<TriangleMaps> = (0..mesh.face_count())
-        .into_par_iter()
-        .map(|f| triangle_maps(&gather_star(mesh, &adjacency, &degenerate, f), options))
-        .collect();
-    let degenerate_ids: Vec<usize> = (0..degenerate.len()).filter(|&f| degenerate[f]).collect();
+    let degenerate_ids: Vec<usize> = (0..stars.len()).filter(|&f| stars[f].degenerate).collect();
     let report = PrecomputeReport {
         faces: mesh.face_count(),
         degenerate_faces: degenerate_ids.len(),
@@ -142,6 +139,19 @@ pub fn precompute(mesh: &TriMesh, options: BpmOptions) -> Result<Bpm> {
         options,
         report,
     })
+}
+
+/// Every face's [`Star`] (the input of both the CPU and the GPU precompute), in parallel. The
+/// mesh must be valid ([`TriMesh::validate_with_uvs`]).
+pub fn gather_stars(mesh: &TriMesh, adjacency: &Adjacency) -> Vec<Star> {
+    let degenerate: Vec<bool> = (0..mesh.face_count())
+        .into_par_iter()
+        .map(|f| is_degenerate(mesh, f))
+        .collect();
+    (0..mesh.face_count())
+        .into_par_iter()
+        .map(|f| gather_star(mesh, adjacency, &degenerate, f))
+        .collect()
 }
 
 /// Collect face `f`'s star: its corners, the apex of each interior neighbour, their UVs.

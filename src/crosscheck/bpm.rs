@@ -16,7 +16,7 @@ use super::{to_f32_precision, ErrorSummary};
 use crate::bpm::gpu::{
     eval_gpu, maps_to_gpu, precompute_gpu, sample_as_gpu_sees_it, samples_to_gpu,
 };
-use crate::bpm::{precompute, Bpm, BpmOptions, Fit, Interp, Sample};
+use crate::bpm::{face_samples, precompute, Bpm, BpmOptions, Fit, Interp, Sample};
 use crate::error::Result;
 use crate::mesh::TriMesh;
 use crate::report::sig;
@@ -80,26 +80,12 @@ pub fn round_mesh_to_f32(mesh: &TriMesh) -> TriMesh {
     m
 }
 
-/// Eight fixed interior points per face plus the three corners, with b_j, b_k rounded to f32.
+/// [`INTERIOR_POINTS`](crate::bpm::INTERIOR_POINTS) and the three corners of every face, with
+/// b_j, b_k rounded to f32.
 pub fn crosscheck_samples(faces: usize) -> Vec<Sample> {
-    const B: [[f64; 3]; 11] = [
-        [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
-        [0.6, 0.2, 0.2],
-        [0.2, 0.6, 0.2],
-        [0.2, 0.2, 0.6],
-        [0.45, 0.45, 0.1],
-        [0.1, 0.45, 0.45],
-        [0.45, 0.1, 0.45],
-        [0.7, 0.25, 0.05],
-        [1.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0],
-        [0.0, 0.0, 1.0],
-    ];
-    (0..faces as u32)
-        .flat_map(|face| {
-            B.iter()
-                .map(move |&bary| sample_as_gpu_sees_it(&Sample { face, bary }))
-        })
+    face_samples(faces, true)
+        .iter()
+        .map(sample_as_gpu_sees_it)
         .collect()
 }
 

@@ -1,0 +1,103 @@
+//! Scalar fields over the ROI's unit square (s, t) ∈ [0, 1]², stored as W×H samples at texel
+//! centres ((x + ½)/W, (y + ½)/H), as the paper stores them in textures (seed §7): the stretch
+//! lengths ‖O_s‖, ‖O_t‖, ‖D_s‖, ‖D_t‖ and the rigidity map R.
+//!
+//! Row y = 0 is t = 0 (bottom of the ROI). Stretch fields are sampled bilinearly (their gradient
+//! enters the analytic Jacobian); the rigidity map is sampled at the nearest texel (a per-texel
+//! weight with sharp feature edges; it is only read at fixed rest points).
+
+/// A W×H field over the unit square.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Field {
+    pub width: usize,
+    pub height: usize,
+    /// Row-major, row 0 at t = 0.
+    pub values: Vec<f64>,
+}
+
+/// A bilinear sample and its gradient (∂/∂s, ∂/∂t).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    pub value: f64,
+    pub ds: f64,
+    pub dt: f64,
+}
+
+impl Field {
+    /// The field f(s, t) sampled at the texel centres of a `width`×`height` grid.
+    pub fn from_fn(width: usize, height: usize, f: impl Fn(f64, f64) -> f64) -> Field {
+        let mut values = Vec::with_capacity(width * height);
+        for y in 0..height {
+            for x in 0..width {
+                values.push(f(
+                    (x as f64 + 0.5) / width as f64,
+                    (y as f64 + 0.5) / height as f64,
+                ));
+            }
+        }
+        Field {
+            width,
+            height,
+            values,
+        }
+    }
+
+    /// A constant field (1×1).
+    pub fn constant(value: f64) -> Field {
+        Field {
+            width: 1,
+            height: 1,
+            values: vec![value],
+        }
+    }
+
+    fn at(&self, x: usize, y: usize) -> f64 {
+        self.values[y * self.width + x]
+    }
+
+    /// Bilinear interpolation between texel centres (clamped to the edge texels) with its
+    /// gradient: with u = s·W − ½ = x₀ + α, v = t·H − ½ = y₀ + β,
+    ///   f = (1−α)(1−β) f₀₀ + α(1−β) f₁₀ + (1−α)β f₀₁ + αβ f₁₁,
+    ///   ∂f/∂s = W [(1−β)(f₁₀ − f₀₀) + β(f₁₁ − f₀₁)],  ∂f/∂t = H [(1−α)(f₀₁ − f₀₀) + α(f₁₁ − f₁₀)],
+    /// the gradient being 0 along an axis where the sample is clamped.
+    pub fn bilinear(&self, s: f64, t: f64) -> Sample {
+        let (x0, alpha, gx) = axis(s, self.width);
+        let (y0, beta, gy) = axis(t, self.height);
+        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
+        let (f00, f10, f01, f11) = (
+            self.at(x0, y0),
+            self.at(x1, y0),
+            self.at(x0, y1),
+            self.at(x1, y1),
+        );
+        Sample {
+            value: (1.0 - alpha) * (1.0 - beta) * f00
+                + alpha * (1.0 - beta) * f10
+                + (1.0 - alpha) * beta * f01
+                + alpha * beta * f11,
+            ds: gx * ((1.0 - beta) * (f10 - f00) + beta * (f11 - f01)),
+            dt: gy * ((1.0 - alpha) * (f01 - f00) + alpha * (f11 - f10)),
+        }
+    }
+
+    /// The value of the texel containing (s, t) (clamped to the field).
+    pub fn nearest(&self, s: f64, t: f64) -> f64 {
+        let x = ((s * self.width as f64).floor().max(0.0) as usize).min(self.width - 1);
+        let y = ((t * self.height as f64).floor().max(0.0) as usize).min(self.height - 1);
+        self.at(x, y)
+    }
+}
+
+/// For one axis of `n` texels: (index of the lower texel centre, fraction α ∈ [0, 1], d(u)/d(s)
+/// = n inside the texel-centre range, 0 where clamped).
+fn axis(s: f64, n: usize) -> (usize, f64, f64) {
+    let u = s * n as f64 - 0.5;
+    if n == 1 || u <= 0.0 {
+        return (0, 0.0, 0.0);
+    }
+    if u >= (n - 1) as f64 {
+        return (n - 1, 0.0, 0.0);
+    }
+    let x0 = u.floor();
+    (x0 as usize, u - x0, n as f64)
+}

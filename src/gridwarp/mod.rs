@@ -1,0 +1,32 @@
+//! # gridwarp — content-aware texture grid warp (seed 000)
+//!
+//! Koniaris, Cosker, Yang, Mitchell, Matthews, "Real-time content-aware texturing for deformable
+//! surfaces", CVMP 2013; restated in `../shared/notes/gridwarp.md`.
+//!
+//! A texture-space region of interest (ROI, the unit square in (s, t)) is covered by a
+//! rectilinear grid. When the surface deforms, the grid lines move so that rigid texture content
+//! (rigidity R ≈ 1) keeps its rest-pose stretch, at the expense of non-rigid content; the texture
+//! is then looked up through the piecewise-linear remapping of the grid.
+//!
+//! | stage | seed | file |
+//! |---|---|---|
+//! | fields ‖O_s‖, ‖O_t‖, ‖D_s‖, ‖D_t‖, R over the ROI | §3.1, §7 | [`field`] |
+//! | starting grid from R (Algorithm 1) | §4 | [`grid`] |
+//! | axis-aligned energy, analytic Jacobian | §5.1, appendix A | [`energy`] |
+//! | foldover / smoothness / looping bounds and their merge | §5.2 | [`bounds`] |
+//! | bound-constrained Levenberg–Marquardt, warm start | §5.3, §7 | [`solve`], [`crate::lm`] |
+//! | remapping F_s, F_t and inverses | §6 | [`remap`] |
+//! | procedural scenes | figs. 3, 5, 9 | [`scene`] |
+
+pub mod bounds;
+pub mod energy;
+pub mod field;
+pub mod grid;
+pub mod remap;
+pub mod scene;
+pub mod solve;
+
+pub use energy::{AaEnergy, DeformedFields, RestFields};
+pub use field::Field;
+pub use grid::{grid_from_rigidity, Grid};
+pub use solve::{solve_frame, solve_sequence, FrameSolution, SolveOptions};

@@ -1,0 +1,889 @@
+//! Bound-constrained Levenberg–Marquardt with ALGLIB `minlm` semantics, generic over a
+//! [`Residuals`] problem given through its normal equations.
+//!
+//! Koniaris et al. (CVMP 2013, seed 000 §5.3, §7) minimise their grid-warp energy with ALGLIB's
+//! bound-constrained Levenberg–Marquardt optimiser ("all tolerances 0, 100 iterations"). No Rust
+//! crate offers bounds with exact box-constrained steps, so this module is our own, written to
+//! behave like `minlm` as restated in `/work/shared/notes/gridwarp.md` ("The solver").
+//!
+//! # The problem
+//!
+//! minimise F(x) = Σ_k r_k(x)²   subject to   l ≤ x ≤ u   (l_i = u_i freezes x_i).
+//!
+//! The problem is handed over through its normal equations at x: F, A = JᵀJ and g = Jᵀr
+//! (J = ∂r/∂x is never stored). ∇F = 2g, and the Gauss–Newton model of F around x is
+//!
+//!   F(x + h) ≈ m(h) = ‖r + J h‖² = F + 2 gᵀh + hᵀA h.
+//!
+//! # One iteration (= one accepted step)
+//!
+//! 1. **Damped box step.** h_λ = argmin hᵀ(A + λI)h + 2gᵀh  subject to  l − x ≤ h ≤ u − x,
+//!    solved *exactly* by [`solve_box_qp`] (an active-set method), not by projecting the
+//!    unconstrained step onto the box. h_λ = 0 means no feasible descent direction exists:
+//!    stop with [`StopCode::NoProgress`]; max_i |h_i| ≤ epsx: stop with [`StopCode::SmallStep`]
+//!    at x, without evaluating x + h.
+//! 2. **Predicted decrease** of the undamped model: pred = m(0) − m(h) = −hᵀ(2g + A h)
+//!    (≥ λ‖h‖² > 0 in exact arithmetic). If rounding makes it ≤ 0 the trial counts as rejected.
+//! 3. **Trial point** x_t = x + h, snapped exactly onto every bound the step reaches (so bounds
+//!    hold bit for bit); F_t = F(x_t) via [`Residuals::energy`].
+//! 4. **Rejected** (F_t ≥ F or not finite, e.g. a folded grid cell): λ ← 2νλ, ν ← 2ν, back to 1.
+//!    If 2νλ would exceed [`LAMBDA_MAX`] stop with [`StopCode::NoProgress`] (λ overflow).
+//! 5. **Accepted** (F_t < F): gain ratio ρ = (F − F_t)/pred, then
+//!    ρ > 0.5: λ ← 0.33λ, ν ← 1;  ρ < 0.1: λ ← 2νλ, ν ← 2ν (a poor model: damp more);
+//!    otherwise λ, ν unchanged. Accepted energies therefore strictly decrease.
+//!
+//! λ₀ = 10⁻³ · max_i (2JᵀJ)_ii (1 if that is 0), ν₀ = 1 (Madsen, Nielsen & Tingleff §3.2 use
+//! τ = 10⁻³ on the diagonal of the Gauss–Newton Hessian; ALGLIB the same schedule with
+//! λ_up = 2 and λ_down = 0.33).
+//!
+//! # Stopping ([`StopCode`], ALGLIB's termination codes)
+//!
+//! Tested in this order, a tolerance of 0 turning its test off:
+//! - F = 0 (at x₀ or after a step): a sum of squares is at its global minimum and ∇F = 2Jᵀr = 0
+//!   exactly: code 4, whatever the tolerances. At x₀ this returns x₀ bit for bit, 0 iterations.
+//! - for every proposed step h (before it is evaluated): code 2 if max_i |h_i| ≤ epsx;
+//! - after an accepted step: code 1 if (F − F_t)/max(F, tiny) ≤ epsf; code 5 once
+//!   `max_iterations` steps were accepted;
+//! - at every point where the normal equations are evaluated (x₀ and each accepted point):
+//!   code 4 if the projected gradient has max-norm ≤ epsg. The projected gradient is ∇F with
+//!   the components of frozen variables, and of variables on a bound that ∇F pushes against
+//!   (x_i = l_i with ∂F/∂x_i > 0, x_i = u_i with ∂F/∂x_i < 0), set to 0;
+//! - code 7 when no step can be found: the box step is zero, or λ overflows.
+//!
+//! With [`LmOptions::paper`] (all tolerances 0) a run therefore ends by code 7 (typically after
+//! 20–35 rejected trials spent raising λ from ~10⁻¹⁰ to 10⁷⁷) or 5; [`LmOptions::default`]
+//! stops at about the same energy after far fewer evaluations.
+//!
+//! Why code 2 looks at *proposed* steps: near a minimum with F > 0 the remaining decrease
+//! ½hᵀ∇²F h falls below the rounding of F, so trials come back with F_t = F and are rejected;
+//! without this test even tight tolerances would end by λ overflow (code 7) after a string of
+//! wasted evaluations. As λ grows the proposed step shrinks below epsx instead, and the run
+//! stops there.
+//!
+//! # Differences from ALGLIB `minlm`, on purpose
+//! - Step and gradient tests use the max-norm, not the Euclidean norm; the energy test is
+//!   relative to F alone, not to max(|F|, |F_t|, 1) (the grid-warp energies are ≪ 1).
+//! - `max_iterations = 0` means "no step", not "unlimited".
+//! - No variable scaling (`minlmsetscale`): λ multiplies the identity.
+//!
+//! # Sources
+//! - S. Bochkanov, ALGLIB `minlm` (alglib.net): the λ schedule, termination codes, λ overflow.
+//! - K. Madsen, H. B. Nielsen, O. Tingleff, *Methods for Non-Linear Least Squares Problems*,
+//!   2nd ed., IMM DTU 2004, §3.2: the gain ratio ρ and λ₀.
+//! - J. Nocedal, S. J. Wright, *Numerical Optimization*, 2nd ed., Springer 2006, §16.5
+//!   (Algorithm 16.3): the primal active-set method of [`solve_box_qp`].
+//! - P. Koniaris et al., *Real-time content-aware texturing for deformable surfaces*, CVMP 2013,
+//!   §5.3 and §7 (seed 000).
+//!
+//! Everything is deterministic: no randomness, no threads, fixed loop orders.
+
+use std::collections::HashSet;
+use std::fmt;
+
+use nalgebra::{Cholesky, DMatrix, DVector};
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+
+/// Largest damping λ before the solver gives up with [`StopCode::NoProgress`]: (f64::MAX)^¼ ≈
+/// 1.16·10⁷⁷, ALGLIB's limit (beyond it λI swamps A in any sum and squares of λ overflow).
+pub const LAMBDA_MAX: f64 = 1.157_920_892_373_162e77;
+
+/// λ ← λ_DOWN·λ after a very successful step (ρ > 0.5), ALGLIB's 0.33.
+const LAMBDA_DOWN: f64 = 0.33;
+/// λ ← λ_UP·ν·λ after a rejected or poor step, ALGLIB's 2.
+const LAMBDA_UP: f64 = 2.0;
+/// λ₀ = LAMBDA_INIT · max diag(2JᵀJ).
+const LAMBDA_INIT: f64 = 1e-3;
+
+// ------------------------------------------------------------------------------------------
+// The problem
+// ------------------------------------------------------------------------------------------
+
+/// A least-squares problem F(x) = Σ_k r_k(x)² given through its normal equations (J is never
+/// stored).
+pub trait Residuals {
+    /// Number of unknowns n.
+    fn dim(&self) -> usize;
+    /// F(x) = Σ r_k(x)². May return `f64::INFINITY` for an invalid trial point (e.g. a folded
+    /// grid cell): the solver treats it as a rejected step.
+    fn energy(&mut self, x: &[f64]) -> f64;
+    /// F(x), JᵀJ (n×n) and Jᵀr (n) at x. Only called at x₀ and at accepted points.
+    fn normal_equations(&mut self, x: &[f64]) -> NormalEquations;
+}
+
+/// F, JᵀJ and Jᵀr at one point.
+#[derive(Clone, Debug)]
+pub struct NormalEquations {
+    /// F(x) = Σ r_k².
+    pub energy: f64,
+    /// JᵀJ, n×n, symmetric positive semi-definite.
+    pub jtj: DMatrix<f64>,
+    /// Jᵀr, n (half the gradient of F).
+    pub jtr: DVector<f64>,
+}
+
+/// Box constraints l ≤ x ≤ u. Sides may be ±∞; `lower[i] == upper[i]` freezes x_i.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Bounds {
+    pub lower: Vec<f64>,
+    pub upper: Vec<f64>,
+}
+
+impl Bounds {
+    /// l ≤ x ≤ u (checked by [`minimize`], not here).
+    pub fn new(lower: Vec<f64>, upper: Vec<f64>) -> Self {
+        Bounds { lower, upper }
+    }
+
+    /// −∞ < x_i < ∞ for n unknowns.
+    pub fn unbounded(n: usize) -> Self {
+        Bounds {
+            lower: vec![f64::NEG_INFINITY; n],
+            upper: vec![f64::INFINITY; n],
+        }
+    }
+
+    /// min(max(x_i, l_i), u_i) for every i; a point already inside is returned bit for bit.
+    pub fn clamp(&self, x: &[f64]) -> Vec<f64> {
+        x.iter()
+            .zip(self.lower.iter().zip(&self.upper))
+            .map(|(&v, (&l, &u))| clamp_to(v, l, u))
+            .collect()
+    }
+
+    /// Both sides have n entries, none NaN, l_i ≤ u_i, l_i < +∞ and u_i > −∞.
+    fn check(&self, n: usize) -> Result<()> {
+        if self.lower.len() != n || self.upper.len() != n {
+            return Err(Error::InvalidArgument(format!(
+                "lm: bounds have {} lower and {} upper values for {n} unknowns",
+                self.lower.len(),
+                self.upper.len()
+            )));
+        }
+        check_box(self.lower.iter().copied(), self.upper.iter().copied(), "lm")
+    }
+}
+
+/// v clamped into [lo, hi] without `f64::clamp`'s panic (callers guarantee lo ≤ hi).
+fn clamp_to(v: f64, lo: f64, hi: f64) -> f64 {
+    if v < lo {
+        lo
+    } else if v > hi {
+        hi
+    } else {
+        v
+    }
+}
+
+/// Every pair (l_i, u_i) is a non-empty interval: no NaN, l_i ≤ u_i, l_i ≠ +∞, u_i ≠ −∞.
+fn check_box(
+    lower: impl Iterator<Item = f64>,
+    upper: impl Iterator<Item = f64>,
+    who: &str,
+) -> Result<()> {
+    for (i, (l, u)) in lower.zip(upper).enumerate() {
+        if l.is_nan() || u.is_nan() || l > u || l == f64::INFINITY || u == f64::NEG_INFINITY {
+            return Err(Error::InvalidArgument(format!(
+                "{who}: bounds of unknown {i} are not an interval: lower {l}, upper {u}"
+            )));
+        }
+    }
+    Ok(())
+}
+
+// ------------------------------------------------------------------------------------------
+// Options and report
+// ------------------------------------------------------------------------------------------
+
+/// Stopping tolerances. Each tolerance 0 turns its test off.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LmOptions {
+    /// Stop (code 4) when the projected gradient ∇F = 2Jᵀr has max-norm ≤ epsg (absolute,
+    /// units of F per unit of x). Default 1e-12.
+    pub epsg: f64,
+    /// Stop (code 1) when an accepted step changes F by (F − F_new)/F ≤ epsf (relative).
+    /// Default 1e-12: about 4500 ulps, far below any visible difference in a warped texture.
+    pub epsf: f64,
+    /// Stop (code 2) when a proposed step has max_i |h_i| ≤ epsx (absolute, units of x),
+    /// before evaluating it: it could not move x by more than epsx.
+    /// Default 1e-12 (the grid-warp unknowns live in [0, 1]).
+    pub epsx: f64,
+    /// Stop (code 5) after this many accepted steps. Default 100 (the paper's). 0 = no step.
+    pub max_iterations: usize,
+}
+
+impl LmOptions {
+    /// The paper's ALGLIB settings (seed §9, "Results"): all tolerances 0, 100 iterations. Runs end by
+    /// code 7 (λ overflow after a string of rejected trials) or 5.
+    pub fn paper() -> Self {
+        LmOptions {
+            epsg: 0.0,
+            epsf: 0.0,
+            epsx: 0.0,
+            max_iterations: 100,
+        }
+    }
+
+    /// Tolerances finite and ≥ 0.
+    fn check(&self) -> Result<()> {
+        for (name, v) in [
+            ("epsg", self.epsg),
+            ("epsf", self.epsf),
+            ("epsx", self.epsx),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(Error::InvalidArgument(format!(
+                    "lm: tolerance {name} = {v} must be finite and ≥ 0"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Default for LmOptions {
+    /// epsg = epsf = epsx = 1e-12, 100 iterations: reaches the paper preset's energy (to about
+    /// 1e-12 relative) without the paper preset's final string of rejected trials.
+    fn default() -> Self {
+        LmOptions {
+            epsg: 1e-12,
+            epsf: 1e-12,
+            epsx: 1e-12,
+            max_iterations: 100,
+        }
+    }
+}
+
+/// Why the solver stopped; the discriminants are ALGLIB's termination codes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[repr(u8)]
+pub enum StopCode {
+    /// 1: the relative energy change of an accepted step was ≤ epsf.
+    RelativeEnergyChange = 1,
+    /// 2: a proposed step's max-norm was ≤ epsx (the run stops before evaluating it).
+    SmallStep = 2,
+    /// 4: the projected gradient's max-norm was ≤ epsg, or F = 0.
+    SmallGradient = 4,
+    /// 5: `max_iterations` steps were accepted.
+    MaxIterations = 5,
+    /// 7: no further decrease possible: zero box step, or λ overflow.
+    NoProgress = 7,
+}
+
+impl StopCode {
+    /// ALGLIB's numeric termination code.
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+}
+
+impl fmt::Display for StopCode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let why = match self {
+            StopCode::RelativeEnergyChange => "relative energy change ≤ epsf",
+            StopCode::SmallStep => "step ≤ epsx",
+            StopCode::SmallGradient => "projected gradient ≤ epsg (or zero energy)",
+            StopCode::MaxIterations => "maximum number of iterations",
+            StopCode::NoProgress => "no further progress possible (λ overflow or zero step)",
+        };
+        write!(f, "{} ({why})", self.code())
+    }
+}
+
+/// The outcome of [`minimize`].
+#[derive(Clone, Debug, Serialize)]
+pub struct LmReport {
+    /// The last accepted point (x₀ clamped into the bounds if no step was accepted).
+    pub x: Vec<f64>,
+    /// F(x).
+    pub energy: f64,
+    /// Accepted steps.
+    pub iterations: usize,
+    /// Calls to [`Residuals::energy`] (one per trial point).
+    pub energy_evaluations: usize,
+    /// Calls to [`Residuals::normal_equations`] (x₀ and accepted points).
+    pub jacobian_evaluations: usize,
+    /// Why it stopped.
+    pub stop: StopCode,
+    /// F(x₀) followed by the energy after each accepted step (length `iterations + 1`),
+    /// strictly decreasing.
+    pub accepted_energies: Vec<f64>,
+}
+
+// ------------------------------------------------------------------------------------------
+// Levenberg–Marquardt
+// ------------------------------------------------------------------------------------------
+
+/// Minimise F(x) = Σ r_k(x)² subject to `bounds`, starting from x₀ clamped into the bounds.
+///
+/// Every point handed to `problem` lies inside the bounds. See the module documentation for
+/// the iteration (damped box step h_λ = argmin_{l−x≤h≤u−x} hᵀ(JᵀJ + λI)h + 2(Jᵀr)ᵀh, gain
+/// ratio, λ schedule) and the stopping codes.
+///
+/// Errors ([`Error::InvalidArgument`]): x₀ or the bounds do not have `problem.dim()` entries,
+/// x₀ has a NaN, the bounds are not intervals, a tolerance is negative or not finite, F(x₀) is
+/// not finite or negative, or the normal equations have the wrong size or non-finite entries.
+pub fn minimize(
+    problem: &mut impl Residuals,
+    x0: &[f64],
+    bounds: &Bounds,
+    options: &LmOptions,
+) -> Result<LmReport> {
+    let n = problem.dim();
+    check_inputs(n, x0, bounds, options)?;
+    let lower = DVector::from_column_slice(&bounds.lower);
+    let upper = DVector::from_column_slice(&bounds.upper);
+
+    let x = bounds.clamp(x0);
+    let ne = problem.normal_equations(&x);
+    let energy = ne.energy;
+    if !(energy.is_finite() && energy >= 0.0) {
+        return Err(Error::InvalidArgument(format!(
+            "lm: the energy at the starting point is {energy}; it must be finite and ≥ 0"
+        )));
+    }
+    check_normal_equations(&ne, n, "the starting point")?;
+    let mut run = Run {
+        x,
+        energy,
+        iterations: 0,
+        energy_evaluations: 0,
+        jacobian_evaluations: 1,
+        accepted_energies: vec![energy],
+    };
+    if energy == 0.0 {
+        return Ok(run.finish(StopCode::SmallGradient));
+    }
+    if small_gradient(&ne.jtr, &run.x, &lower, &upper, options.epsg) {
+        return Ok(run.finish(StopCode::SmallGradient));
+    }
+    if options.max_iterations == 0 {
+        return Ok(run.finish(StopCode::MaxIterations));
+    }
+
+    let mut damping = Damping::initial(&ne.jtj);
+    let mut ne = ne;
+    loop {
+        let (x_new, energy_new, rho) = match accepted_step(
+            problem,
+            &ne,
+            &mut run,
+            &lower,
+            &upper,
+            options,
+            &mut damping,
+        ) {
+            Trial::Accepted { x, energy, rho } => (x, energy, rho),
+            Trial::SmallStep => return Ok(run.finish(StopCode::SmallStep)),
+            Trial::NoProgress => return Ok(run.finish(StopCode::NoProgress)),
+        };
+        let relative_change = relative_energy_change(run.energy, energy_new);
+        run.x = x_new;
+        run.energy = energy_new;
+        run.iterations += 1;
+        run.accepted_energies.push(energy_new);
+        let lambda_ok = damping.after_accepted(rho);
+
+        if energy_new == 0.0 {
+            return Ok(run.finish(StopCode::SmallGradient));
+        }
+        if options.epsf > 0.0 && relative_change <= options.epsf {
+            return Ok(run.finish(StopCode::RelativeEnergyChange));
+        }
+        if run.iterations >= options.max_iterations {
+            return Ok(run.finish(StopCode::MaxIterations));
+        }
+        if !lambda_ok {
+            return Ok(run.finish(StopCode::NoProgress));
+        }
+
+        ne = problem.normal_equations(&run.x);
+        run.jacobian_evaluations += 1;
+        check_normal_equations(&ne, n, "an accepted point")?;
+        if small_gradient(&ne.jtr, &run.x, &lower, &upper, options.epsg) {
+            return Ok(run.finish(StopCode::SmallGradient));
+        }
+    }
+}
+
+/// The state of a run, turned into an [`LmReport`] when it stops.
+struct Run {
+    x: Vec<f64>,
+    energy: f64,
+    iterations: usize,
+    energy_evaluations: usize,
+    jacobian_evaluations: usize,
+    accepted_energies: Vec<f64>,
+}
+
+impl Run {
+    fn finish(self, stop: StopCode) -> LmReport {
+        LmReport {
+            x: self.x,
+            energy: self.energy,
+            iterations: self.iterations,
+            energy_evaluations: self.energy_evaluations,
+            jacobian_evaluations: self.jacobian_evaluations,
+            stop,
+            accepted_energies: self.accepted_energies,
+        }
+    }
+}
+
+/// Sizes and finiteness of everything [`minimize`] is given before calling the problem.
+fn check_inputs(n: usize, x0: &[f64], bounds: &Bounds, options: &LmOptions) -> Result<()> {
+    if x0.len() != n {
+        return Err(Error::InvalidArgument(format!(
+            "lm: the starting point has {} values for {n} unknowns",
+            x0.len()
+        )));
+    }
+    if let Some(i) = x0.iter().position(|v| v.is_nan()) {
+        return Err(Error::InvalidArgument(format!(
+            "lm: unknown {i} of the starting point is NaN"
+        )));
+    }
+    bounds.check(n)?;
+    options.check()
+}
+
+/// JᵀJ is n×n, Jᵀr has n entries, all finite.
+fn check_normal_equations(ne: &NormalEquations, n: usize, at: &str) -> Result<()> {
+    if ne.jtj.shape() != (n, n) || ne.jtr.len() != n {
+        return Err(Error::InvalidArgument(format!(
+            "lm: normal equations at {at} have JᵀJ {:?} and Jᵀr of length {} for {n} unknowns",
+            ne.jtj.shape(),
+            ne.jtr.len()
+        )));
+    }
+    if ne.jtj.iter().chain(ne.jtr.iter()).any(|v| !v.is_finite()) {
+        return Err(Error::InvalidArgument(format!(
+            "lm: normal equations at {at} have non-finite entries"
+        )));
+    }
+    Ok(())
+}
+
+/// The damping λ and its growth factor ν (ALGLIB / Madsen–Nielsen–Tingleff schedule).
+struct Damping {
+    lambda: f64,
+    nu: f64,
+}
+
+impl Damping {
+    /// λ₀ = 10⁻³ · max_i (2JᵀJ)_ii, or 1 if that is 0; ν₀ = 1.
+    fn initial(jtj: &DMatrix<f64>) -> Self {
+        let max_diagonal = jtj.diagonal().iter().fold(0.0_f64, |m, &d| m.max(2.0 * d));
+        let lambda = if max_diagonal > 0.0 {
+            LAMBDA_INIT * max_diagonal
+        } else {
+            1.0
+        };
+        Damping { lambda, nu: 1.0 }
+    }
+
+    /// λ ← 2νλ, ν ← 2ν. Returns false (and leaves λ unchanged) if 2νλ would exceed
+    /// [`LAMBDA_MAX`].
+    fn raise(&mut self) -> bool {
+        let lambda = LAMBDA_UP * self.nu * self.lambda;
+        if lambda > LAMBDA_MAX {
+            return false;
+        }
+        self.lambda = lambda;
+        self.nu *= 2.0;
+        true
+    }
+
+    /// λ ← max(0.33λ, smallest normal f64), ν ← 1.
+    fn lower(&mut self) {
+        self.lambda = (LAMBDA_DOWN * self.lambda).max(f64::MIN_POSITIVE);
+        self.nu = 1.0;
+    }
+
+    /// After an accepted step with gain ratio ρ: ρ > 0.5 lowers λ, ρ < 0.1 raises it, else
+    /// nothing. Returns false if raising overflowed.
+    fn after_accepted(&mut self, rho: f64) -> bool {
+        if rho > 0.5 {
+            self.lower();
+            true
+        } else if rho < 0.1 {
+            self.raise()
+        } else {
+            true
+        }
+    }
+}
+
+/// What the inner λ loop found.
+enum Trial {
+    /// A point with F_new < F, and the gain ratio of its step.
+    Accepted { x: Vec<f64>, energy: f64, rho: f64 },
+    /// A proposed step with max-norm ≤ epsx.
+    SmallStep,
+    /// Zero box step, or λ overflowed before any trial was accepted.
+    NoProgress,
+}
+
+/// Try λ, 2νλ, … until a trial point lowers the energy (module doc steps 1–4).
+fn accepted_step(
+    problem: &mut impl Residuals,
+    ne: &NormalEquations,
+    run: &mut Run,
+    lower: &DVector<f64>,
+    upper: &DVector<f64>,
+    options: &LmOptions,
+    damping: &mut Damping,
+) -> Trial {
+    let x = DVector::from_column_slice(&run.x);
+    // The box of the step h: l − x ≤ h ≤ u − x (ordered because l ≤ u and rounding is monotone).
+    let step_lower = lower - &x;
+    let step_upper = upper - &x;
+    loop {
+        let damped = damped_matrix(&ne.jtj, damping.lambda);
+        // A QP failure means A + λI is not numerically positive definite at this λ (JᵀJ
+        // singular and λ tiny): treat it like a rejected trial and damp more.
+        if let Ok(h) = try_solve_box_qp(&damped, &ne.jtr, &step_lower, &step_upper) {
+            if h.iter().all(|&v| v == 0.0) {
+                return Trial::NoProgress;
+            }
+            if options.epsx > 0.0 && h.amax() <= options.epsx {
+                return Trial::SmallStep;
+            }
+            let pred = predicted_decrease(&ne.jtj, &ne.jtr, &h);
+            if pred > 0.0 {
+                let x_trial = trial_point(&run.x, &h, &step_lower, &step_upper, lower, upper);
+                let energy = problem.energy(&x_trial);
+                run.energy_evaluations += 1;
+                if energy.is_finite() && energy < run.energy {
+                    let rho = (run.energy - energy) / pred;
+                    return Trial::Accepted {
+                        x: x_trial,
+                        energy,
+                        rho,
+                    };
+                }
+            }
+        }
+        if !damping.raise() {
+            return Trial::NoProgress;
+        }
+    }
+}
+
+/// A + λI.
+fn damped_matrix(a: &DMatrix<f64>, lambda: f64) -> DMatrix<f64> {
+    let mut damped = a.clone();
+    for i in 0..damped.nrows().min(damped.ncols()) {
+        damped[(i, i)] += lambda;
+    }
+    damped
+}
+
+/// Decrease of the Gauss–Newton model m(h) = F + 2gᵀh + hᵀAh from h = 0:
+/// pred = m(0) − m(h) = −hᵀ(2g + A h), with g = Jᵀr and A = JᵀJ.
+pub fn predicted_decrease(jtj: &DMatrix<f64>, jtr: &DVector<f64>, h: &DVector<f64>) -> f64 {
+    let ah = jtj * h;
+    -h.dot(&(jtr * 2.0 + ah))
+}
+
+/// x + h inside [l, u]: components where the box step sits on a side of its box
+/// (h_i = l_i − x_i or u_i − x_i) are set to that bound exactly, h_i = 0 leaves x_i untouched
+/// bit for bit, and the rest is clamped (x_i + h_i may round past a bound).
+fn trial_point(
+    x: &[f64],
+    h: &DVector<f64>,
+    step_lower: &DVector<f64>,
+    step_upper: &DVector<f64>,
+    lower: &DVector<f64>,
+    upper: &DVector<f64>,
+) -> Vec<f64> {
+    (0..x.len())
+        .map(|i| {
+            if h[i] == 0.0 {
+                x[i]
+            } else if h[i] == step_lower[i] {
+                lower[i]
+            } else if h[i] == step_upper[i] {
+                upper[i]
+            } else {
+                clamp_to(x[i] + h[i], lower[i], upper[i])
+            }
+        })
+        .collect()
+}
+
+/// Projected gradient of F at x, from g = Jᵀr: ∇F_i = 2g_i, set to 0 where x_i is frozen
+/// (l_i = u_i) or sits on a bound that −∇F points out of (x_i ≤ l_i and ∇F_i > 0, or x_i ≥ u_i
+/// and ∇F_i < 0). At a bound-constrained stationary point it is 0.
+pub fn projected_gradient(
+    jtr: &DVector<f64>,
+    x: &[f64],
+    lower: &DVector<f64>,
+    upper: &DVector<f64>,
+) -> DVector<f64> {
+    DVector::from_fn(x.len(), |i, _| {
+        let grad = 2.0 * jtr[i];
+        let frozen = lower[i] == upper[i];
+        let held_low = x[i] <= lower[i] && grad > 0.0;
+        let held_high = x[i] >= upper[i] && grad < 0.0;
+        if frozen || held_low || held_high {
+            0.0
+        } else {
+            grad
+        }
+    })
+}
+
+/// Stop test 4: max_i |projected ∇F_i| ≤ epsg (off when epsg = 0).
+fn small_gradient(
+    jtr: &DVector<f64>,
+    x: &[f64],
+    lower: &DVector<f64>,
+    upper: &DVector<f64>,
+    epsg: f64,
+) -> bool {
+    epsg > 0.0 && projected_gradient(jtr, x, lower, upper).amax() <= epsg
+}
+
+/// (F − F_new) / max(F, smallest normal f64).
+fn relative_energy_change(energy: f64, energy_new: f64) -> f64 {
+    (energy - energy_new) / energy.max(f64::MIN_POSITIVE)
+}
+
+// ------------------------------------------------------------------------------------------
+// The box-constrained quadratic program
+// ------------------------------------------------------------------------------------------
+
+/// Exact minimiser of q(h) = ½ hᵀA h + gᵀh subject to lower ≤ h ≤ upper, A symmetric positive
+/// definite, by the primal active-set method (Nocedal & Wright, Algorithm 16.3, for bounds):
+///
+/// - start from h = clamp(0) with every variable on a bound in the working set W (fixed at it);
+/// - minimise q over the free variables F with W held: A_FF h_F = −(g + A h_W)_F (Cholesky);
+///   if that point leaves the box, move toward it up to the first bound hit and add that bound
+///   to W;
+/// - otherwise h is the minimiser on W: the multiplier of a variable held at its lower bound is
+///   ∂q/∂h_i = (A h + g)_i and must be ≥ 0 (≤ 0 at an upper bound). If all are, h satisfies
+///   the KKT conditions and is the unique minimiser; else release the most negative one.
+///
+/// Variables with lower = upper are fixed and never released; sides may be ±∞. Terminates:
+/// W's minimisers have strictly decreasing q, so no W repeats; a repeat caused by rounding
+/// ends the method (cycle guard), as does a cap of 50 + 10n working-set changes. Multiplier
+/// signs are tested with a rounding allowance of 8(n+1)ε(|g_i| + Σ_j|A_ij h_j|). The cost is
+/// one Cholesky factorisation of A_FF per working-set change.
+///
+/// # Panics
+/// If the inputs break the preconditions (sizes, NaN, lower > upper, A not numerically
+/// positive definite on the free variables). This is an inner kernel; callers with inputs
+/// not valid by construction use [`try_solve_box_qp`].
+pub fn solve_box_qp(
+    a: &DMatrix<f64>,
+    g: &DVector<f64>,
+    lower: &DVector<f64>,
+    upper: &DVector<f64>,
+) -> DVector<f64> {
+    match try_solve_box_qp(a, g, lower, upper) {
+        Ok(h) => h,
+        Err(e) => panic!("solve_box_qp: {e}"),
+    }
+}
+
+/// [`solve_box_qp`] returning [`Error::InvalidArgument`] instead of panicking when the sizes
+/// disagree, an entry of A or g is not finite, the bounds are not intervals, or A is not
+/// numerically positive definite on the free variables.
+pub fn try_solve_box_qp(
+    a: &DMatrix<f64>,
+    g: &DVector<f64>,
+    lower: &DVector<f64>,
+    upper: &DVector<f64>,
+) -> Result<DVector<f64>> {
+    check_box_qp(a, g, lower, upper)?;
+    let n = g.len();
+    let mut h = DVector::from_fn(n, |i, _| clamp_to(0.0, lower[i], upper[i]));
+    let mut status: Vec<Status> = (0..n)
+        .map(|i| Status::at(h[i], lower[i], upper[i]))
+        .collect();
+    let mut visited: HashSet<Vec<Status>> = HashSet::new();
+
+    for _ in 0..50 + 10 * n {
+        let free: Vec<usize> = (0..n).filter(|&i| status[i] == Status::Free).collect();
+        if !free.is_empty() {
+            let target = subspace_minimiser(a, g, &h, &free)?;
+            if let Some((alpha, blocking)) = first_bound_hit(&h, &target, &free, lower, upper) {
+                move_toward(&mut h, &target, &free, alpha, lower, upper);
+                let (i, side) = blocking;
+                h[i] = if side == Status::Lower {
+                    lower[i]
+                } else {
+                    upper[i]
+                };
+                status[i] = side;
+                continue;
+            }
+            for (k, &i) in free.iter().enumerate() {
+                h[i] = clamp_to(target[k], lower[i], upper[i]);
+            }
+        }
+        // h minimises q on the working set: optimal unless a held bound has the wrong sign.
+        if !visited.insert(status.clone()) {
+            break; // cycle guard: only rounding can bring a working set back
+        }
+        match most_violated_bound(a, g, &h, &status) {
+            Some(i) => status[i] = Status::Free,
+            None => break,
+        }
+    }
+    Ok(h)
+}
+
+/// Where a variable of the box QP stands in the working set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Status {
+    Free,
+    /// Held at its lower bound.
+    Lower,
+    /// Held at its upper bound.
+    Upper,
+    /// lower = upper: never released.
+    Fixed,
+}
+
+impl Status {
+    /// The initial status of a variable with value v in [l, u].
+    fn at(v: f64, l: f64, u: f64) -> Status {
+        if l == u {
+            Status::Fixed
+        } else if v == l {
+            Status::Lower
+        } else if v == u {
+            Status::Upper
+        } else {
+            Status::Free
+        }
+    }
+}
+
+/// Sizes agree (A n×n, g, lower, upper n), A and g finite, bounds are intervals.
+fn check_box_qp(
+    a: &DMatrix<f64>,
+    g: &DVector<f64>,
+    lower: &DVector<f64>,
+    upper: &DVector<f64>,
+) -> Result<()> {
+    let n = g.len();
+    if a.shape() != (n, n) || lower.len() != n || upper.len() != n {
+        return Err(Error::InvalidArgument(format!(
+            "box QP: A is {:?}, g has {n}, lower {}, upper {} entries",
+            a.shape(),
+            lower.len(),
+            upper.len()
+        )));
+    }
+    if a.iter().chain(g.iter()).any(|v| !v.is_finite()) {
+        return Err(Error::InvalidArgument(
+            "box QP: A or g has non-finite entries".into(),
+        ));
+    }
+    check_box(lower.iter().copied(), upper.iter().copied(), "box QP")
+}
+
+/// Minimiser of q over the free variables F with the others held at their current values:
+/// A_FF h_F = −(g + A h_W)_F, where h_W is h with the free entries set to 0.
+fn subspace_minimiser(
+    a: &DMatrix<f64>,
+    g: &DVector<f64>,
+    h: &DVector<f64>,
+    free: &[usize],
+) -> Result<DVector<f64>> {
+    let mut held = h.clone();
+    for &i in free {
+        held[i] = 0.0;
+    }
+    let gradient_held = g + a * held;
+    let rhs = DVector::from_iterator(free.len(), free.iter().map(|&i| -gradient_held[i]));
+    let a_ff = a.select_rows(free).select_columns(free);
+    let target = Cholesky::new(a_ff)
+        .map(|c| c.solve(&rhs))
+        .filter(|t| t.iter().all(|v| v.is_finite()));
+    target.ok_or_else(|| {
+        Error::InvalidArgument(
+            "box QP: the matrix is not positive definite on the free variables".into(),
+        )
+    })
+}
+
+/// Ratio test along p = target − h_F: the smallest α = (bound − h_i)/p_i over free variables
+/// moving toward a finite bound. Returns (α, (i, side)) if α < 1, i.e. the target leaves the box.
+fn first_bound_hit(
+    h: &DVector<f64>,
+    target: &DVector<f64>,
+    free: &[usize],
+    lower: &DVector<f64>,
+    upper: &DVector<f64>,
+) -> Option<(f64, (usize, Status))> {
+    let mut best: Option<(f64, (usize, Status))> = None;
+    for (k, &i) in free.iter().enumerate() {
+        let p = target[k] - h[i];
+        let hit = if p < 0.0 && lower[i].is_finite() {
+            Some(((lower[i] - h[i]) / p, Status::Lower))
+        } else if p > 0.0 && upper[i].is_finite() {
+            Some(((upper[i] - h[i]) / p, Status::Upper))
+        } else {
+            None
+        };
+        if let Some((alpha, side)) = hit {
+            if alpha < 1.0 && best.is_none_or(|(b, _)| alpha < b) {
+                best = Some((alpha.max(0.0), (i, side)));
+            }
+        }
+    }
+    best
+}
+
+/// h_F ← h_F + α (target − h_F), kept inside the box.
+fn move_toward(
+    h: &mut DVector<f64>,
+    target: &DVector<f64>,
+    free: &[usize],
+    alpha: f64,
+    lower: &DVector<f64>,
+    upper: &DVector<f64>,
+) {
+    for (k, &i) in free.iter().enumerate() {
+        h[i] = clamp_to(h[i] + alpha * (target[k] - h[i]), lower[i], upper[i]);
+    }
+}
+
+/// The held variable whose multiplier λ_i = (A h + g)_i has the wrong sign by the most
+/// (λ_i < −tol_i at a lower bound, λ_i > tol_i at an upper bound), tol_i the rounding allowance
+/// 8(n+1)ε(|g_i| + Σ_j |A_ij h_j|). None: h satisfies the KKT conditions.
+fn most_violated_bound(
+    a: &DMatrix<f64>,
+    g: &DVector<f64>,
+    h: &DVector<f64>,
+    status: &[Status],
+) -> Option<usize> {
+    let n = g.len();
+    let mut worst: Option<(f64, usize)> = None;
+    for (i, &s) in status.iter().enumerate() {
+        let violation = match s {
+            Status::Lower => -1.0,
+            Status::Upper => 1.0,
+            Status::Free | Status::Fixed => continue,
+        };
+        let row = a.row(i);
+        let multiplier = g[i] + row.iter().zip(h.iter()).map(|(&a, &h)| a * h).sum::<f64>();
+        let scale = g[i].abs()
+            + row
+                .iter()
+                .zip(h.iter())
+                .map(|(&a, &h)| (a * h).abs())
+                .sum::<f64>();
+        let tolerance = 8.0 * (n as f64 + 1.0) * f64::EPSILON * scale;
+        let wrong = violation * multiplier; // > 0 when the bound holds h back from descent
+        if wrong > tolerance && worst.is_none_or(|(w, _)| wrong > w) {
+            worst = Some((wrong, i));
+        }
+    }
+    worst.map(|(_, i)| i)
+}
