@@ -100,3 +100,43 @@ fn a_missing_texture_and_a_missing_file_give_clear_errors() {
         "{stderr}"
     );
 }
+
+#[test]
+fn gridwarp_prints_json_and_reduces_rigid_stretch() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ok, stdout, stderr) = reparam(&[
+        "gridwarp",
+        "--scene",
+        "plane",
+        "--frames",
+        "2",
+        "--size",
+        "32",
+        "--out",
+        dir.path().to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(ok, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let last = &v["frames"][1];
+    // The warp must lower the stretch of rigid features (the point of the method).
+    assert!(
+        last["rigid_stretch_after"]["max"].as_f64().unwrap()
+            < last["rigid_stretch_before"]["max"].as_f64().unwrap()
+    );
+    assert!(last["energy_after"].as_f64().unwrap() < last["energy_before"].as_f64().unwrap());
+    assert!(
+        dir.path().join("gridwarp_plane_grid.png").exists()
+            && dir.path().join("gridwarp_plane_lines.json").exists()
+    );
+    let (ok, _, stderr) = reparam(&[
+        "gridwarp",
+        "--scene",
+        "plane",
+        "--grid",
+        "1x5",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(!ok && stderr.contains("--grid"), "{stderr}");
+}

@@ -16,6 +16,7 @@ pub mod bpm;
 pub mod compute;
 mod context;
 mod error;
+pub mod gridwarp;
 
 use std::sync::OnceLock;
 

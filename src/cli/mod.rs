@@ -4,6 +4,7 @@
 mod bpm;
 mod crosscheck;
 mod demo;
+mod gridwarp;
 mod inputs;
 
 use std::process::ExitCode;
@@ -26,6 +27,8 @@ enum Command {
     /// Blended Piecewise Möbius Maps: render, quality protocol.
     #[command(subcommand)]
     Bpm(bpm::BpmCommand),
+    /// Content-aware grid warp of a texture region (axis-aligned), on a built-in scene.
+    Gridwarp(gridwarp::GridwarpArgs),
     /// Compare a GPU f32 kernel with the f64 reference from identical inputs.
     #[command(subcommand)]
     Crosscheck(crosscheck::CrosscheckCommand),
@@ -43,6 +46,7 @@ pub fn main() -> ExitCode {
         Command::Demo(args) => demo::run(args),
         Command::Bpm(cmd) => bpm::run(cmd),
         Command::Crosscheck(cmd) => crosscheck::run(cmd),
+        Command::Gridwarp(args) => gridwarp::run(args),
         Command::ReferenceData { out } => reparam::reference_data::write_all(&out).map(|files| {
             for f in files {
                 println!("wrote {}", f.display());

@@ -51,6 +51,7 @@ impl Field {
         }
     }
 
+    #[inline]
     fn at(&self, x: usize, y: usize) -> f64 {
         self.values[y * self.width + x]
     }
@@ -60,6 +61,7 @@ impl Field {
     ///   f = (1−α)(1−β) f₀₀ + α(1−β) f₁₀ + (1−α)β f₀₁ + αβ f₁₁,
     ///   ∂f/∂s = W [(1−β)(f₁₀ − f₀₀) + β(f₁₁ − f₀₁)],  ∂f/∂t = H [(1−α)(f₀₁ − f₀₀) + α(f₁₁ − f₁₀)],
     /// the gradient being 0 along an axis where the sample is clamped.
+    #[inline]
     pub fn bilinear(&self, s: f64, t: f64) -> Sample {
         let (x0, alpha, gx) = axis(s, self.width);
         let (y0, beta, gy) = axis(t, self.height);
@@ -90,14 +92,17 @@ impl Field {
 
 /// For one axis of `n` texels: (index of the lower texel centre, fraction α ∈ [0, 1], d(u)/d(s)
 /// = n inside the texel-centre range, 0 where clamped).
+/// (`!(u > 0)` also sends NaN to the first texel: never an out-of-range index.)
+#[inline]
 fn axis(s: f64, n: usize) -> (usize, f64, f64) {
     let u = s * n as f64 - 0.5;
-    if n == 1 || u <= 0.0 {
+    if n == 1 || !(u > 0.0) {
         return (0, 0.0, 0.0);
     }
     if u >= (n - 1) as f64 {
         return (n - 1, 0.0, 0.0);
     }
-    let x0 = u.floor();
-    (x0 as usize, u - x0, n as f64)
+    // u > 0: truncation is the floor, without a libm call.
+    let x0 = u as usize;
+    (x0, u - x0 as f64, n as f64)
 }

@@ -17,16 +17,24 @@
 //! | bound-constrained Levenberg–Marquardt, warm start | §5.3, §7 | [`solve`], [`crate::lm`] |
 //! | remapping F_s, F_t and inverses | §6 | [`remap`] |
 //! | procedural scenes | figs. 3, 5, 9 | [`scene`] |
+//! | rigid-stretch figure of merit, pictures | — | [`merit`], [`picture`] |
 
 pub mod bounds;
 pub mod energy;
+pub mod energy_naa;
 pub mod field;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod grid;
+pub mod merit;
+pub mod picture;
+pub mod rasterize;
 pub mod remap;
 pub mod scene;
 pub mod solve;
 
 pub use energy::{AaEnergy, DeformedFields, RestFields};
+pub use energy_naa::{solve_naa_frame, DeformedJacobian, NaaEnergy, NaaFrameSolution, VertexGrid};
 pub use field::Field;
 pub use grid::{grid_from_rigidity, Grid};
 pub use solve::{solve_frame, solve_sequence, FrameSolution, SolveOptions};

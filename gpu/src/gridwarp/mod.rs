@@ -1,0 +1,14 @@
+//! Content-aware grid warp (seed 000) in f32: the axis-aligned energy's per-cell kernel.
+//!
+//! | kernel | host | WGSL | what it computes |
+//! |---|---|---|---|
+//! | `gridwarp_aa_cell` | [`aa_cells`] / [`AaKernel::run`] | `shaders/gridwarp_aa.wgsl` | per cell: energy, 4×4 JᵀJ block, 4-vector Jᵀr |
+//!
+//! This is the GPU half of the paper's hybrid solver (seed §7): the objective and its normal
+//! equations are evaluated on the GPU, one cell per invocation, and read back; Levenberg–Marquardt
+//! stays on the CPU. The reference's twin is `AaEnergy::for_each_residual`
+//! (`src/gridwarp/energy.rs`) with `Field::bilinear` (`src/gridwarp/field.rs`).
+
+pub mod aa;
+
+pub use aa::{aa_cells, AaInput, AaKernel, CellContribution, FieldF32, RestSample, NO_UNKNOWN};

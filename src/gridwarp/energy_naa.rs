@@ -1,0 +1,592 @@
+//! The non-axis-aligned (NAA) distortion energy (seed §8; notes "Formulation: NAA", "Analytic
+//! Jacobian: NAA", "Bounds"), mirroring the axis-aligned [`super::energy::AaEnergy`].
+//!
+//! # Unknowns
+//! The grid vertices P_ab ∈ R², a = 0..M−1 along s, b = 0..N−1 along t. Only the interior
+//! vertices move: x = (P_11.s, P_11.t, P_12.s, P_12.t, …), vertex (a, b) at
+//! 2·((a−1)(N−2) + (b−1)) (see [`VertexGrid::unknown_index`]), (M−2)(N−2)·2 values. Border
+//! vertices are **fixed** at their rest positions on the unit square's border (they do not slide
+//! along their edge): the ROI's outline is preserved exactly, like the AA lines 0 and 1.
+//!
+//! # Energy
+//! Rest cell (i, j) of size h_i × k_j is warped bilinearly,
+//!   W(α, β) = (1−α)(1−β) P00 + α(1−β) P10 + (1−α)β P01 + αβ P11,
+//! P00 = P_{i,j}, P10 = P_{i+1,j}, P01 = P_{i,j+1}, P11 = P_{i+1,j+1}. Per K×L midpoint sample
+//! (α, β) of the cell: W_s = (∂W/∂α)/h_i, W_t = (∂W/∂β)/k_j, p = W(α, β),
+//!   q_s = J_D(p) W_s,  q_t = J_D(p) W_t,  J_D = [D_s D_t] (3×2),
+//!   r^s = σ (‖q_s‖ − o_s),  r^t = σ (‖q_t‖ − o_t),  σ = √w R(s, t),
+//! with w, σ, o_s, o_t exactly as in the AA energy (same rest samples). On an axis-aligned vertex
+//! grid W_s = (a_i, 0), q_s = a_i D_s and r^s is the AA residual σ(‖D_s‖ a_i − o_s).
+//!
+//! Since ‖D_s‖ alone does not give J_D W_s, the deformed frame is given by its full partial
+//! derivative vectors D_s, D_t: [`DeformedJacobian`], six scalar [`Field`]s (x, y, z of each),
+//! each sampled bilinearly (value and gradient).
+//!
+//! # Analytic Jacobian
+//! φ_c the bilinear corner weights, u_s = q_s/‖q_s‖ (0 if q_s = 0), for coordinate k ∈ {s, t}:
+//!   ∂r^s/∂P_c,k = σ [(∂φ_c/∂s) m_s,k + φ_c g_s,k],  m_s = J_D(p)ᵀ u_s,
+//!   g_s,k = u_s · (∂_k J_D(p)) W_s   (the sample moving: ∂_k J_D from the fields' gradients),
+//! ∂φ_c/∂s = (∂φ_c/∂α)/h_i; r^t likewise with ∂φ_c/∂t = (∂φ_c/∂β)/k_j and W_t. At most 8
+//! non-zeros per row; JᵀJ and Jᵀr are accumulated sample by sample per cell column in parallel
+//! and reduced in column order (deterministic for any number of threads).
+//!
+//! # Validity
+//! det(∂W/∂α, ∂W/∂β) is bilinear in (α, β) (∂W/∂α depends on β only, ∂W/∂β on α only), so it is
+//! > 0 over the whole cell iff it is > 0 at the cell's 4 corners. A vertex grid with any corner
+//! determinant ≤ 0 has energy +∞ (a rejected LM trial). The per-coordinate foldover boxes of
+//! [`naa_bounds`] are not sufficient for this (the notes' counterexample), hence the check.
+
+use std::time::Instant;
+
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+
+use super::bounds::{foldover, loop_distance, merge, BoundOptions, Interval};
+use super::energy::RestFields;
+use super::field::{Field, Sample};
+use super::grid::Grid;
+use super::scene::Partials;
+use super::solve::SolveOptions;
+use crate::error::{Error, Result};
+use crate::lm::{minimize, Bounds, LmReport, NormalEquations, Residuals};
+
+/// A 3-vector field over the unit square: one scalar [`Field`] per component.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VectorField {
+    pub x: Field,
+    pub y: Field,
+    pub z: Field,
+}
+
+/// A bilinear sample of a [`VectorField`]: value and its derivatives along s and t.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct VectorSample {
+    value: [f64; 3],
+    ds: [f64; 3],
+    dt: [f64; 3],
+}
+
+impl VectorField {
+    /// The field v(s, t) sampled at the texel centres of a `width`×`height` grid.
+    pub fn from_fn(width: usize, height: usize, f: impl Fn(f64, f64) -> [f64; 3]) -> VectorField {
+        VectorField {
+            x: Field::from_fn(width, height, |s, t| f(s, t)[0]),
+            y: Field::from_fn(width, height, |s, t| f(s, t)[1]),
+            z: Field::from_fn(width, height, |s, t| f(s, t)[2]),
+        }
+    }
+
+    fn bilinear(&self, s: f64, t: f64) -> VectorSample {
+        let c: [Sample; 3] = [
+            self.x.bilinear(s, t),
+            self.y.bilinear(s, t),
+            self.z.bilinear(s, t),
+        ];
+        VectorSample {
+            value: c.map(|c| c.value),
+            ds: c.map(|c| c.ds),
+            dt: c.map(|c| c.dt),
+        }
+    }
+}
+
+/// The deformed frame's full partial derivative vectors D_s = ∂D/∂s and D_t = ∂D/∂t (the
+/// columns of J_D), as the NAA energy needs them (the AA energy needs only their lengths,
+/// [`super::energy::DeformedFields`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeformedJacobian {
+    pub d_s: VectorField,
+    pub d_t: VectorField,
+}
+
+impl DeformedJacobian {
+    /// D_s, D_t of an analytic surface sampled on `size`×`size` fields (the vector counterpart
+    /// of [`super::scene::stretch_fields`]).
+    pub fn from_partials(size: usize, partials: &Partials) -> DeformedJacobian {
+        let v = |x: nalgebra::Vector3<f64>| [x.x, x.y, x.z];
+        DeformedJacobian {
+            d_s: VectorField::from_fn(size, size, |s, t| v(partials(s, t).0)),
+            d_t: VectorField::from_fn(size, size, |s, t| v(partials(s, t).1)),
+        }
+    }
+}
+
+/// The grid vertices P_ab, a = 0..m−1 (along s), b = 0..n−1 (along t).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct VertexGrid {
+    pub m: usize,
+    pub n: usize,
+    /// P_ab = points[a·n + b] = [s, t].
+    pub points: Vec<[f64; 2]>,
+}
+
+impl VertexGrid {
+    /// The vertices of a rectilinear grid: P_ab = (s_a, t_b).
+    pub fn from_grid(grid: &Grid) -> VertexGrid {
+        let (m, n) = (grid.s.len(), grid.t.len());
+        let mut points = Vec::with_capacity(m * n);
+        for a in 0..m {
+            for b in 0..n {
+                points.push([grid.s[a], grid.t[b]]);
+            }
+        }
+        VertexGrid { m, n, points }
+    }
+
+    /// P_ab.
+    pub fn at(&self, a: usize, b: usize) -> [f64; 2] {
+        self.points[a * self.n + b]
+    }
+
+    /// Number of unknowns, (M−2)(N−2)·2.
+    pub fn unknowns(&self) -> usize {
+        self.m.saturating_sub(2) * self.n.saturating_sub(2) * 2
+    }
+
+    /// Index of P_ab's s coordinate in the unknowns (its t coordinate follows); None for the
+    /// fixed border vertices.
+    pub fn unknown_index(&self, a: usize, b: usize) -> Option<usize> {
+        (a > 0 && a + 1 < self.m && b > 0 && b + 1 < self.n)
+            .then(|| 2 * ((a - 1) * (self.n - 2) + (b - 1)))
+    }
+
+    /// x = the interior vertices' coordinates (s, t), a-major.
+    pub fn to_unknowns(&self) -> Vec<f64> {
+        let mut x = Vec::with_capacity(self.unknowns());
+        for a in 1..self.m.saturating_sub(1) {
+            for b in 1..self.n.saturating_sub(1) {
+                x.extend_from_slice(&self.at(a, b));
+            }
+        }
+        x
+    }
+
+    /// The grid with interior vertices taken from `x` (inverse of [`VertexGrid::to_unknowns`]).
+    pub fn with_unknowns(&self, x: &[f64]) -> VertexGrid {
+        let mut g = self.clone();
+        for a in 1..self.m.saturating_sub(1) {
+            for b in 1..self.n.saturating_sub(1) {
+                let k = self.unknown_index(a, b).unwrap_or(0);
+                g.points[a * self.n + b] = [x[k], x[k + 1]];
+            }
+        }
+        g
+    }
+
+    /// det(∂W/∂α, ∂W/∂β) of cell (i, j) at its corners (α, β) = (0,0), (1,0), (0,1), (1,1).
+    pub fn corner_determinants(&self, i: usize, j: usize) -> [f64; 4] {
+        let (p00, p10, p01, p11) = (
+            self.at(i, j),
+            self.at(i + 1, j),
+            self.at(i, j + 1),
+            self.at(i + 1, j + 1),
+        );
+        let d = |a: [f64; 2], b: [f64; 2]| [a[0] - b[0], a[1] - b[1]];
+        let det = |u: [f64; 2], v: [f64; 2]| u[0] * v[1] - u[1] * v[0];
+        // ∂W/∂α = P10 − P00 at β = 0, P11 − P01 at β = 1; ∂W/∂β = P01 − P00 at α = 0,
+        // P11 − P10 at α = 1.
+        [
+            det(d(p10, p00), d(p01, p00)),
+            det(d(p10, p00), d(p11, p10)),
+            det(d(p11, p01), d(p01, p00)),
+            det(d(p11, p01), d(p11, p10)),
+        ]
+    }
+
+    /// Every cell's bilinear map has a positive Jacobian determinant everywhere (checked at the
+    /// corners, which suffices: the determinant is bilinear in (α, β)).
+    pub fn is_valid(&self) -> bool {
+        (0..self.m.saturating_sub(1)).all(|i| {
+            (0..self.n.saturating_sub(1))
+                .all(|j| self.corner_determinants(i, j).iter().all(|&d| d > 0.0))
+        })
+    }
+}
+
+/// What a sample contributes that does not depend on the unknowns (as in the AA energy).
+#[derive(Clone, Copy, Debug)]
+struct RestSample {
+    alpha: f64,
+    beta: f64,
+    sigma: f64,
+    o_s: f64,
+    o_t: f64,
+}
+
+/// One residual row: value and up to 8 (unknown, ∂r/∂x) pairs (4 corners × 2 coordinates).
+type Row = (f64, [(Option<usize>, f64); 8]);
+
+/// The non-axis-aligned energy of one frame as a least-squares problem in the interior vertices.
+pub struct NaaEnergy<'a> {
+    rest_grid: &'a Grid,
+    rest_vertices: VertexGrid,
+    deformed: &'a DeformedJacobian,
+    /// Samples of cell (i, j) at `samples[(i·(N−1) + j)·K·L ..]`.
+    samples: Vec<RestSample>,
+    per_cell: usize,
+}
+
+impl<'a> NaaEnergy<'a> {
+    /// Precompute the rest-point quantities of every sample: K×L midpoints per cell (exactly the
+    /// AA energy's rest samples).
+    pub fn new(
+        rest: &RestFields,
+        rest_grid: &'a Grid,
+        deformed: &'a DeformedJacobian,
+        k: usize,
+        l: usize,
+    ) -> Self {
+        let (k, l) = (k.max(1), l.max(1));
+        let mut samples =
+            Vec::with_capacity((rest_grid.s.len() - 1) * (rest_grid.t.len() - 1) * k * l);
+        for i in 0..rest_grid.s.len() - 1 {
+            let h = rest_grid.s[i + 1] - rest_grid.s[i];
+            for j in 0..rest_grid.t.len() - 1 {
+                let kj = rest_grid.t[j + 1] - rest_grid.t[j];
+                let w = h * kj / (k * l) as f64;
+                for a in 0..k {
+                    for b in 0..l {
+                        let (alpha, beta) =
+                            ((a as f64 + 0.5) / k as f64, (b as f64 + 0.5) / l as f64);
+                        let (s, t) = (rest_grid.s[i] + alpha * h, rest_grid.t[j] + beta * kj);
+                        samples.push(RestSample {
+                            alpha,
+                            beta,
+                            sigma: w.sqrt() * rest.rigidity.nearest(s, t),
+                            o_s: rest.o_s.bilinear(s, t).value,
+                            o_t: rest.o_t.bilinear(s, t).value,
+                        });
+                    }
+                }
+            }
+        }
+        NaaEnergy {
+            rest_grid,
+            rest_vertices: VertexGrid::from_grid(rest_grid),
+            deformed,
+            samples,
+            per_cell: k * l,
+        }
+    }
+
+    /// The rest vertices (the starting point of a first frame).
+    pub fn rest_vertices(&self) -> &VertexGrid {
+        &self.rest_vertices
+    }
+
+    fn columns(&self) -> usize {
+        self.rest_grid.s.len() - 1
+    }
+
+    fn rows(&self) -> usize {
+        self.rest_grid.t.len() - 1
+    }
+
+    /// Visit every residual of cell column i at the vertices `g`: `visit(r, [(unknown, ∂r/∂x)])`.
+    fn for_each_residual(&self, g: &VertexGrid, i: usize, mut visit: impl FnMut(Row)) {
+        let h = self.rest_grid.s[i + 1] - self.rest_grid.s[i];
+        for j in 0..self.rows() {
+            let kj = self.rest_grid.t[j + 1] - self.rest_grid.t[j];
+            let cell = &self.samples[(i * self.rows() + j) * self.per_cell..][..self.per_cell];
+            let (p00, p10, p01, p11) = (
+                g.at(i, j),
+                g.at(i + 1, j),
+                g.at(i, j + 1),
+                g.at(i + 1, j + 1),
+            );
+            // Unknown indices of the corners 00, 10, 01, 11 (s coordinate; t is +1).
+            let idx = [
+                g.unknown_index(i, j),
+                g.unknown_index(i + 1, j),
+                g.unknown_index(i, j + 1),
+                g.unknown_index(i + 1, j + 1),
+            ];
+            // Edge vectors and the twist P11 − P10 − P01 + P00 (exactly 0 on a rectangle, so that
+            // an axis-aligned grid reproduces the AA sample points and slopes bit for bit).
+            let e_a0 = sub(p10, p00); // ∂W/∂α at β = 0
+            let e_b0 = sub(p01, p00); // ∂W/∂β at α = 0
+            let twist = sub(sub(p11, p10), e_b0);
+            for p in cell {
+                if p.sigma == 0.0 {
+                    continue;
+                }
+                let (al, be, sg) = (p.alpha, p.beta, p.sigma);
+                let w_a = add(e_a0, scale(be, twist));
+                let w_b = add(e_b0, scale(al, twist));
+                let w_s = [w_a[0] / h, w_a[1] / h];
+                let w_t = [w_b[0] / kj, w_b[1] / kj];
+                let pos = add(
+                    add(p00, scale(al, e_a0)),
+                    add(scale(be, e_b0), scale(al * be, twist)),
+                );
+                let ds = self.deformed.d_s.bilinear(pos[0], pos[1]);
+                let dt = self.deformed.d_t.bilinear(pos[0], pos[1]);
+                let phi = [
+                    (1.0 - al) * (1.0 - be),
+                    al * (1.0 - be),
+                    (1.0 - al) * be,
+                    al * be,
+                ];
+                let dphi_da = [-(1.0 - be), 1.0 - be, -be, be];
+                let dphi_db = [-(1.0 - al), -al, 1.0 - al, al];
+                for (w, dphi, o, len) in [(w_s, dphi_da, p.o_s, h), (w_t, dphi_db, p.o_t, kj)] {
+                    // q = J_D(p) w = D_s w_s + D_t w_t.
+                    let q: [f64; 3] =
+                        std::array::from_fn(|c| ds.value[c] * w[0] + dt.value[c] * w[1]);
+                    let norm = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
+                    let u = if norm > 0.0 {
+                        q.map(|v| v / norm)
+                    } else {
+                        [0.0; 3]
+                    };
+                    // m = J_Dᵀ u; g_k = u · (∂_k J_D) w.
+                    let m = [dot(ds.value, u), dot(dt.value, u)];
+                    let gk = [
+                        dot(
+                            u,
+                            std::array::from_fn(|c| ds.ds[c] * w[0] + dt.ds[c] * w[1]),
+                        ),
+                        dot(
+                            u,
+                            std::array::from_fn(|c| ds.dt[c] * w[0] + dt.dt[c] * w[1]),
+                        ),
+                    ];
+                    let mut d = [(None, 0.0); 8];
+                    for c in 0..4 {
+                        let dp = dphi[c] / len;
+                        for k in 0..2 {
+                            d[2 * c + k] =
+                                (idx[c].map(|x| x + k), sg * (dp * m[k] + phi[c] * gk[k]));
+                        }
+                    }
+                    visit((sg * (norm - o), d));
+                }
+            }
+        }
+    }
+
+    /// All residuals at `x`, in a fixed order (cell column, row, sample, axis). For tests.
+    pub fn residuals(&self, x: &[f64]) -> Vec<f64> {
+        let g = self.rest_vertices.with_unknowns(x);
+        let mut out = Vec::new();
+        for i in 0..self.columns() {
+            self.for_each_residual(&g, i, |(r, _)| out.push(r));
+        }
+        out
+    }
+
+    /// The dense Jacobian at `x` (rows as in [`NaaEnergy::residuals`]). For tests.
+    pub fn jacobian(&self, x: &[f64]) -> DMatrix<f64> {
+        let g = self.rest_vertices.with_unknowns(x);
+        let mut rows = Vec::new();
+        for i in 0..self.columns() {
+            self.for_each_residual(&g, i, |(_, d)| rows.push(d));
+        }
+        let mut jac = DMatrix::zeros(rows.len(), x.len());
+        for (row, d) in rows.iter().enumerate() {
+            for (col, v) in d.iter().filter_map(|(c, v)| c.map(|c| (c, *v))) {
+                jac[(row, col)] += v;
+            }
+        }
+        jac
+    }
+}
+
+fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] - b[0], a[1] - b[1]]
+}
+
+fn add(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] + b[0], a[1] + b[1]]
+}
+
+fn scale(f: f64, a: [f64; 2]) -> [f64; 2] {
+    [f * a[0], f * a[1]]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+impl Residuals for NaaEnergy<'_> {
+    fn dim(&self) -> usize {
+        self.rest_vertices.unknowns()
+    }
+
+    /// F(x) = Σ r², summed per cell column in parallel, then in column order (deterministic);
+    /// +∞ if any cell folds (a corner determinant ≤ 0).
+    fn energy(&mut self, x: &[f64]) -> f64 {
+        let g = self.rest_vertices.with_unknowns(x);
+        if !g.is_valid() {
+            return f64::INFINITY;
+        }
+        let per_column: Vec<f64> = (0..self.columns())
+            .into_par_iter()
+            .map(|i| {
+                let mut e = 0.0;
+                self.for_each_residual(&g, i, |(r, _)| e += r * r);
+                e
+            })
+            .collect();
+        per_column.iter().sum()
+    }
+
+    /// F, JᵀJ and Jᵀr, accumulated per cell column in parallel and reduced in column order. At
+    /// a folded grid: F = +∞ and zero JᵀJ, Jᵀr (the solver rejects such a starting point).
+    fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
+        let n = self.dim();
+        let zero = |energy| NormalEquations {
+            energy,
+            jtj: DMatrix::zeros(n, n),
+            jtr: DVector::zeros(n),
+        };
+        let g = self.rest_vertices.with_unknowns(x);
+        if !g.is_valid() {
+            return zero(f64::INFINITY);
+        }
+        let per_column: Vec<NormalEquations> = (0..self.columns())
+            .into_par_iter()
+            .map(|i| {
+                let mut ne = zero(0.0);
+                self.for_each_residual(&g, i, |(r, d)| {
+                    ne.energy += r * r;
+                    for (ca, va) in d.iter().filter_map(|(c, v)| c.map(|c| (c, *v))) {
+                        ne.jtr[ca] += va * r;
+                        for (cb, vb) in d.iter().filter_map(|(c, v)| c.map(|c| (c, *v))) {
+                            ne.jtj[(ca, cb)] += va * vb;
+                        }
+                    }
+                });
+                ne
+            })
+            .collect();
+        let mut total = zero(0.0);
+        for ne in per_column {
+            total.energy += ne.energy;
+            total.jtj += ne.jtj;
+            total.jtr += ne.jtr;
+        }
+        total
+    }
+}
+
+/// Foldover interval of one coordinate: between the midpoints to the previous neighbours along
+/// that axis (with [`super::bounds::FOLDOVER_MARGIN`]); frozen at the current value if those
+/// neighbours are not ordered along the axis (the box would be empty).
+fn foldover_coordinate(prev: f64, here: f64, next: f64) -> Interval {
+    let box_ = foldover(&[prev, here, next], 1);
+    if box_.lo <= here && here <= box_.hi {
+        box_
+    } else {
+        Interval { lo: here, hi: here }
+    }
+}
+
+/// The merged bounds of every unknown for the next frame: per coordinate the foldover box of
+/// seed §5.2 (s of P_ab between the midpoints to P_{a−1,b}, P_{a+1,b} in `previous`; t between
+/// those to P_{a,b−1}, P_{a,b+1}), merged with the smoothness box |P' − P| ≤ o and, for looping
+/// frame j of K, the looping box |P' − P⁰| ≤ d_j·o around `first`: F(C_L, F(C_F, C_S)).
+///
+/// These boxes do not prevent fold-overs (notes "Bounds"); [`NaaEnergy`] rejects folded trials.
+pub fn naa_frame_bounds(
+    previous: &VertexGrid,
+    first: &VertexGrid,
+    options: &BoundOptions,
+) -> Bounds {
+    let mut lower = Vec::with_capacity(previous.unknowns());
+    let mut upper = Vec::with_capacity(previous.unknowns());
+    for a in 1..previous.m.saturating_sub(1) {
+        for b in 1..previous.n.saturating_sub(1) {
+            let here = previous.at(a, b);
+            let neighbours = [
+                (previous.at(a - 1, b)[0], previous.at(a + 1, b)[0]),
+                (previous.at(a, b - 1)[1], previous.at(a, b + 1)[1]),
+            ];
+            for k in 0..2 {
+                let smooth = options
+                    .smoothness
+                    .map_or(Interval::ALL, |o| Interval::around(here[k], o));
+                let mut bound = merge(
+                    foldover_coordinate(neighbours[k].0, here[k], neighbours[k].1),
+                    smooth,
+                );
+                if let (Some((frame, frames)), Some(o)) = (options.looping, options.smoothness) {
+                    bound = merge(
+                        Interval::around(first.at(a, b)[k], loop_distance(frame, frames) * o),
+                        bound,
+                    );
+                }
+                lower.push(bound.lo);
+                upper.push(bound.hi);
+            }
+        }
+    }
+    Bounds { lower, upper }
+}
+
+/// Foldover boxes around `previous` merged with the smoothness bound (no looping).
+pub fn naa_bounds(previous: &VertexGrid, smoothness: Option<f64>) -> Bounds {
+    naa_frame_bounds(
+        previous,
+        previous,
+        &BoundOptions {
+            smoothness,
+            looping: None,
+        },
+    )
+}
+
+/// One NAA frame's result.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct NaaFrameSolution {
+    pub vertices: VertexGrid,
+    pub lm: LmReport,
+    /// Energy of the rest vertices on this frame, for comparison.
+    pub rest_energy: f64,
+    pub seconds: f64,
+}
+
+/// Solve one NAA frame: minimise the energy of `deformed` over the interior vertices, starting
+/// from and bounded around `previous` (and `first`, for looping frame `frame` of `frames`), as
+/// [`super::solve::solve_frame`] does for the AA lines.
+///
+/// Errors: `previous` or `first` does not match the rest grid's shape, or `previous` folds.
+pub fn solve_naa_frame(
+    rest: &RestFields,
+    rest_grid: &Grid,
+    deformed: &DeformedJacobian,
+    previous: &VertexGrid,
+    first: &VertexGrid,
+    (frame, frames): (usize, usize),
+    options: &SolveOptions,
+) -> Result<NaaFrameSolution> {
+    let start = Instant::now();
+    let (m, n) = (rest_grid.s.len(), rest_grid.t.len());
+    for (name, g) in [("previous", previous), ("first", first)] {
+        if (g.m, g.n, g.points.len()) != (m, n, m * n) {
+            return Err(Error::InvalidArgument(format!(
+                "gridwarp naa: {name} vertex grid is {}×{} for a {m}×{n} rest grid",
+                g.m, g.n
+            )));
+        }
+    }
+    let (k, l) = match options.samples {
+        (0, 0) => (8, 8),
+        (k, l) => (k.max(1), l.max(1)),
+    };
+    let mut energy = NaaEnergy::new(rest, rest_grid, deformed, k, l);
+    let bound_options = BoundOptions {
+        smoothness: options.smoothness,
+        looping: options.looping.then_some((frame, frames)),
+    };
+    let bounds = naa_frame_bounds(previous, first, &bound_options);
+    let rest_x = energy.rest_vertices().to_unknowns();
+    let rest_energy = energy.energy(&rest_x);
+    let report = minimize(&mut energy, &previous.to_unknowns(), &bounds, &options.lm)?;
+    Ok(NaaFrameSolution {
+        vertices: energy.rest_vertices().with_unknowns(&report.x),
+        lm: report,
+        rest_energy,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}

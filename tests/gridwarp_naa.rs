@@ -1,0 +1,304 @@
+//! Properties of the non-axis-aligned gridwarp energy and solve (notes "Formulation: NAA",
+//! "Analytic Jacobian: NAA", "Bounds", "Oracles for tests").
+
+use nalgebra::{DVector, Vector3};
+use reparam::gridwarp::energy_naa::{naa_bounds, VectorField};
+use reparam::gridwarp::field::Field;
+use reparam::gridwarp::grid::grid_from_rigidity;
+use reparam::gridwarp::scene::{disc_rigidity, flat_rest, plane_partials};
+use reparam::gridwarp::*;
+use reparam::lm::{LmOptions, Residuals};
+
+/// D_s = x̂·c_s(s, t), D_t = ŷ·c_t(s, t): the deformed lengths are c_s, c_t exactly.
+fn axis_fields(
+    n: usize,
+    cs: impl Fn(f64, f64) -> f64,
+    ct: impl Fn(f64, f64) -> f64,
+) -> (DeformedFields, DeformedJacobian) {
+    let aa = DeformedFields {
+        d_s: Field::from_fn(n, n, &cs),
+        d_t: Field::from_fn(n, n, &ct),
+    };
+    let naa = DeformedJacobian {
+        d_s: VectorField::from_fn(n, n, |s, t| [cs(s, t), 0.0, 0.0]),
+        d_t: VectorField::from_fn(n, n, |s, t| [0.0, ct(s, t), 0.0]),
+    };
+    (aa, naa)
+}
+
+/// All cells of `v` have positive determinants at all four corners.
+fn assert_unfolded(v: &VertexGrid) {
+    for i in 0..v.m - 1 {
+        for j in 0..v.n - 1 {
+            let d = v.corner_determinants(i, j);
+            assert!(d.iter().all(|&d| d > 0.0), "cell ({i}, {j}): {d:?}");
+        }
+    }
+}
+
+#[test]
+fn axis_aligned_vertices_give_the_aa_energy() {
+    let n = 64;
+    let rest = RestFields {
+        o_s: Field::from_fn(n, n, |s, t| 1.0 + 0.2 * (3.0 * s).sin() * t),
+        o_t: Field::from_fn(n, n, |s, t| 0.9 + 0.3 * t * t + 0.05 * s),
+        rigidity: disc_rigidity(n, &[(0.4, 0.6, 0.2)], 0.2),
+    };
+    let (aa, naa) = axis_fields(
+        n,
+        |s, t| 1.3 + 0.5 * (2.0 * s + t).cos(),
+        |s, t| 0.8 + 0.4 * s * t,
+    );
+    let grid = Grid::new(vec![0.0, 0.3, 0.55, 1.0], vec![0.0, 0.45, 0.7, 1.0]).unwrap();
+    for x in [vec![0.3, 0.55, 0.45, 0.7], vec![0.27, 0.6, 0.4, 0.76]] {
+        let lines = grid.with_unknowns(&x);
+        let vx = VertexGrid::from_grid(&lines).to_unknowns();
+        let e_aa = AaEnergy::new(&rest, &grid, &aa, 4, 3).energy(&x);
+        let e_naa = NaaEnergy::new(&rest, &grid, &naa, 4, 3).energy(&vx);
+        // Same samples, same sums; q_s = a_i·(c_s, 0, 0) so ‖q_s‖ = c_s a_i up to a few ulps in
+        // the slope and sample point: relative difference ≈ 1e-15, 1e-12 leaves room.
+        assert!(e_aa > 1e-3, "non-trivial energy: {e_aa}");
+        assert!(
+            (e_aa - e_naa).abs() <= 1e-12 * e_aa,
+            "AA {e_aa} vs NAA {e_naa}"
+        );
+    }
+}
+
+#[test]
+fn analytic_jacobian_matches_central_differences() {
+    // Linear component fields are reproduced exactly by bilinear interpolation inside the
+    // texel-centre range ([0.5/64, 1 − 0.5/64]; every sample below stays inside), so the residuals
+    // are smooth in the vertices and central differences are exact up to rounding:
+    // ≈ ε·|r|/step ≈ 1e-16/1e-6 = 1e-10, against a 1e-8 tolerance.
+    let n = 64;
+    let rest = RestFields {
+        o_s: Field::from_fn(n, n, |s, t| 1.0 + 0.2 * s - 0.1 * t),
+        o_t: Field::from_fn(n, n, |s, t| 0.9 + 0.3 * t + 0.05 * s),
+        rigidity: disc_rigidity(n, &[(0.5, 0.5, 0.3)], 0.3),
+    };
+    let frame = DeformedJacobian {
+        d_s: VectorField::from_fn(n, n, |s, t| {
+            [1.4 + 0.6 * s + 0.4 * t, 0.2 - 0.3 * t, 0.5 * s]
+        }),
+        d_t: VectorField::from_fn(n, n, |s, t| {
+            [0.1 * s - 0.2 * t, 0.8 - 0.3 * s + 0.5 * t, 0.3 + 0.4 * t]
+        }),
+    };
+    let grid = Grid::new(vec![0.0, 0.3, 0.55, 1.0], vec![0.0, 0.45, 0.7, 1.0]).unwrap();
+    let energy = NaaEnergy::new(&rest, &grid, &frame, 4, 3);
+    // Interior vertices moved off the axis-aligned positions in both coordinates.
+    let x = vec![0.32, 0.42, 0.28, 0.73, 0.57, 0.47, 0.52, 0.68];
+    let jac = energy.jacobian(&x);
+    let step = 1e-6;
+    let mut largest = 0.0f64;
+    for col in 0..x.len() {
+        let (mut xp, mut xm) = (x.clone(), x.clone());
+        xp[col] += step;
+        xm[col] -= step;
+        let (rp, rm) = (energy.residuals(&xp), energy.residuals(&xm));
+        for row in 0..rp.len() {
+            let fd = (rp[row] - rm[row]) / (2.0 * step);
+            largest = largest.max(fd.abs());
+            assert!(
+                (fd - jac[(row, col)]).abs() < 1e-8 * (1.0 + fd.abs()),
+                "row {row} col {col}: {fd} vs {}",
+                jac[(row, col)]
+            );
+        }
+    }
+    assert!(largest > 0.1, "the Jacobian is not trivially zero");
+    // The normal equations are JᵀJ and Jᵀr of that Jacobian (same products, other order: 1e-12).
+    let mut e = NaaEnergy::new(&rest, &grid, &frame, 4, 3);
+    let ne = e.normal_equations(&x);
+    let r = DVector::from_vec(energy.residuals(&x));
+    assert!((&ne.jtj - jac.transpose() * &jac).abs().max() < 1e-12);
+    assert!((&ne.jtr - jac.transpose() * &r).abs().max() < 1e-12);
+    assert!((ne.energy - r.norm_squared()).abs() < 1e-14);
+}
+
+#[test]
+fn the_notes_counterexample_is_inside_its_boxes_but_has_infinite_energy() {
+    // The notes' cell P00=(−0.1,−0.1), P10=(1,−1), P01=(−1,0.1), P11=(1,1) on [−1, 1]², mapped
+    // onto the cell (1, 1) = [0.25, 0.5]² of a uniform 5×5 grid: centre 0.375, half-width 0.125.
+    let grid = Grid::uniform(5, 5);
+    let rest = flat_rest(16, Field::constant(1.0));
+    let frame = DeformedJacobian::from_partials(16, &plane_partials);
+    let map = |p: [f64; 2]| [0.375 + 0.125 * p[0], 0.375 + 0.125 * p[1]];
+    let mut v = VertexGrid::from_grid(&grid);
+    v.points[v.n + 1] = map([-0.1, -0.1]); // P_11 (moved)
+    v.points[2 * v.n + 1] = map([1.0, -1.0]); // P_21
+    v.points[v.n + 2] = map([-1.0, 0.1]); // P_12 (moved)
+    v.points[2 * v.n + 2] = map([1.0, 1.0]); // P_22
+    let d = v.corner_determinants(1, 1);
+    // det = −0.59 on [−1, 1]², scaled by 0.125².
+    assert!((d[0] + 0.59 * 0.125 * 0.125).abs() < 1e-15, "{d:?}");
+    let x = v.to_unknowns();
+    let bounds = naa_bounds(&VertexGrid::from_grid(&grid), None);
+    for (i, xi) in x.iter().enumerate() {
+        assert!(
+            bounds.lower[i] <= *xi && *xi <= bounds.upper[i],
+            "unknown {i} = {xi} outside [{}, {}]",
+            bounds.lower[i],
+            bounds.upper[i]
+        );
+    }
+    let mut energy = NaaEnergy::new(&rest, &grid, &frame, 2, 2);
+    assert!(!v.is_valid());
+    assert_eq!(energy.energy(&x), f64::INFINITY);
+    // The rest grid is fine (zero energy: identity deformation of the plane).
+    assert_eq!(
+        energy.energy(&VertexGrid::from_grid(&grid).to_unknowns()),
+        0.0
+    );
+}
+
+#[test]
+fn identity_deformation_gives_zero_energy_zero_iterations_and_the_same_vertices() {
+    let rest = flat_rest(32, disc_rigidity(32, &[(0.3, 0.4, 0.15)], 0.1));
+    let frame = DeformedJacobian::from_partials(32, &plane_partials);
+    let grid = Grid::new(vec![0.0, 0.2, 0.55, 1.0], vec![0.0, 0.3, 0.6, 1.0]).unwrap();
+    let v = VertexGrid::from_grid(&grid);
+    let s = solve_naa_frame(
+        &rest,
+        &grid,
+        &frame,
+        &v,
+        &v,
+        (0, 1),
+        &SolveOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(s.lm.energy, 0.0);
+    assert_eq!(s.lm.iterations, 0);
+    assert_eq!(s.vertices, v);
+}
+
+/// A plane_stretch-like frame with the stretch varying along t too (so the vertical lines want
+/// to bend), built from analytic partials.
+fn bent_stretch(size: usize, sigma: f64) -> DeformedJacobian {
+    DeformedJacobian::from_partials(size, &move |s: f64, t: f64| {
+        let ramp = (3.0 * s * s - 2.0 * s * s * s).clamp(0.0, 1.0);
+        (
+            Vector3::x() * (1.0 + (sigma - 1.0) * ramp * (0.5 + t)),
+            Vector3::y() + Vector3::z() * (0.3 * s),
+        )
+    })
+}
+
+fn naa_sequence(
+    rest: &RestFields,
+    grid: &Grid,
+    frames: &[DeformedJacobian],
+    options: &SolveOptions,
+) -> Vec<NaaFrameSolution> {
+    let start = VertexGrid::from_grid(grid);
+    let mut out: Vec<NaaFrameSolution> = Vec::new();
+    for (j, f) in frames.iter().enumerate() {
+        let previous = out.last().map_or(&start, |s| &s.vertices).clone();
+        out.push(
+            solve_naa_frame(rest, grid, f, &previous, &start, (j, frames.len()), options).unwrap(),
+        );
+    }
+    out
+}
+
+#[test]
+fn solves_keep_every_cell_unfolded_and_lower_the_energy() {
+    let rigidity = disc_rigidity(64, &[(0.7, 0.5, 0.12), (0.25, 0.3, 0.1)], 0.1);
+    let grid = grid_from_rigidity(&rigidity, 0.5);
+    let rest = flat_rest(64, rigidity);
+    let frames: Vec<_> = [1.8, 2.5].iter().map(|&s| bent_stretch(64, s)).collect();
+    let solutions = naa_sequence(&rest, &grid, &frames, &SolveOptions::default());
+    for s in &solutions {
+        assert_unfolded(&s.vertices);
+        assert!(
+            s.lm.energy < 0.5 * s.rest_energy,
+            "{} vs {}",
+            s.lm.energy,
+            s.rest_energy
+        );
+        assert!(
+            s.lm.accepted_energies.windows(2).all(|w| w[1] < w[0]),
+            "{:?}",
+            s.lm.accepted_energies
+        );
+        // Border vertices never move.
+        let rest_v = VertexGrid::from_grid(&grid);
+        for a in 0..rest_v.m {
+            for b in 0..rest_v.n {
+                if a == 0 || b == 0 || a == rest_v.m - 1 || b == rest_v.n - 1 {
+                    assert_eq!(s.vertices.at(a, b), rest_v.at(a, b));
+                }
+            }
+        }
+    }
+    // The grid really is non-axis-aligned: some vertical line bent (its interior vertices'
+    // s coordinates differ by more than rounding).
+    let v = &solutions.last().unwrap().vertices;
+    let bent = (1..v.m - 1).any(|a| {
+        let s: Vec<f64> = (1..v.n - 1).map(|b| v.at(a, b)[0]).collect();
+        s.iter().any(|x| (x - s[0]).abs() > 1e-4)
+    });
+    assert!(bent, "{v:?}");
+}
+
+#[test]
+fn results_are_bit_identical_with_one_and_two_threads() {
+    let rigidity = disc_rigidity(64, &[(0.7, 0.5, 0.12)], 0.1);
+    let grid = grid_from_rigidity(&rigidity, 0.5);
+    let rest = flat_rest(64, rigidity);
+    let frames = vec![bent_stretch(64, 2.0)];
+    let options = SolveOptions {
+        samples: (4, 4),
+        lm: LmOptions::default(),
+        ..Default::default()
+    };
+    let run = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| naa_sequence(&rest, &grid, &frames, &options))
+    };
+    let (a, b) = (run(1), run(2));
+    for (x, y) in a.iter().zip(&b) {
+        assert!(x.lm.iterations > 0);
+        assert_eq!(x.vertices, y.vertices);
+        assert_eq!(x.lm.energy.to_bits(), y.lm.energy.to_bits());
+    }
+}
+
+#[test]
+fn zz_debug() {
+    let n = 64;
+    let rest = RestFields {
+        o_s: Field::from_fn(n, n, |s, t| 1.0 + 0.2 * (3.0 * s).sin() * t),
+        o_t: Field::from_fn(n, n, |s, t| 0.9 + 0.3 * t * t + 0.05 * s),
+        rigidity: disc_rigidity(n, &[(0.4, 0.6, 0.2)], 0.2),
+    };
+    let (aa, naa) = axis_fields(
+        n,
+        |s, t| 1.3 + 0.5 * (2.0 * s + t).cos(),
+        |s, t| 0.8 + 0.4 * s * t,
+    );
+    let grid = Grid::new(vec![0.0, 0.3, 0.55, 1.0], vec![0.0, 0.45, 0.7, 1.0]).unwrap();
+    let x = vec![0.27, 0.6, 0.4, 0.76];
+    let vx = VertexGrid::from_grid(&grid.with_unknowns(&x)).to_unknowns();
+    let ra = AaEnergy::new(&rest, &grid, &aa, 4, 3).residuals(&x);
+    let rn = NaaEnergy::new(&rest, &grid, &naa, 4, 3).residuals(&vx);
+    println!("{:?} {:?}", vx, grid.with_unknowns(&x));
+    for (i, (a, b)) in ra.iter().zip(&rn).enumerate() {
+        if a != b {
+            println!("{i} {a} {b}");
+        }
+    }
+    println!(
+        "{} {} {} {}",
+        ra.iter().map(|r| r * r).sum::<f64>(),
+        rn.iter().map(|r| r * r).sum::<f64>(),
+        AaEnergy::new(&rest, &grid, &aa, 4, 3).energy(&x),
+        NaaEnergy::new(&rest, &grid, &naa, 4, 3).energy(&vx)
+    );
+    panic!();
+}
