@@ -51,10 +51,13 @@ fn axis_aligned_vertices_give_the_aa_energy() {
     );
     let grid = Grid::new(vec![0.0, 0.3, 0.55, 1.0], vec![0.0, 0.45, 0.7, 1.0]).unwrap();
     for x in [vec![0.3, 0.55, 0.45, 0.7], vec![0.27, 0.6, 0.4, 0.76]] {
-        let lines = grid.with_unknowns(&x);
-        let vx = VertexGrid::from_grid(&lines).to_unknowns();
-        let e_aa = AaEnergy::new(&rest, &grid, &aa, 4, 3).energy(&x);
-        let e_naa = NaaEnergy::new(&rest, &grid, &naa, 4, 3).energy(&vx);
+        // Moving AA line s_i moves its border vertices along the border: sliding-border mode.
+        let lines = VertexGrid::from_grid(&grid.with_unknowns(&x)).with_sliding_border(true);
+        let vx = lines.to_unknowns();
+        let mut aa_energy = AaEnergy::new(&rest, &grid, &aa, 4, 3);
+        let mut naa_energy = NaaEnergy::new(&rest, &grid, &naa, 4, 3).with_sliding_border(true);
+        let e_aa = aa_energy.energy(&x);
+        let e_naa = naa_energy.energy(&vx);
         // Same samples, same sums; q_s = a_i·(c_s, 0, 0) so ‖q_s‖ = c_s a_i up to a few ulps in
         // the slope and sample point: relative difference ≈ 1e-15, 1e-12 leaves room.
         assert!(e_aa > 1e-3, "non-trivial energy: {e_aa}");
@@ -62,6 +65,31 @@ fn axis_aligned_vertices_give_the_aa_energy() {
             (e_aa - e_naa).abs() <= 1e-12 * e_aa,
             "AA {e_aa} vs NAA {e_naa}"
         );
+        // Chain rule: ∂F/∂s_i = Σ_b ∂F/∂P_ib.s and ∂F/∂t_j = Σ_a ∂F/∂P_aj.t. Same residuals,
+        // gradients O(0.1): 1e-12 absolute is ~1e-11 relative, far above rounding (~1e-15).
+        let (g_aa, g_naa) = (
+            aa_energy.normal_equations(&x).jtr,
+            naa_energy.normal_equations(&vx).jtr,
+        );
+        let m = grid.s.len();
+        for i in 1..m - 1 {
+            let sum: f64 = (0..lines.n)
+                .map(|b| g_naa[lines.unknown_index(i, b)[0].unwrap()])
+                .sum();
+            assert!(
+                (sum - g_aa[i - 1]).abs() < 1e-12,
+                "s_{i}: {sum} vs {}",
+                g_aa[i - 1]
+            );
+        }
+        for j in 1..grid.t.len() - 1 {
+            let sum: f64 = (0..lines.m)
+                .map(|a| g_naa[lines.unknown_index(a, j)[1].unwrap()])
+                .sum();
+            let k = m - 2 + j - 1;
+            assert!((sum - g_aa[k]).abs() < 1e-12, "t_{j}: {sum} vs {}", g_aa[k]);
+        }
+        assert!(g_aa.amax() > 1e-3, "non-trivial gradient {g_aa}");
     }
 }
 
@@ -191,8 +219,9 @@ fn naa_sequence(
     grid: &Grid,
     frames: &[DeformedJacobian],
     options: &SolveOptions,
+    sliding: bool,
 ) -> Vec<NaaFrameSolution> {
-    let start = VertexGrid::from_grid(grid);
+    let start = VertexGrid::from_grid(grid).with_sliding_border(sliding);
     let mut out: Vec<NaaFrameSolution> = Vec::new();
     for (j, f) in frames.iter().enumerate() {
         let previous = out.last().map_or(&start, |s| &s.vertices).clone();
@@ -209,7 +238,13 @@ fn solves_keep_every_cell_unfolded_and_lower_the_energy() {
     let grid = grid_from_rigidity(&rigidity, 0.5);
     let rest = flat_rest(64, rigidity);
     let frames: Vec<_> = [1.8, 2.5].iter().map(|&s| bent_stretch(64, s)).collect();
-    let solutions = naa_sequence(&rest, &grid, &frames, &SolveOptions::default());
+    for sliding in [false, true] {
+        unfolded_and_lower(&rest, &grid, &frames, sliding);
+    }
+}
+
+fn unfolded_and_lower(rest: &RestFields, grid: &Grid, frames: &[DeformedJacobian], sliding: bool) {
+    let solutions = naa_sequence(rest, grid, frames, &SolveOptions::default(), sliding);
     for s in &solutions {
         assert_unfolded(&s.vertices);
         assert!(
@@ -224,11 +259,19 @@ fn solves_keep_every_cell_unfolded_and_lower_the_energy() {
             s.lm.accepted_energies
         );
         // Border vertices never move.
-        let rest_v = VertexGrid::from_grid(&grid);
+        let rest_v = VertexGrid::from_grid(grid);
         for a in 0..rest_v.m {
             for b in 0..rest_v.n {
-                if a == 0 || b == 0 || a == rest_v.m - 1 || b == rest_v.n - 1 {
-                    assert_eq!(s.vertices.at(a, b), rest_v.at(a, b));
+                // Border vertices stay on their edge (and fixed unless sliding).
+                let (p, q) = (s.vertices.at(a, b), rest_v.at(a, b));
+                if a == 0 || a == rest_v.m - 1 {
+                    assert_eq!(p[0], q[0]);
+                }
+                if b == 0 || b == rest_v.n - 1 {
+                    assert_eq!(p[1], q[1]);
+                }
+                if !sliding && (a == 0 || b == 0 || a == rest_v.m - 1 || b == rest_v.n - 1) {
+                    assert_eq!(p, q);
                 }
             }
         }
@@ -259,7 +302,7 @@ fn results_are_bit_identical_with_one_and_two_threads() {
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| naa_sequence(&rest, &grid, &frames, &options))
+            .install(|| naa_sequence(&rest, &grid, &frames, &options, true))
     };
     let (a, b) = (run(1), run(2));
     for (x, y) in a.iter().zip(&b) {
@@ -267,38 +310,4 @@ fn results_are_bit_identical_with_one_and_two_threads() {
         assert_eq!(x.vertices, y.vertices);
         assert_eq!(x.lm.energy.to_bits(), y.lm.energy.to_bits());
     }
-}
-
-#[test]
-fn zz_debug() {
-    let n = 64;
-    let rest = RestFields {
-        o_s: Field::from_fn(n, n, |s, t| 1.0 + 0.2 * (3.0 * s).sin() * t),
-        o_t: Field::from_fn(n, n, |s, t| 0.9 + 0.3 * t * t + 0.05 * s),
-        rigidity: disc_rigidity(n, &[(0.4, 0.6, 0.2)], 0.2),
-    };
-    let (aa, naa) = axis_fields(
-        n,
-        |s, t| 1.3 + 0.5 * (2.0 * s + t).cos(),
-        |s, t| 0.8 + 0.4 * s * t,
-    );
-    let grid = Grid::new(vec![0.0, 0.3, 0.55, 1.0], vec![0.0, 0.45, 0.7, 1.0]).unwrap();
-    let x = vec![0.27, 0.6, 0.4, 0.76];
-    let vx = VertexGrid::from_grid(&grid.with_unknowns(&x)).to_unknowns();
-    let ra = AaEnergy::new(&rest, &grid, &aa, 4, 3).residuals(&x);
-    let rn = NaaEnergy::new(&rest, &grid, &naa, 4, 3).residuals(&vx);
-    println!("{:?} {:?}", vx, grid.with_unknowns(&x));
-    for (i, (a, b)) in ra.iter().zip(&rn).enumerate() {
-        if a != b {
-            println!("{i} {a} {b}");
-        }
-    }
-    println!(
-        "{} {} {} {}",
-        ra.iter().map(|r| r * r).sum::<f64>(),
-        rn.iter().map(|r| r * r).sum::<f64>(),
-        AaEnergy::new(&rest, &grid, &aa, 4, 3).energy(&x),
-        NaaEnergy::new(&rest, &grid, &naa, 4, 3).energy(&vx)
-    );
-    panic!();
 }

@@ -73,6 +73,7 @@ struct FieldSample {
 }
 
 // `axis` of field.rs: (lower texel centre index, fraction, du/ds = n or 0 where clamped).
+// `!(u > 0)` also sends NaN to the first texel, as the reference does.
 struct Axis {
     x0: u32,
     frac: f32,
@@ -81,7 +82,7 @@ struct Axis {
 
 fn axis(s: f32, n: u32) -> Axis {
     let u = s * f32(n) - 0.5;
-    if n == 1u || u <= 0.0 {
+    if n == 1u || !(u > 0.0) {
         return Axis(0u, 0.0, 0.0);
     }
     if u >= f32(n - 1u) {

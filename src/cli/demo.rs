@@ -272,6 +272,11 @@ fn gridwarp_demo(out: &Path, report: &mut Report) -> Result<()> {
     for scene in reparam::gridwarp::scene::SCENES {
         let args = GridwarpArgs {
             scene: scene.to_string(),
+            gltf: None,
+            animation: None,
+            obj: Vec::new(),
+            roi: "0,1,0,1".into(),
+            rigidity: None,
             frames: 6,
             size: 128,
             grid: "auto".into(),

@@ -6,10 +6,15 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use nalgebra::Vector3;
 use reparam::gridwarp::merit::{rigid_stretch, RigidStretch};
-use reparam::gridwarp::picture::{detail_texture, grid_overlay, render_textured, surface_mesh};
+use reparam::gridwarp::picture::{
+    atlas_texture, detail_texture, grid_overlay, remap_mesh_uvs, render_textured, surface_mesh,
+};
+use reparam::gridwarp::rasterize::{frames_fields, rigidity_from_image, Roi};
 use reparam::gridwarp::scene::{analytic_scene, AnalyticScene, SCENES};
 use reparam::gridwarp::{grid_from_rigidity, solve_sequence, Grid, SolveOptions};
+use reparam::gridwarp::{DeformedFields, Field, RestFields};
 use reparam::lm::{LmOptions, StopCode};
+use reparam::mesh::{load_gltf, load_obj, TriMesh};
 use reparam::report::sig;
 use reparam::texture::{save_png, side_by_side};
 use reparam::{Error, Result};
@@ -17,9 +22,24 @@ use serde::Serialize;
 
 #[derive(Args, Clone)]
 pub struct GridwarpArgs {
-    /// Built-in scene.
+    /// Built-in scene (ignored with --gltf or --obj).
     #[arg(long, default_value = "bump", value_parser = clap::builder::PossibleValuesParser::new(SCENES))]
     pub scene: String,
+    /// A skinned glTF/GLB: the rest pose and `--frames` poses of `--animation` at uniform times.
+    #[arg(long)]
+    pub gltf: Option<PathBuf>,
+    /// Animation of --gltf (default: the first).
+    #[arg(long)]
+    pub animation: Option<String>,
+    /// OBJ frames with the same connectivity and UVs; the first is the rest pose.
+    #[arg(long, num_args = 2..)]
+    pub obj: Vec<PathBuf>,
+    /// Texture-space region of interest u0,u1,v0,v1 (with --gltf / --obj).
+    #[arg(long, default_value = "0,1,0,1")]
+    pub roi: String,
+    /// Rigidity map (PNG 8/16-bit or EXR, values in [0, 1]) over the ROI; default: R ≡ 1.
+    #[arg(long)]
+    pub rigidity: Option<PathBuf>,
     /// Number of frames (the deformation grows to its full amount over them).
     #[arg(long, default_value_t = 6)]
     pub frames: usize,
@@ -79,6 +99,11 @@ fn parse_grid(spec: &str, scene: &AnalyticScene, epsilon: f64) -> Result<Grid> {
     if spec == "auto" {
         return Ok(grid_from_rigidity(&scene.rigidity, epsilon));
     }
+    parse_grid_spec(spec)
+}
+
+/// `MxN` → a uniform grid of M × N lines.
+fn parse_grid_spec(spec: &str) -> Result<Grid> {
     let bad = || {
         Error::InvalidArgument(format!(
             "--grid must be `auto` or MxN with M, N ≥ 2, got '{spec}'"
@@ -92,8 +117,11 @@ fn parse_grid(spec: &str, scene: &AnalyticScene, epsilon: f64) -> Result<Grid> {
     Ok(Grid::uniform(m, n))
 }
 
-/// Solve the scene and write its pictures; shared by the command and the demo.
+/// Solve the scene (or the mesh input) and write its pictures; shared by the command and the demo.
 pub fn solve_scene(args: &GridwarpArgs) -> Result<GridwarpResult> {
+    if args.gltf.is_some() || !args.obj.is_empty() {
+        return solve_meshes(args);
+    }
     let scene = analytic_scene(&args.scene, args.frames)
         .ok_or_else(|| Error::InvalidArgument(format!("unknown scene '{}'", args.scene)))?;
     if args.size < 2 || args.samples == 0 {
@@ -103,41 +131,7 @@ pub fn solve_scene(args: &GridwarpArgs) -> Result<GridwarpResult> {
     }
     let fields = scene.fields(args.size);
     let rest_grid = parse_grid(&args.grid, &scene, args.epsilon)?;
-    let options = SolveOptions {
-        samples: (args.samples, args.samples),
-        lm: if args.paper {
-            LmOptions::paper()
-        } else {
-            LmOptions::default()
-        },
-        smoothness: args.smoothness,
-        looping: false,
-    };
-    let solutions = solve_sequence(&fields.rest, &rest_grid, &fields.frames, &options)?;
-    let frames = solutions
-        .iter()
-        .zip(&fields.frames)
-        .enumerate()
-        .map(|(k, (s, deformed))| FrameStats {
-            frame: k,
-            rigid_stretch_before: rigid_stretch(
-                &fields.rest,
-                deformed,
-                &rest_grid,
-                &rest_grid,
-                256,
-            ),
-            rigid_stretch_after: rigid_stretch(&fields.rest, deformed, &rest_grid, &s.grid, 256),
-            energy_before: s.rest_energy,
-            energy_after: s.lm.energy,
-            seconds: s.seconds,
-            iterations: s.lm.iterations,
-            energy_evaluations: s.lm.energy_evaluations,
-            jacobian_evaluations: s.lm.jacobian_evaluations,
-            stop: s.lm.stop,
-        })
-        .collect();
-    let grids: Vec<Grid> = solutions.iter().map(|s| s.grid.clone()).collect();
+    let (frames, grids) = solve_and_measure(args, &fields.rest, &rest_grid, &fields.frames)?;
     let pictures = write_pictures(
         &args.out,
         &scene,
@@ -151,6 +145,143 @@ pub fn solve_scene(args: &GridwarpArgs) -> Result<GridwarpResult> {
         frames,
         grids,
         pictures,
+    })
+}
+
+/// Solve every frame (warm-started) and measure it: per-frame statistics and grids.
+fn solve_and_measure(
+    args: &GridwarpArgs,
+    rest: &RestFields,
+    rest_grid: &Grid,
+    deformed: &[DeformedFields],
+) -> Result<(Vec<FrameStats>, Vec<Grid>)> {
+    let options = SolveOptions {
+        samples: (args.samples, args.samples),
+        lm: if args.paper {
+            LmOptions::paper()
+        } else {
+            LmOptions::default()
+        },
+        smoothness: args.smoothness,
+        looping: false,
+    };
+    let solutions = solve_sequence(rest, rest_grid, deformed, &options)?;
+    let frames = solutions
+        .iter()
+        .zip(deformed)
+        .enumerate()
+        .map(|(k, (s, deformed))| FrameStats {
+            frame: k,
+            rigid_stretch_before: rigid_stretch(rest, deformed, rest_grid, rest_grid, 256),
+            rigid_stretch_after: rigid_stretch(rest, deformed, rest_grid, &s.grid, 256),
+            energy_before: s.rest_energy,
+            energy_after: s.lm.energy,
+            seconds: s.seconds,
+            iterations: s.lm.iterations,
+            energy_evaluations: s.lm.energy_evaluations,
+            jacobian_evaluations: s.lm.jacobian_evaluations,
+            stop: s.lm.stop,
+        })
+        .collect();
+    let grids: Vec<Grid> = solutions.iter().map(|s| s.grid.clone()).collect();
+    Ok((frames, grids))
+}
+
+fn parse_roi(spec: &str) -> Result<Roi> {
+    let bad = || Error::InvalidArgument(format!("--roi must be u0,u1,v0,v1, got '{spec}'"));
+    let v: Vec<f64> = spec
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| bad())?;
+    match v[..] {
+        [u0, u1, v0, v1] => Roi::new(u0, u1, v0, v1),
+        _ => Err(bad()),
+    }
+}
+
+/// The rest mesh and the deformed frames from --gltf (poses at uniform times) or --obj.
+fn load_frames(args: &GridwarpArgs) -> Result<(TriMesh, Vec<TriMesh>, String)> {
+    if let Some(path) = &args.gltf {
+        let skinned = load_gltf(path)?;
+        let animation = match &args.animation {
+            Some(name) => skinned.animation_index(name).ok_or_else(|| {
+                Error::InvalidArgument(format!(
+                    "{}: no animation '{name}' (has: {})",
+                    path.display(),
+                    skinned.animation_names().join(", ")
+                ))
+            })?,
+            None if skinned.animations.is_empty() => {
+                return Err(Error::InvalidArgument(format!(
+                    "{}: the file has no animation",
+                    path.display()
+                )))
+            }
+            None => 0,
+        };
+        let duration = skinned.duration(animation)?;
+        let count = args.frames.max(1);
+        let frames = (0..count)
+            .map(|k| skinned.posed_mesh(animation, duration * k as f64 / count as f64))
+            .collect::<Result<Vec<_>>>()?;
+        let stem = path
+            .file_stem()
+            .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
+        return Ok((skinned.mesh, frames, stem));
+    }
+    let meshes = args
+        .obj
+        .iter()
+        .map(|p| load_obj(p))
+        .collect::<Result<Vec<_>>>()?;
+    let stem = args.obj[0]
+        .file_stem()
+        .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
+    Ok((meshes[0].clone(), meshes[1..].to_vec(), stem))
+}
+
+/// gridwarp on real meshes: fields rasterised over the ROI in texture space, then as for scenes.
+fn solve_meshes(args: &GridwarpArgs) -> Result<GridwarpResult> {
+    let roi = parse_roi(&args.roi)?;
+    let (rest_mesh, frame_meshes, stem) = load_frames(args)?;
+    let size = (args.size, args.size);
+    let fields = frames_fields(&rest_mesh, &frame_meshes, &roi, size)?;
+    let rigidity = match &args.rigidity {
+        Some(path) => rigidity_from_image(path, None, size)?,
+        None => Field::constant(1.0),
+    };
+    let rest = fields.rest_fields(rigidity.clone());
+    let rest_grid = match args.grid.as_str() {
+        "auto" => grid_from_rigidity(&rigidity, args.epsilon),
+        spec => parse_grid_spec(spec)?,
+    };
+    let (frames, grids) = solve_and_measure(args, &rest, &rest_grid, &fields.frames)?;
+    let warped = grids.last().unwrap_or(&rest_grid);
+    let overlay = args.out.join(format!("gridwarp_{stem}_grid.png"));
+    save_png(
+        &grid_overlay(&detail_texture(&rigidity, 512), &rest_grid, warped),
+        &overlay,
+    )?;
+    let texture = atlas_texture(&roi, &rigidity, 1024);
+    let last = frame_meshes.last().unwrap_or(&rest_mesh);
+    let view = Vector3::new(-1.0, 0.3, 0.2);
+    let original = render_textured(last, &texture, view, 480);
+    let remapped = render_textured(
+        &remap_mesh_uvs(last, &roi, &rest_grid, warped),
+        &texture,
+        view,
+        480,
+    );
+    let render = args.out.join(format!("gridwarp_{stem}_render.png"));
+    save_png(&side_by_side(&[&original, &remapped], 8), &render)?;
+    Ok(GridwarpResult {
+        scene: stem,
+        unknowns: rest_grid.unknowns(),
+        rest_grid,
+        frames,
+        grids,
+        pictures: vec![overlay, render],
     })
 }
 
@@ -183,7 +314,9 @@ fn write_pictures(
 
 pub fn run(args: GridwarpArgs) -> Result<()> {
     let result = solve_scene(&args)?;
-    let lines = args.out.join(format!("gridwarp_{}_lines.json", args.scene));
+    let lines = args
+        .out
+        .join(format!("gridwarp_{}_lines.json", result.scene));
     let text = serde_json::to_string_pretty(&result.grids)
         .map_err(|e| Error::InvalidArgument(e.to_string()))?;
     std::fs::write(&lines, text).map_err(|e| Error::io(&lines, e))?;

@@ -2,11 +2,17 @@
 //! Jacobian: NAA", "Bounds"), mirroring the axis-aligned [`super::energy::AaEnergy`].
 //!
 //! # Unknowns
-//! The grid vertices P_ab ∈ R², a = 0..M−1 along s, b = 0..N−1 along t. Only the interior
-//! vertices move: x = (P_11.s, P_11.t, P_12.s, P_12.t, …), vertex (a, b) at
-//! 2·((a−1)(N−2) + (b−1)) (see [`VertexGrid::unknown_index`]), (M−2)(N−2)·2 values. Border
-//! vertices are **fixed** at their rest positions on the unit square's border (they do not slide
-//! along their edge): the ROI's outline is preserved exactly, like the AA lines 0 and 1.
+//! The grid vertices P_ab ∈ R², a = 0..M−1 along s, b = 0..N−1 along t. By default (the paper's
+//! count, seed Table 1) only the interior vertices move: x = (P_11.s, P_11.t, P_12.s, P_12.t, …),
+//! vertex (a, b) at 2·((a−1)(N−2) + (b−1)) (see [`VertexGrid::unknown_index`]), (M−2)(N−2)·2
+//! values, and the border vertices are **fixed** at their rest positions.
+//!
+//! Opt-in ([`VertexGrid::sliding_border`]): the non-corner border vertices also slide along their
+//! edge (bottom/top edge vertices move in s, left/right ones in t; corners stay fixed), appended
+//! after the interior unknowns: bottom edge s (a = 1..M−2), top edge s, left edge t (b = 1..N−2),
+//! right edge t; 2(M−2)(N−2) + 2(M−2) + 2(N−2) values. Only this mode contains every AA grid
+//! (moving AA line s_i moves its border vertices too) and reproduces the AA energy exactly. The
+//! ROI's outline (the unit square) is preserved in both modes.
 //!
 //! # Energy
 //! Rest cell (i, j) of size h_i × k_j is warped bilinearly,
@@ -31,8 +37,8 @@
 //! and reduced in column order (deterministic for any number of threads).
 //!
 //! # Validity
-//! det(∂W/∂α, ∂W/∂β) is bilinear in (α, β) (∂W/∂α depends on β only, ∂W/∂β on α only), so it is
-//! > 0 over the whole cell iff it is > 0 at the cell's 4 corners. A vertex grid with any corner
+//! det(∂W/∂α, ∂W/∂β) is bilinear in (α, β) (∂W/∂α depends on β only, ∂W/∂β on α only), so it
+//! is positive over the whole cell iff it is positive at the cell's 4 corners. A vertex grid with any corner
 //! determinant ≤ 0 has energy +∞ (a rejected LM trial). The per-coordinate foldover boxes of
 //! [`naa_bounds`] are not sufficient for this (the notes' counterexample), hence the check.
 
@@ -45,7 +51,6 @@ use super::bounds::{foldover, loop_distance, merge, BoundOptions, Interval};
 use super::energy::RestFields;
 use super::field::{Field, Sample};
 use super::grid::Grid;
-use super::scene::Partials;
 use super::solve::SolveOptions;
 use crate::error::{Error, Result};
 use crate::lm::{minimize, Bounds, LmReport, NormalEquations, Residuals};
@@ -102,7 +107,10 @@ pub struct DeformedJacobian {
 impl DeformedJacobian {
     /// D_s, D_t of an analytic surface sampled on `size`×`size` fields (the vector counterpart
     /// of [`super::scene::stretch_fields`]).
-    pub fn from_partials(size: usize, partials: &Partials) -> DeformedJacobian {
+    pub fn from_partials(
+        size: usize,
+        partials: impl Fn(f64, f64) -> (nalgebra::Vector3<f64>, nalgebra::Vector3<f64>),
+    ) -> DeformedJacobian {
         let v = |x: nalgebra::Vector3<f64>| [x.x, x.y, x.z];
         DeformedJacobian {
             d_s: VectorField::from_fn(size, size, |s, t| v(partials(s, t).0)),
@@ -118,6 +126,8 @@ pub struct VertexGrid {
     pub n: usize,
     /// P_ab = points[a·n + b] = [s, t].
     pub points: Vec<[f64; 2]>,
+    /// Non-corner border vertices are unknowns sliding along their edge (default false: fixed).
+    pub sliding_border: bool,
 }
 
 impl VertexGrid {
@@ -130,7 +140,18 @@ impl VertexGrid {
                 points.push([grid.s[a], grid.t[b]]);
             }
         }
-        VertexGrid { m, n, points }
+        VertexGrid {
+            m,
+            n,
+            points,
+            sliding_border: false,
+        }
+    }
+
+    /// The same grid with border vertices sliding along their edges (`true`) or fixed.
+    pub fn with_sliding_border(mut self, sliding: bool) -> VertexGrid {
+        self.sliding_border = sliding;
+        self
     }
 
     /// P_ab.
@@ -138,36 +159,69 @@ impl VertexGrid {
         self.points[a * self.n + b]
     }
 
-    /// Number of unknowns, (M−2)(N−2)·2.
+    /// Number of unknowns: (M−2)(N−2)·2, plus 2(M−2) + 2(N−2) with a sliding border.
     pub fn unknowns(&self) -> usize {
-        self.m.saturating_sub(2) * self.n.saturating_sub(2) * 2
+        let (mi, ni) = (self.m.saturating_sub(2), self.n.saturating_sub(2));
+        2 * mi * ni
+            + if self.sliding_border {
+                2 * mi + 2 * ni
+            } else {
+                0
+            }
     }
 
-    /// Index of P_ab's s coordinate in the unknowns (its t coordinate follows); None for the
-    /// fixed border vertices.
-    pub fn unknown_index(&self, a: usize, b: usize) -> Option<usize> {
-        (a > 0 && a + 1 < self.m && b > 0 && b + 1 < self.n)
-            .then(|| 2 * ((a - 1) * (self.n - 2) + (b - 1)))
+    /// Indices of P_ab's (s, t) coordinates in the unknowns; None for fixed coordinates.
+    pub fn unknown_index(&self, a: usize, b: usize) -> [Option<usize>; 2] {
+        let (m, n) = (self.m, self.n);
+        let inner_a = a > 0 && a + 1 < m;
+        let inner_b = b > 0 && b + 1 < n;
+        if inner_a && inner_b {
+            let k = 2 * ((a - 1) * (n - 2) + (b - 1));
+            return [Some(k), Some(k + 1)];
+        }
+        if !self.sliding_border {
+            return [None, None];
+        }
+        let (mi, ni) = (m.saturating_sub(2), n.saturating_sub(2));
+        let base = 2 * mi * ni;
+        if inner_a {
+            // Bottom (b = 0) or top (b = N−1) edge: slides in s.
+            let edge = usize::from(b != 0);
+            return [Some(base + edge * mi + (a - 1)), None];
+        }
+        if inner_b {
+            // Left (a = 0) or right (a = M−1) edge: slides in t.
+            let edge = usize::from(a != 0);
+            return [None, Some(base + 2 * mi + edge * ni + (b - 1))];
+        }
+        [None, None]
     }
 
-    /// x = the interior vertices' coordinates (s, t), a-major.
+    /// x = the free coordinates (interior vertices (s, t) a-major, then sliding border ones).
     pub fn to_unknowns(&self) -> Vec<f64> {
-        let mut x = Vec::with_capacity(self.unknowns());
-        for a in 1..self.m.saturating_sub(1) {
-            for b in 1..self.n.saturating_sub(1) {
-                x.extend_from_slice(&self.at(a, b));
+        let mut x = vec![0.0; self.unknowns()];
+        for a in 0..self.m {
+            for b in 0..self.n {
+                for (k, idx) in self.unknown_index(a, b).into_iter().enumerate() {
+                    if let Some(idx) = idx {
+                        x[idx] = self.at(a, b)[k];
+                    }
+                }
             }
         }
         x
     }
 
-    /// The grid with interior vertices taken from `x` (inverse of [`VertexGrid::to_unknowns`]).
+    /// The grid with free coordinates taken from `x` (inverse of [`VertexGrid::to_unknowns`]).
     pub fn with_unknowns(&self, x: &[f64]) -> VertexGrid {
         let mut g = self.clone();
-        for a in 1..self.m.saturating_sub(1) {
-            for b in 1..self.n.saturating_sub(1) {
-                let k = self.unknown_index(a, b).unwrap_or(0);
-                g.points[a * self.n + b] = [x[k], x[k + 1]];
+        for a in 0..self.m {
+            for b in 0..self.n {
+                for (k, idx) in self.unknown_index(a, b).into_iter().enumerate() {
+                    if let Some(idx) = idx {
+                        g.points[a * self.n + b][k] = x[idx];
+                    }
+                }
             }
         }
         g
@@ -269,6 +323,12 @@ impl<'a> NaaEnergy<'a> {
         }
     }
 
+    /// Let the non-corner border vertices slide along their edges (see the module docs).
+    pub fn with_sliding_border(mut self, sliding: bool) -> Self {
+        self.rest_vertices.sliding_border = sliding;
+        self
+    }
+
     /// The rest vertices (the starting point of a first frame).
     pub fn rest_vertices(&self) -> &VertexGrid {
         &self.rest_vertices
@@ -294,7 +354,7 @@ impl<'a> NaaEnergy<'a> {
                 g.at(i, j + 1),
                 g.at(i + 1, j + 1),
             );
-            // Unknown indices of the corners 00, 10, 01, 11 (s coordinate; t is +1).
+            // Unknown indices of the corners 00, 10, 01, 11, per coordinate.
             let idx = [
                 g.unknown_index(i, j),
                 g.unknown_index(i + 1, j),
@@ -355,8 +415,7 @@ impl<'a> NaaEnergy<'a> {
                     for c in 0..4 {
                         let dp = dphi[c] / len;
                         for k in 0..2 {
-                            d[2 * c + k] =
-                                (idx[c].map(|x| x + k), sg * (dp * m[k] + phi[c] * gk[k]));
+                            d[2 * c + k] = (idx[c][k], sg * (dp * m[k] + phi[c] * gk[k]));
                         }
                     }
                     visit((sg * (norm - o), d));
@@ -493,31 +552,31 @@ pub fn naa_frame_bounds(
     first: &VertexGrid,
     options: &BoundOptions,
 ) -> Bounds {
-    let mut lower = Vec::with_capacity(previous.unknowns());
-    let mut upper = Vec::with_capacity(previous.unknowns());
-    for a in 1..previous.m.saturating_sub(1) {
-        for b in 1..previous.n.saturating_sub(1) {
+    let mut lower = vec![0.0; previous.unknowns()];
+    let mut upper = vec![0.0; previous.unknowns()];
+    for a in 0..previous.m {
+        for b in 0..previous.n {
             let here = previous.at(a, b);
-            let neighbours = [
-                (previous.at(a - 1, b)[0], previous.at(a + 1, b)[0]),
-                (previous.at(a, b - 1)[1], previous.at(a, b + 1)[1]),
-            ];
-            for k in 0..2 {
+            for (k, idx) in previous.unknown_index(a, b).into_iter().enumerate() {
+                let Some(idx) = idx else { continue };
+                // A free s coordinate has 0 < a < M−1, a free t coordinate 0 < b < N−1.
+                let (lo, hi) = if k == 0 {
+                    (previous.at(a - 1, b)[0], previous.at(a + 1, b)[0])
+                } else {
+                    (previous.at(a, b - 1)[1], previous.at(a, b + 1)[1])
+                };
                 let smooth = options
                     .smoothness
                     .map_or(Interval::ALL, |o| Interval::around(here[k], o));
-                let mut bound = merge(
-                    foldover_coordinate(neighbours[k].0, here[k], neighbours[k].1),
-                    smooth,
-                );
+                let mut bound = merge(foldover_coordinate(lo, here[k], hi), smooth);
                 if let (Some((frame, frames)), Some(o)) = (options.looping, options.smoothness) {
                     bound = merge(
                         Interval::around(first.at(a, b)[k], loop_distance(frame, frames) * o),
                         bound,
                     );
                 }
-                lower.push(bound.lo);
-                upper.push(bound.hi);
+                lower[idx] = bound.lo;
+                upper[idx] = bound.hi;
             }
         }
     }
@@ -548,7 +607,8 @@ pub struct NaaFrameSolution {
 
 /// Solve one NAA frame: minimise the energy of `deformed` over the interior vertices, starting
 /// from and bounded around `previous` (and `first`, for looping frame `frame` of `frames`), as
-/// [`super::solve::solve_frame`] does for the AA lines.
+/// [`super::solve::solve_frame`] does for the AA lines. The border mode is `previous`'s
+/// ([`VertexGrid::sliding_border`]).
 ///
 /// Errors: `previous` or `first` does not match the rest grid's shape, or `previous` folds.
 pub fn solve_naa_frame(
@@ -563,10 +623,13 @@ pub fn solve_naa_frame(
     let start = Instant::now();
     let (m, n) = (rest_grid.s.len(), rest_grid.t.len());
     for (name, g) in [("previous", previous), ("first", first)] {
-        if (g.m, g.n, g.points.len()) != (m, n, m * n) {
+        if (g.m, g.n, g.points.len()) != (m, n, m * n)
+            || g.sliding_border != previous.sliding_border
+        {
             return Err(Error::InvalidArgument(format!(
-                "gridwarp naa: {name} vertex grid is {}×{} for a {m}×{n} rest grid",
-                g.m, g.n
+                "gridwarp naa: {name} vertex grid is {}×{} (sliding border {}) for a {m}×{n} \
+                 rest grid (sliding border {})",
+                g.m, g.n, g.sliding_border, previous.sliding_border
             )));
         }
     }
@@ -574,7 +637,8 @@ pub fn solve_naa_frame(
         (0, 0) => (8, 8),
         (k, l) => (k.max(1), l.max(1)),
     };
-    let mut energy = NaaEnergy::new(rest, rest_grid, deformed, k, l);
+    let mut energy = NaaEnergy::new(rest, rest_grid, deformed, k, l)
+        .with_sliding_border(previous.sliding_border);
     let bound_options = BoundOptions {
         smoothness: options.smoothness,
         looping: options.looping.then_some((frame, frames)),

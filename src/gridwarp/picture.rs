@@ -104,3 +104,46 @@ pub fn render_textured(
         sample_bilinear(texture, [u, v]).map(|c| c.round().clamp(0.0, 255.0) as u8)
     })
 }
+
+/// A texture for a whole UV atlas: inside the ROI the [`detail_texture`] of `rigidity` (which
+/// lives in ROI coordinates), outside it a plain light grid.
+pub fn atlas_texture(roi: &super::rasterize::Roi, rigidity: &Field, size: usize) -> Image<[u8; 4]> {
+    let detail = detail_texture(rigidity, size);
+    Image::from_fn(size, size, |x, y| {
+        let (u, v) = (
+            (x as f64 + 0.5) / size as f64,
+            1.0 - (y as f64 + 0.5) / size as f64,
+        );
+        let (s, t) = roi.st(Point2::new(u, v));
+        if (0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&t) {
+            let (dx, dy) = (
+                (s * size as f64) as usize,
+                ((1.0 - t) * size as f64) as usize,
+            );
+            detail.get(dx.min(size - 1), dy.min(size - 1))
+        } else if (u * 32.0).fract() < 0.05 || (v * 32.0).fract() < 0.05 {
+            [170, 170, 170, 255]
+        } else {
+            [238, 238, 238, 255]
+        }
+    })
+}
+
+/// `mesh` with the texture coordinates inside the ROI remapped by the warp (seed §6, altered
+/// texture coordinates): uv ↦ roi.uv(F⁻¹(roi.st(uv))); UVs outside the ROI are unchanged.
+pub fn remap_mesh_uvs(
+    mesh: &TriMesh,
+    roi: &super::rasterize::Roi,
+    rest: &Grid,
+    warped: &Grid,
+) -> TriMesh {
+    let mut out = mesh.clone();
+    for uv in &mut out.uvs {
+        let (s, t) = roi.st(*uv);
+        if (0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&t) {
+            let [s2, t2] = inverse(rest, warped, [s, t]);
+            *uv = roi.uv(s2, t2);
+        }
+    }
+    out
+}

@@ -328,7 +328,7 @@ impl Tri {
         self.edges.iter().all(|&(a, b, positive)| {
             let e = edge_fn(a, b, p);
             // e == 0: on the edge; the perturbation (−ε², ε) makes the canonical value positive.
-            (e > 0.0 || e == 0.0) == positive
+            (e >= 0.0) == positive
         })
     }
 }
@@ -353,7 +353,7 @@ pub fn texel_map(mesh: &TriMesh, roi: &Roi, size: (usize, usize)) -> Result<Texe
     let vs: Vec<f64> = (0..h)
         .map(|y| roi.uv(0.0, (y as f64 + 0.5) / h as f64).y)
         .collect();
-    let dv = roi.v1 - roi.v0;
+    let (du, dv) = roi.size();
 
     // Bin the faces overlapping the ROI by texel row, in face order.
     let mut tris: Vec<Tri> = Vec::new();
@@ -405,26 +405,26 @@ pub fn texel_map(mesh: &TriMesh, roi: &Roi, size: (usize, usize)) -> Result<Texe
         .enumerate()
         .map(|(y, row)| {
             let mut faces = vec![NONE; w];
-            let mut overlaps = 0;
-            for (x, slot) in faces.iter_mut().enumerate() {
-                let p = Point2::new(us[x], vs[y]);
-                let mut hits = 0;
-                for &i in row {
-                    let tri = &tris[i as usize];
-                    if p.x < tri.umin || p.x > tri.umax || !tri.contains(p) {
-                        continue;
-                    }
-                    hits += 1;
-                    if hits == 1 {
-                        *slot = tri.face;
-                    } else {
-                        break;
-                    }
+            let mut hits = vec![0u8; w];
+            // Faces in ascending id: the first to claim a texel keeps it.
+            for &i in row {
+                let tri = &tris[i as usize];
+                let x_lo = (((tri.umin - roi.u0) / du * w as f64 - 0.5).floor() - 1.0).max(0.0);
+                let x_hi =
+                    (((tri.umax - roi.u0) / du * w as f64 - 0.5).ceil() + 1.0).min(w as f64 - 1.0);
+                if x_hi < x_lo {
+                    continue;
                 }
-                if hits > 1 {
-                    overlaps += 1;
+                for x in x_lo as usize..=x_hi as usize {
+                    if tri.contains(Point2::new(us[x], vs[y])) {
+                        if hits[x] == 0 {
+                            faces[x] = tri.face;
+                        }
+                        hits[x] = hits[x].saturating_add(1);
+                    }
                 }
             }
+            let overlaps = hits.iter().filter(|&&n| n > 1).count();
             (faces, overlaps)
         })
         .collect();
