@@ -33,14 +33,44 @@ pub struct DeformedFields {
     pub d_t: Field,
 }
 
-/// What a sample contributes that does not depend on the unknowns.
-#[derive(Clone, Copy, Debug)]
-struct RestSample {
-    alpha: f64,
-    beta: f64,
-    sigma: f64,
-    o_s: f64,
-    o_t: f64,
+/// What a sample contributes that does not depend on the unknowns: its fractional position
+/// (α, β) in the cell, σ = √w R at the rest point, and ‖O_s‖, ‖O_t‖ there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RestSample {
+    pub alpha: f64,
+    pub beta: f64,
+    pub sigma: f64,
+    pub o_s: f64,
+    pub o_t: f64,
+}
+
+/// The rest samples of every cell, K×L midpoints each, in the order cell column i, row j,
+/// sample a, b: α = (a + ½)/K, β = (b + ½)/L, rest point (ŝ_i + α h_i, t̂_j + β k_j), sample
+/// area w = h_i k_j/(K L). Shared by the axis-aligned, non-axis-aligned and GPU energies.
+pub fn rest_samples(rest: &RestFields, rest_grid: &Grid, k: usize, l: usize) -> Vec<RestSample> {
+    let (k, l) = (k.max(1), l.max(1));
+    let mut samples = Vec::with_capacity((rest_grid.s.len() - 1) * (rest_grid.t.len() - 1) * k * l);
+    for i in 0..rest_grid.s.len() - 1 {
+        let h = rest_grid.s[i + 1] - rest_grid.s[i];
+        for j in 0..rest_grid.t.len() - 1 {
+            let kj = rest_grid.t[j + 1] - rest_grid.t[j];
+            let w = h * kj / (k * l) as f64;
+            for a in 0..k {
+                for b in 0..l {
+                    let (alpha, beta) = ((a as f64 + 0.5) / k as f64, (b as f64 + 0.5) / l as f64);
+                    let (s, t) = (rest_grid.s[i] + alpha * h, rest_grid.t[j] + beta * kj);
+                    samples.push(RestSample {
+                        alpha,
+                        beta,
+                        sigma: w.sqrt() * rest.rigidity.nearest(s, t),
+                        o_s: rest.o_s.bilinear(s, t).value,
+                        o_t: rest.o_t.bilinear(s, t).value,
+                    });
+                }
+            }
+        }
+    }
+    samples
 }
 
 /// The axis-aligned energy of one frame as a least-squares problem in the interior grid lines.
@@ -61,35 +91,12 @@ impl<'a> AaEnergy<'a> {
         k: usize,
         l: usize,
     ) -> Self {
-        let (k, l) = (k.max(1), l.max(1));
-        let mut samples =
-            Vec::with_capacity((rest_grid.s.len() - 1) * (rest_grid.t.len() - 1) * k * l);
-        for i in 0..rest_grid.s.len() - 1 {
-            let h = rest_grid.s[i + 1] - rest_grid.s[i];
-            for j in 0..rest_grid.t.len() - 1 {
-                let kj = rest_grid.t[j + 1] - rest_grid.t[j];
-                let w = h * kj / (k * l) as f64;
-                for a in 0..k {
-                    for b in 0..l {
-                        let (alpha, beta) =
-                            ((a as f64 + 0.5) / k as f64, (b as f64 + 0.5) / l as f64);
-                        let (s, t) = (rest_grid.s[i] + alpha * h, rest_grid.t[j] + beta * kj);
-                        samples.push(RestSample {
-                            alpha,
-                            beta,
-                            sigma: w.sqrt() * rest.rigidity.nearest(s, t),
-                            o_s: rest.o_s.bilinear(s, t).value,
-                            o_t: rest.o_t.bilinear(s, t).value,
-                        });
-                    }
-                }
-            }
-        }
+        let samples = rest_samples(rest, rest_grid, k, l);
         AaEnergy {
             rest_grid,
             deformed,
             samples,
-            per_cell: k * l,
+            per_cell: k.max(1) * l.max(1),
         }
     }
 

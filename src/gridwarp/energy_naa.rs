@@ -48,7 +48,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use super::bounds::{foldover, loop_distance, merge, BoundOptions, Interval};
-use super::energy::RestFields;
+use super::energy::{rest_samples, RestFields, RestSample};
 use super::field::{Field, Sample};
 use super::grid::Grid;
 use super::solve::SolveOptions;
@@ -257,16 +257,6 @@ impl VertexGrid {
     }
 }
 
-/// What a sample contributes that does not depend on the unknowns (as in the AA energy).
-#[derive(Clone, Copy, Debug)]
-struct RestSample {
-    alpha: f64,
-    beta: f64,
-    sigma: f64,
-    o_s: f64,
-    o_t: f64,
-}
-
 /// One residual row: value and up to 8 (unknown, ∂r/∂x) pairs (4 corners × 2 coordinates).
 type Row = (f64, [(Option<usize>, f64); 8]);
 
@@ -290,30 +280,8 @@ impl<'a> NaaEnergy<'a> {
         k: usize,
         l: usize,
     ) -> Self {
+        let samples = rest_samples(rest, rest_grid, k, l);
         let (k, l) = (k.max(1), l.max(1));
-        let mut samples =
-            Vec::with_capacity((rest_grid.s.len() - 1) * (rest_grid.t.len() - 1) * k * l);
-        for i in 0..rest_grid.s.len() - 1 {
-            let h = rest_grid.s[i + 1] - rest_grid.s[i];
-            for j in 0..rest_grid.t.len() - 1 {
-                let kj = rest_grid.t[j + 1] - rest_grid.t[j];
-                let w = h * kj / (k * l) as f64;
-                for a in 0..k {
-                    for b in 0..l {
-                        let (alpha, beta) =
-                            ((a as f64 + 0.5) / k as f64, (b as f64 + 0.5) / l as f64);
-                        let (s, t) = (rest_grid.s[i] + alpha * h, rest_grid.t[j] + beta * kj);
-                        samples.push(RestSample {
-                            alpha,
-                            beta,
-                            sigma: w.sqrt() * rest.rigidity.nearest(s, t),
-                            o_s: rest.o_s.bilinear(s, t).value,
-                            o_t: rest.o_t.bilinear(s, t).value,
-                        });
-                    }
-                }
-            }
-        }
         NaaEnergy {
             rest_grid,
             rest_vertices: VertexGrid::from_grid(rest_grid),

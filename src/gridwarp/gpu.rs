@@ -42,29 +42,16 @@ pub fn field_to_gpu(f: &Field) -> FieldF32 {
 /// The rest-sample data of every cell, computed in f64 exactly as [`AaEnergy::new`] does (same
 /// formulas, same order: cell column i, row j, sample a, b) and rounded to f32.
 pub fn rest_samples(rest: &RestFields, rest_grid: &Grid, k: usize, l: usize) -> Vec<RestSample> {
-    let (k, l) = (k.max(1), l.max(1));
-    let mut samples = Vec::with_capacity((rest_grid.s.len() - 1) * (rest_grid.t.len() - 1) * k * l);
-    for i in 0..rest_grid.s.len() - 1 {
-        let h = rest_grid.s[i + 1] - rest_grid.s[i];
-        for j in 0..rest_grid.t.len() - 1 {
-            let kj = rest_grid.t[j + 1] - rest_grid.t[j];
-            let w = h * kj / (k * l) as f64;
-            for a in 0..k {
-                for b in 0..l {
-                    let (alpha, beta) = ((a as f64 + 0.5) / k as f64, (b as f64 + 0.5) / l as f64);
-                    let (s, t) = (rest_grid.s[i] + alpha * h, rest_grid.t[j] + beta * kj);
-                    samples.push(RestSample {
-                        alpha: alpha as f32,
-                        beta: beta as f32,
-                        sigma: (w.sqrt() * rest.rigidity.nearest(s, t)) as f32,
-                        o_s: rest.o_s.bilinear(s, t).value as f32,
-                        o_t: rest.o_t.bilinear(s, t).value as f32,
-                    });
-                }
-            }
-        }
-    }
-    samples
+    super::energy::rest_samples(rest, rest_grid, k, l)
+        .iter()
+        .map(|p| RestSample {
+            alpha: p.alpha as f32,
+            beta: p.beta as f32,
+            sigma: p.sigma as f32,
+            o_s: p.o_s as f32,
+            o_t: p.o_t as f32,
+        })
+        .collect()
 }
 
 /// The kernel input for `rest_grid` and `deformed`, with the current lines set to the rest
