@@ -1,4 +1,19 @@
-//! reparam: reference implementations of texture-parameterisation algorithms.
+//! # reparam
+//!
+//! Reference implementations of texture-parameterisation algorithms: a rayon-parallel f64
+//! ground truth for each, and f32 wgpu kernels of the same computations (crate `reparam-gpu`),
+//! compared by [`crosscheck`].
+//!
+//! | module | algorithm | source | entry points |
+//! |---|---|---|---|
+//! | [`bpm`] | Blended Piecewise Möbius Maps (Rorberg, Vaxman, Ben-Chen 2023) | seed 004 | [`bpm::precompute()`], [`bpm::Bpm::eval`], [`bpm::qc_protocol`] |
+//! | [`gridwarp`] | content-aware texture grid warp (Koniaris et al. 2013) | seed 000 | [`gridwarp::solve_sequence`], [`gridwarp::energy_naa::solve_naa_frame`] |
+//! | [`lm`] | box-constrained Levenberg–Marquardt (ALGLIB minlm semantics) | seed 000 §5.3 | [`lm::minimize`] |
+//!
+//! Shared layers: [`mesh`] (TriMesh with separate position and UV indices, adjacency, OBJ and
+//! glTF I/O, skinning, built-in meshes), [`texture`] (images), [`raster`] (the CPU reference
+//! rasteriser), [`report`] and [`reference_data`]. Every fallible function returns
+//! [`Error`], whose variants name the element and the file.
 
 pub mod bpm;
 pub mod crosscheck;
