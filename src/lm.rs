@@ -123,6 +123,41 @@ pub struct NormalEquations {
     pub jtr: DVector<f64>,
 }
 
+impl NormalEquations {
+    /// F = 0, JᵀJ = 0 (n×n), Jᵀr = 0 (n): the start of an accumulation.
+    pub fn zeros(n: usize) -> Self {
+        NormalEquations {
+            energy: 0.0,
+            jtj: DMatrix::zeros(n, n),
+            jtr: DVector::zeros(n),
+        }
+    }
+
+    /// Add one residual row: r and its non-zero partial derivatives (unknown, ∂r/∂x), entries
+    /// with no unknown (a fixed variable) skipped. F += r², Jᵀr += g r, JᵀJ += g gᵀ.
+    pub fn add_row(&mut self, r: f64, row: &[(Option<usize>, f64)]) {
+        self.energy += r * r;
+        for (ca, va) in row.iter().filter_map(|(c, v)| c.map(|c| (c, *v))) {
+            self.jtr[ca] += va * r;
+            for (cb, vb) in row.iter().filter_map(|(c, v)| c.map(|c| (c, *v))) {
+                self.jtj[(ca, cb)] += va * vb;
+            }
+        }
+    }
+
+    /// The sum of `parts` taken in their order (a fixed-order reduction: the result does not
+    /// depend on how the parts were computed in parallel).
+    pub fn sum_in_order(n: usize, parts: impl IntoIterator<Item = NormalEquations>) -> Self {
+        let mut total = NormalEquations::zeros(n);
+        for ne in parts {
+            total.energy += ne.energy;
+            total.jtj += ne.jtj;
+            total.jtr += ne.jtr;
+        }
+        total
+    }
+}
+
 /// Box constraints l ≤ x ≤ u. Sides may be ±∞; `lower[i] == upper[i]` freezes x_i.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Bounds {

@@ -62,27 +62,7 @@ fn bpm(args: CrosscheckBpmArgs) -> Result<()> {
     println!("adapter: {}", gpu.adapter_summary());
     println!("errors in {UNIT}; f32 GPU against f64 CPU from identical (f32-rounded) inputs");
     let (header, rows) = crosscheck_table(&results);
-    let widths: Vec<usize> = (0..header.len())
-        .map(|c| {
-            rows.iter()
-                .map(|r| r[c].len())
-                .chain([header[c].len()])
-                .max()
-                .unwrap_or(0)
-        })
-        .collect();
-    let line = |cells: &[String]| {
-        cells
-            .iter()
-            .zip(&widths)
-            .map(|(c, w)| format!("{c:>w$}"))
-            .collect::<Vec<_>>()
-            .join("  ")
-    };
-    println!("{}", line(&header));
-    for r in &rows {
-        println!("{}", line(r));
-    }
+    println!("{}", super::text_table(&header, &rows));
     Ok(())
 }
 

@@ -378,28 +378,6 @@ pub const FRAME_HEADER: [&str; 8] = [
 ];
 
 fn frame_table(frames: &[FrameStats]) -> String {
-    let rows = frame_rows(frames);
-    let widths: Vec<usize> = (0..FRAME_HEADER.len())
-        .map(|c| {
-            rows.iter()
-                .map(|r| r[c].chars().count())
-                .chain([FRAME_HEADER[c].len()])
-                .max()
-                .unwrap_or(0)
-        })
-        .collect();
-    let line = |cells: Vec<String>| {
-        cells
-            .iter()
-            .zip(&widths)
-            .map(|(c, w)| format!("{c:>w$}"))
-            .collect::<Vec<_>>()
-            .join("  ")
-    };
-    let mut s = line(FRAME_HEADER.iter().map(|h| h.to_string()).collect());
-    for r in rows {
-        s += "\n";
-        s += &line(r);
-    }
-    s
+    let header: Vec<String> = FRAME_HEADER.iter().map(|h| h.to_string()).collect();
+    super::text_table(&header, &frame_rows(frames))
 }

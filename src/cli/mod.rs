@@ -69,3 +69,30 @@ pub fn print_json<T: serde::Serialize>(value: &T) -> reparam::Result<()> {
     println!("{text}");
     Ok(())
 }
+
+/// A plain-text table, every column right-aligned to its widest cell (in characters), cells
+/// separated by two spaces, the header first.
+pub fn text_table(header: &[String], rows: &[Vec<String>]) -> String {
+    let widths: Vec<usize> = (0..header.len())
+        .map(|c| {
+            rows.iter()
+                .map(|r| r[c].chars().count())
+                .chain([header[c].chars().count()])
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let line = |cells: &[String]| {
+        cells
+            .iter()
+            .zip(&widths)
+            .map(|(c, w)| format!("{c:>w$}"))
+            .collect::<Vec<_>>()
+            .join("  ")
+    };
+    std::iter::once(header)
+        .chain(rows.iter().map(|r| r.as_slice()))
+        .map(line)
+        .collect::<Vec<_>>()
+        .join("\n")
+}

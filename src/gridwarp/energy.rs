@@ -11,7 +11,7 @@
 //! Gauss–Newton model of the integral (notes). JᵀJ and Jᵀr are accumulated sample by sample
 //! (each row has at most 4 non-zeros); J is never stored.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use rayon::prelude::*;
 
 use super::field::{Field, Sample};
@@ -224,33 +224,11 @@ impl Residuals for AaEnergy<'_> {
         let per_column: Vec<NormalEquations> = (0..self.columns())
             .into_par_iter()
             .map(|i| {
-                let mut ne = NormalEquations {
-                    energy: 0.0,
-                    jtj: DMatrix::zeros(n, n),
-                    jtr: DVector::zeros(n),
-                };
-                self.for_each_residual(&g, i, |r, d| {
-                    ne.energy += r * r;
-                    for (ca, va) in d.iter().filter_map(|(c, v)| c.map(|c| (c, *v))) {
-                        ne.jtr[ca] += va * r;
-                        for (cb, vb) in d.iter().filter_map(|(c, v)| c.map(|c| (c, *v))) {
-                            ne.jtj[(ca, cb)] += va * vb;
-                        }
-                    }
-                });
+                let mut ne = NormalEquations::zeros(n);
+                self.for_each_residual(&g, i, |r, d| ne.add_row(r, &d));
                 ne
             })
             .collect();
-        let mut total = NormalEquations {
-            energy: 0.0,
-            jtj: DMatrix::zeros(n, n),
-            jtr: DVector::zeros(n),
-        };
-        for ne in per_column {
-            total.energy += ne.energy;
-            total.jtj += ne.jtj;
-            total.jtr += ne.jtr;
-        }
-        total
+        NormalEquations::sum_in_order(n, per_column)
     }
 }

@@ -44,7 +44,7 @@
 
 use std::time::Instant;
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use rayon::prelude::*;
 
 use super::bounds::{foldover, loop_distance, merge, BoundOptions, Interval};
@@ -462,38 +462,22 @@ impl Residuals for NaaEnergy<'_> {
     /// a folded grid: F = +∞ and zero JᵀJ, Jᵀr (the solver rejects such a starting point).
     fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
         let n = self.dim();
-        let zero = |energy| NormalEquations {
-            energy,
-            jtj: DMatrix::zeros(n, n),
-            jtr: DVector::zeros(n),
-        };
         let g = self.rest_vertices.with_unknowns(x);
         if !g.is_valid() {
-            return zero(f64::INFINITY);
+            return NormalEquations {
+                energy: f64::INFINITY,
+                ..NormalEquations::zeros(n)
+            };
         }
         let per_column: Vec<NormalEquations> = (0..self.columns())
             .into_par_iter()
             .map(|i| {
-                let mut ne = zero(0.0);
-                self.for_each_residual(&g, i, |(r, d)| {
-                    ne.energy += r * r;
-                    for (ca, va) in d.iter().filter_map(|(c, v)| c.map(|c| (c, *v))) {
-                        ne.jtr[ca] += va * r;
-                        for (cb, vb) in d.iter().filter_map(|(c, v)| c.map(|c| (c, *v))) {
-                            ne.jtj[(ca, cb)] += va * vb;
-                        }
-                    }
-                });
+                let mut ne = NormalEquations::zeros(n);
+                self.for_each_residual(&g, i, |(r, d)| ne.add_row(r, &d));
                 ne
             })
             .collect();
-        let mut total = zero(0.0);
-        for ne in per_column {
-            total.energy += ne.energy;
-            total.jtj += ne.jtj;
-            total.jtr += ne.jtr;
-        }
-        total
+        NormalEquations::sum_in_order(n, per_column)
     }
 }
 
@@ -601,16 +585,10 @@ pub fn solve_naa_frame(
             )));
         }
     }
-    let (k, l) = match options.samples {
-        (0, 0) => (8, 8),
-        (k, l) => (k.max(1), l.max(1)),
-    };
+    let (k, l) = options.samples_per_cell();
     let mut energy = NaaEnergy::new(rest, rest_grid, deformed, k, l)
         .with_sliding_border(previous.sliding_border);
-    let bound_options = BoundOptions {
-        smoothness: options.smoothness,
-        looping: options.looping.then_some((frame, frames)),
-    };
+    let bound_options = options.bound_options(frame, frames);
     let bounds = naa_frame_bounds(previous, first, &bound_options);
     let rest_x = energy.rest_vertices().to_unknowns();
     let rest_energy = energy.energy(&rest_x);

@@ -10,13 +10,12 @@
 
 use std::time::Instant;
 
-use nalgebra::{DMatrix, DVector};
 use reparam_gpu::gridwarp::{
     AaInput, AaKernel, CellContribution, FieldF32, RestSample, NO_UNKNOWN,
 };
 use reparam_gpu::Gpu;
 
-use super::bounds::{frame_bounds, BoundOptions};
+use super::bounds::frame_bounds;
 #[allow(unused_imports)]
 use super::energy::AaEnergy;
 use super::energy::{DeformedFields, RestFields};
@@ -112,11 +111,7 @@ pub fn set_lines(input: &mut AaInput, grid: &Grid) {
 /// Sum the cells' contributions in f64, in cell order: F, and JᵀJ (n×n), Jᵀr (n) with each
 /// cell's 4×4 block scattered to its unknowns (fixed lines dropped).
 pub fn assemble(cells: &[CellContribution], n: usize) -> NormalEquations {
-    let mut ne = NormalEquations {
-        energy: 0.0,
-        jtj: DMatrix::zeros(n, n),
-        jtr: DVector::zeros(n),
-    };
+    let mut ne = NormalEquations::zeros(n);
     for c in cells {
         ne.energy += c.energy as f64;
         for (u, &iu) in c.unknowns.iter().enumerate() {
@@ -232,16 +227,9 @@ pub fn solve_frame_gpu(
     options: &SolveOptions,
 ) -> Result<FrameSolution> {
     let start = Instant::now();
-    let (k, l) = match options.samples {
-        (0, 0) => (8, 8),
-        (k, l) => (k.max(1), l.max(1)),
-    };
+    let (k, l) = options.samples_per_cell();
     let mut energy = GpuAaEnergy::new(gpu, rest, rest_grid, deformed, k, l)?;
-    let bound_options = BoundOptions {
-        smoothness: options.smoothness,
-        looping: options.looping.then_some((frame, frames)),
-    };
-    let bounds = frame_bounds(previous, first, &bound_options);
+    let bounds = frame_bounds(previous, first, &options.bound_options(frame, frames));
     let rest_energy = energy.energy(&rest_grid.to_unknowns());
     let report = minimize(&mut energy, &previous.to_unknowns(), &bounds, &options.lm)?;
     Ok(FrameSolution {

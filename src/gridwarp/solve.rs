@@ -24,10 +24,19 @@ pub struct SolveOptions {
 }
 
 impl SolveOptions {
-    fn samples_per_cell(&self) -> (usize, usize) {
+    /// Midpoint samples per cell (K, L), the default 8×8 for (0, 0).
+    pub fn samples_per_cell(&self) -> (usize, usize) {
         match self.samples {
             (0, 0) => (8, 8),
             (k, l) => (k.max(1), l.max(1)),
+        }
+    }
+
+    /// The bound options of frame `frame` of `frames`: the smoothness bound, and looping when asked.
+    pub fn bound_options(&self, frame: usize, frames: usize) -> BoundOptions {
+        BoundOptions {
+            smoothness: self.smoothness,
+            looping: self.looping.then_some((frame, frames)),
         }
     }
 }
@@ -56,11 +65,7 @@ pub fn solve_frame(
     let start = Instant::now();
     let (k, l) = options.samples_per_cell();
     let mut energy = AaEnergy::new(rest, rest_grid, deformed, k, l);
-    let bound_options = BoundOptions {
-        smoothness: options.smoothness,
-        looping: options.looping.then_some((frame, frames)),
-    };
-    let bounds = frame_bounds(previous, first, &bound_options);
+    let bounds = frame_bounds(previous, first, &options.bound_options(frame, frames));
     let rest_energy = crate::lm::Residuals::energy(&mut energy, &rest_grid.to_unknowns());
     let report = minimize(&mut energy, &previous.to_unknowns(), &bounds, &options.lm)?;
     Ok(FrameSolution {
