@@ -59,6 +59,17 @@ pub enum Error {
         count: usize,
         first: (u32, u32),
     },
+    /// A mesh that is not a consistently oriented 2-manifold: `edges` lists (sorted, at most 16)
+    /// the edges with three or more faces or with two faces of opposite orientation, `vertices`
+    /// the vertices whose faces form more than one fan (checked once the edges are fine).
+    #[error("{mesh}: not a 2-manifold: {edge_count} bad edge(s) {edges:?}, {vertex_count} bad vertex(es) {vertices:?}")]
+    NonManifoldMesh {
+        mesh: String,
+        edge_count: usize,
+        vertex_count: usize,
+        edges: Vec<(u32, u32)>,
+        vertices: Vec<u32>,
+    },
     /// The mesh's material names a texture file that does not exist.
     #[error("{mesh}: texture {texture} (from the material file) does not exist; pass --texture to use another image")]
     MissingTexture { mesh: String, texture: PathBuf },
@@ -71,6 +82,24 @@ pub enum Error {
     /// A GPU operation failed (no adapter, device lost, timeout, shader error).
     #[error("GPU: {0}")]
     Gpu(String),
+    /// A height map (or pin mask) whose size the unwarp mesh cannot use: empty, too small, or
+    /// an odd size with a periodic border that no colouring covers (`map` names the file or
+    /// the built-in map).
+    #[error("{map}: {width}x{height} texels: {reason}")]
+    HeightMapSize {
+        map: String,
+        width: usize,
+        height: usize,
+        reason: String,
+    },
+    /// A height (or pin-mask value) is NaN or infinite at texel (x, y) of `map`.
+    #[error("{map}: value at texel ({x}, {y}) is not finite ({value})")]
+    NonFiniteHeight {
+        map: String,
+        x: usize,
+        y: usize,
+        value: String,
+    },
     /// An element of a glTF file cannot be used: `element` names it (node, mesh, primitive,
     /// accessor, vertex, skin, animation channel, or the JSON path of a validation error).
     #[error("{path}: {element}: {message}")]

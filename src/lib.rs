@@ -8,6 +8,9 @@
 //! |---|---|---|---|
 //! | [`bpm`] | Blended Piecewise Möbius Maps (Rorberg, Vaxman, Ben-Chen 2023) | seed 004 | [`bpm::precompute()`], [`bpm::Bpm::eval`], [`bpm::qc_protocol`] |
 //! | [`gridwarp`] | content-aware texture grid warp (Koniaris et al. 2013) | seed 000 | [`gridwarp::solve_sequence`], [`gridwarp::energy_naa::solve_naa_frame`] |
+//! | [`unwarp`] | distortion-free displacement mapping by per-texel descent (Zirr & Ritschel 2019) | seed 001 | [`unwarp::solve()`], [`unwarp::pass::pass`] |
+//! | [`skinsimp`] | quadric simplification of skinned meshes with optimised weights (Landreneau & Schaefer 2009) | seed 003 | [`skinsimp::simplify()`], [`skinsimp::Hierarchy::level`], [`skinsimp::evaluate::compare`] |
+//! | [`maps`] | MAPS multiresolution parameterisation and remeshing (Lee et al. 1998) | seed 002 | [`maps::build`], [`maps::Param::inverse`], [`maps::remesh::uniform`], [`maps::remesh::adaptive`] |
 //! | [`lm`] | box-constrained Levenberg–Marquardt (ALGLIB minlm semantics) | seed 000 §5.3 | [`lm::minimize`] |
 //!
 //! Shared layers: [`mesh`] (TriMesh with separate position and UV indices, adjacency, OBJ and
@@ -20,10 +23,13 @@ pub mod crosscheck;
 pub mod error;
 pub mod gridwarp;
 pub mod lm;
+pub mod maps;
 pub mod mesh;
 pub mod raster;
 pub mod reference_data;
 pub mod report;
+pub mod skinsimp;
 pub mod texture;
+pub mod unwarp;
 
 pub use error::{Error, Result};

@@ -48,9 +48,9 @@ fn interpolates_the_vertex_uvs() {
         let tol = 1e-12 * uv_extent(&mesh);
         for f in 0..mesh.face_count() {
             let uvs = mesh.face_uvs(f);
-            for c in 0..3 {
+            for (c, uv) in uvs.iter().enumerate() {
                 let got = bpm.eval(f, corner(c), Interp::Bpm);
-                let err = (got - C::new(uvs[c].x, uvs[c].y)).norm();
+                let err = (got - C::new(uv.x, uv.y)).norm();
                 assert!(
                     err <= tol,
                     "{}: face {f} corner {c}: error {err:e}",

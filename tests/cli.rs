@@ -118,7 +118,7 @@ fn gridwarp_prints_json_and_reduces_rigid_stretch() {
     ]);
     assert!(ok, "{stderr}");
     let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
-    let last = &v["frames"][1];
+    let last = &v["rois"][0]["frames"][1];
     // The warp must lower the stretch of rigid features (the point of the method).
     assert!(
         last["rigid_stretch_after"]["max"].as_f64().unwrap()

@@ -7,7 +7,7 @@
 use std::time::Instant;
 
 use reparam::gridwarp::energy::{AaEnergy, DeformedFields, RestFields};
-use reparam::gridwarp::gpu::{rest_samples, solve_frame_gpu, GpuAaEnergy};
+use reparam::gridwarp::gpu::{rest_samples, solve_sequence_gpu, GpuAaEnergy};
 use reparam::gridwarp::scene::{disc_rigidity, plane_stretch};
 use reparam::gridwarp::{grid_from_rigidity, solve_sequence, Field, Grid, SolveOptions};
 use reparam::lm::Residuals;
@@ -272,23 +272,8 @@ fn solves_with_the_gpu_objective_match_the_cpu_solves() {
     let cpu = solve_sequence(&scene.rest, &grid, &scene.frames, &options).unwrap();
     let cpu_s = start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let mut gpu_solutions: Vec<reparam::gridwarp::FrameSolution> = Vec::new();
-    for (j, frame) in scene.frames.iter().enumerate() {
-        let previous = gpu_solutions.last().map_or(&grid, |s| &s.grid);
-        let first = gpu_solutions.first().map_or(&grid, |s| &s.grid);
-        let s = solve_frame_gpu(
-            &gpu,
-            &scene.rest,
-            &grid,
-            frame,
-            previous,
-            first,
-            (j, scene.frames.len()),
-            &options,
-        )
-        .unwrap();
-        gpu_solutions.push(s);
-    }
+    let gpu_solutions =
+        solve_sequence_gpu(&gpu, &scene.rest, &grid, &scene.frames, &options).unwrap();
     let gpu_s = start.elapsed().as_secs_f64();
     for (j, (c, g)) in cpu.iter().zip(&gpu_solutions).enumerate() {
         // Judge the GPU's lines with the f64 energy.

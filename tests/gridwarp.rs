@@ -26,7 +26,6 @@ fn tight() -> SolveOptions {
             epsx: 1e-14,
             epsg: 1e-14,
             max_iterations: 200,
-            ..LmOptions::default()
         },
         ..Default::default()
     }
@@ -80,8 +79,8 @@ fn per_column_rigidity_matches_the_closed_form() {
     let s = solve_one(&rest, &grid, &uniform_stretch(8, sigma), &tight());
     let h = 1.0 / 3.0;
     let sum: f64 = r.iter().map(|ri| h / (ri * ri)).sum();
-    for i in 0..3 {
-        let expected = 1.0 / sigma + (1.0 - 1.0 / sigma) / (r[i] * r[i] * sum);
+    for (i, ri) in r.iter().enumerate() {
+        let expected = 1.0 / sigma + (1.0 - 1.0 / sigma) / (ri * ri * sum);
         let a = (s.grid.s[i + 1] - s.grid.s[i]) / h;
         // Quadratic problem solved to rounding; the constraint Σ h a = 1 is exact by construction.
         assert!(
@@ -191,7 +190,7 @@ fn mirror_symmetric_input_gives_a_mirror_symmetric_grid() {
         |s, _| if (s - 0.5).abs() < 0.15 { 1.0 } else { 0.1 },
     );
     let rest = flat_rest(64, rigidity.clone());
-    let (d_s, d_t) = stretch_fields(64, &|s: f64, _| {
+    let (d_s, d_t) = stretch_fields(64, |s: f64, _| {
         (
             nalgebra::Vector3::x() * (1.0 + (std::f64::consts::PI * s).sin()),
             nalgebra::Vector3::y(),
@@ -362,4 +361,46 @@ fn results_are_bit_identical_with_one_and_two_threads() {
         assert_eq!(x.grid, y.grid);
         assert_eq!(x.lm.energy.to_bits(), y.lm.energy.to_bits());
     }
+}
+
+/// The energy finds each sample's texel positions once per column and row of samples
+/// (`field::Axis`), for D_s's resolution; a D_t of another resolution must still be sampled on
+/// its own texels. Residuals equal the notes' formula evaluated sample by sample with
+/// `Field::bilinear` (the same operations: bit for bit).
+#[test]
+fn residuals_equal_the_formula_with_fields_of_different_resolutions() {
+    let rest = RestFields {
+        o_s: Field::from_fn(8, 8, |s, t| 1.0 + 0.1 * s * t),
+        o_t: Field::constant(1.0),
+        rigidity: disc_rigidity(8, &[(0.5, 0.5, 0.3)], 0.2),
+    };
+    let frame = DeformedFields {
+        d_s: Field::from_fn(16, 16, |s, t| 1.2 + (6.0 * s).sin() * 0.3 + t),
+        d_t: Field::from_fn(7, 12, |s, t| 0.9 + (5.0 * t).cos() * 0.2 + 0.4 * s),
+    };
+    let grid = Grid::new(vec![0.0, 0.4, 1.0], vec![0.0, 0.3, 0.65, 1.0]).unwrap();
+    let (k, l) = (3, 2);
+    let energy = AaEnergy::new(&rest, &grid, &frame, k, l);
+    let x = vec![0.45, 0.33, 0.6];
+    let g = grid.with_unknowns(&x);
+    let mut expected = Vec::new();
+    for i in 0..2 {
+        for j in 0..3 {
+            let (h, kj) = (grid.s[i + 1] - grid.s[i], grid.t[j + 1] - grid.t[j]);
+            let (a, b) = ((g.s[i + 1] - g.s[i]) / h, (g.t[j + 1] - g.t[j]) / kj);
+            for ka in 0..k {
+                for lb in 0..l {
+                    let (al, be) = ((ka as f64 + 0.5) / k as f64, (lb as f64 + 0.5) / l as f64);
+                    let (s, t) = (grid.s[i] + al * h, grid.t[j] + be * kj);
+                    let sigma = (h * kj / (k * l) as f64).sqrt() * rest.rigidity.nearest(s, t);
+                    let f = g.s[i] + al * (g.s[i + 1] - g.s[i]);
+                    let gt = g.t[j] + be * (g.t[j + 1] - g.t[j]);
+                    let (cs, ct) = (frame.d_s.bilinear(f, gt), frame.d_t.bilinear(f, gt));
+                    expected.push(sigma * (cs.value * a - rest.o_s.bilinear(s, t).value));
+                    expected.push(sigma * (ct.value * b - rest.o_t.bilinear(s, t).value));
+                }
+            }
+        }
+    }
+    assert_eq!(energy.residuals(&x), expected);
 }

@@ -151,7 +151,7 @@ fn the_notes_counterexample_is_inside_its_boxes_but_has_infinite_energy() {
     // onto the cell (1, 1) = [0.25, 0.5]² of a uniform 5×5 grid: centre 0.375, half-width 0.125.
     let grid = Grid::uniform(5, 5);
     let rest = flat_rest(16, Field::constant(1.0));
-    let frame = DeformedJacobian::from_partials(16, &plane_partials);
+    let frame = DeformedJacobian::from_partials(16, plane_partials);
     let map = |p: [f64; 2]| [0.375 + 0.125 * p[0], 0.375 + 0.125 * p[1]];
     let mut v = VertexGrid::from_grid(&grid);
     v.points[v.n + 1] = map([-0.1, -0.1]); // P_11 (moved)
@@ -184,7 +184,7 @@ fn the_notes_counterexample_is_inside_its_boxes_but_has_infinite_energy() {
 #[test]
 fn identity_deformation_gives_zero_energy_zero_iterations_and_the_same_vertices() {
     let rest = flat_rest(32, disc_rigidity(32, &[(0.3, 0.4, 0.15)], 0.1));
-    let frame = DeformedJacobian::from_partials(32, &plane_partials);
+    let frame = DeformedJacobian::from_partials(32, plane_partials);
     let grid = Grid::new(vec![0.0, 0.2, 0.55, 1.0], vec![0.0, 0.3, 0.6, 1.0]).unwrap();
     let v = VertexGrid::from_grid(&grid);
     let s = solve_naa_frame(
@@ -205,7 +205,7 @@ fn identity_deformation_gives_zero_energy_zero_iterations_and_the_same_vertices(
 /// A plane_stretch-like frame with the stretch varying along t too (so the vertical lines want
 /// to bend), built from analytic partials.
 fn bent_stretch(size: usize, sigma: f64) -> DeformedJacobian {
-    DeformedJacobian::from_partials(size, &move |s: f64, t: f64| {
+    DeformedJacobian::from_partials(size, move |s: f64, t: f64| {
         let ramp = (3.0 * s * s - 2.0 * s * s * s).clamp(0.0, 1.0);
         (
             Vector3::x() * (1.0 + (sigma - 1.0) * ramp * (0.5 + t)),

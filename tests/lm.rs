@@ -185,6 +185,75 @@ fn box_qp_equals_brute_force_enumeration() {
     }
 }
 
+/// A = BᵀB + ½I with B banded (b_ij = 0 for |i − j| > w/2), so A has half-bandwidth ≤ w: the
+/// pattern of the grid energies' JᵀJ, which the envelope Cholesky exploits.
+fn random_banded_spd(rng: &mut Rng, n: usize, w: usize) -> DMatrix<f64> {
+    let half = w / 2;
+    let b = DMatrix::from_fn(n, n, |i, j| {
+        if i.abs_diff(j) <= half {
+            rng.uniform(-1.0, 1.0)
+        } else {
+            0.0
+        }
+    });
+    b.transpose() * &b + DMatrix::identity(n, n) * 0.5
+}
+
+#[test]
+fn envelope_cholesky_equals_dense_cholesky() {
+    let mut rng = Rng(0x6c6d_0005);
+    for trial in 0..60 {
+        let n = 1 + trial % 20;
+        let a = match trial % 3 {
+            0 => random_spd(&mut rng, n),
+            1 => random_banded_spd(&mut rng, n, 2),
+            _ => {
+                // An arrow: row i couples with 0 and i only, so the envelope holds zeros that
+                // fill in (L_ij ≠ 0 inside it) and must be kept.
+                let mut a = DMatrix::identity(n, n) * (n as f64 + 1.0);
+                for i in 1..n {
+                    a[(i, 0)] = rng.uniform(-1.0, 1.0);
+                    a[(0, i)] = a[(i, 0)];
+                }
+                a
+            }
+        };
+        let b = DVector::from_fn(n, |_, _| rng.uniform(-1.0, 1.0));
+        let x = EnvelopeCholesky::factor(n, |i, j| a[(i, j)])
+            .unwrap()
+            .solve(&b);
+        let expected = a.clone().cholesky().unwrap().solve(&b);
+        // cond(A) < 2·(n² + ½)/½ ≈ 1600 for n ≤ 20: the two factorisations (same operations,
+        // other summation order) agree to cond·n·ε ≈ 1e-11 relative; 1e-10 is far below the
+        // O(1) error of a wrong entry in the factor.
+        let err = (&x - &expected).amax() / expected.amax().max(1.0);
+        assert!(err <= 1e-10, "trial {trial} (n = {n}): {err:e}");
+        assert!((&a * &x - &b).amax() <= 1e-10 * a.amax() * x.amax().max(1.0));
+    }
+    // Not positive definite: no factor (never a NaN solution).
+    let indefinite = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
+    assert!(EnvelopeCholesky::factor(2, |i, j| indefinite[(i, j)]).is_none());
+    let singular = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
+    assert!(EnvelopeCholesky::factor(2, |i, j| singular[(i, j)]).is_none());
+}
+
+#[test]
+fn box_qp_equals_brute_force_enumeration_on_banded_problems() {
+    let mut rng = Rng(0x6c6d_0006);
+    for trial in 0..200 {
+        let n = 2 + trial % 7;
+        let a = random_banded_spd(&mut rng, n, 2);
+        let g = DVector::from_fn(n, |_, _| rng.uniform(-3.0, 3.0));
+        let (lower, upper) = random_bounds(&mut rng, n);
+        let h = solve_box_qp(&a, &g, &lower, &upper);
+        let expected = brute_force_box_qp(&a, &g, &lower, &upper);
+        // B has ≤ 3 entries in [−1, 1] per row and column, so ‖B‖² ≤ 9 and cond(A) ≤ 9.5/0.5 =
+        // 19: both solutions agree to ~1e-14; a wrong active set moves h by O(0.1).
+        let dh = (&h - &expected).amax();
+        assert!(dh <= 1e-9, "trial {trial}: |h − h_bf| = {dh:e}");
+    }
+}
+
 #[test]
 fn box_qp_edge_cases() {
     let a = DMatrix::from_row_slice(3, 3, &[4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 2.0]);

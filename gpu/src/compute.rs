@@ -82,8 +82,8 @@ impl Gpu {
         Ok(())
     }
 
-    /// A storage buffer (STORAGE | COPY_SRC) holding `data`. An empty slice gives one zeroed
-    /// element, since a binding cannot be empty.
+    /// A storage buffer (STORAGE | COPY_SRC | COPY_DST) holding `data`. An empty slice gives one
+    /// zeroed element, since a binding cannot be empty. [`Gpu::write_storage`] can overwrite it.
     pub fn upload_storage<T: Pod>(
         &self,
         label: &str,
@@ -98,8 +98,17 @@ impl Gpu {
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
                 contents,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
             }))
+    }
+
+    /// Overwrite the start of a buffer made by [`Gpu::upload_storage`] with `data` (queued; it
+    /// takes effect before the next submitted dispatch).
+    pub fn write_storage<T: Pod>(&self, buffer: &wgpu::Buffer, data: &[T]) {
+        self.queue
+            .write_buffer(buffer, 0, bytemuck::cast_slice(data));
     }
 
     /// A uniform buffer holding `value` (its size must be a multiple of 16 bytes to match a

@@ -8,6 +8,8 @@
 //!   lavapipe), with upload/readback helpers and a compute dispatch helper ([`compute`]).
 //! - [`bpm`]: Blended Piecewise Möbius Maps: [`bpm::bpm_precompute`], [`bpm::bpm_eval`],
 //!   [`bpm::bpm_render`], one WGSL file each in `shaders/`, plus `shaders/bpm_common.wgsl`.
+//! - [`unwarp`]: distortion-free displacement mapping, one descent pass:
+//!   [`unwarp::UnwarpPassKernel`], `shaders/unwarp_pass.wgsl`.
 //! - [`gpu_or_skip`]: what tests call to get a context or skip.
 //!
 //! WGSL has no includes: shared WGSL lives in its own file and the host concatenates sources.
@@ -17,6 +19,7 @@ pub mod compute;
 mod context;
 mod error;
 pub mod gridwarp;
+pub mod unwarp;
 
 use std::sync::OnceLock;
 

@@ -247,3 +247,55 @@ fn inconsistent_lengths_are_an_input_error() {
     };
     assert!(matches!(aa_cells(&gpu, &input), Err(GpuError::Input(_))));
 }
+
+/// A binding (fixed data uploaded once) evaluated at new lines gives exactly what a fresh
+/// upload of the same input gives: only the lines are rewritten, and the kernel reads them.
+/// Wrong line counts are an input error.
+#[test]
+fn bound_kernel_rewrites_only_the_lines() {
+    use reparam_gpu::gridwarp::AaKernel;
+    let Some(gpu) = gpu_or_skip() else { return };
+    let sample = |alpha: f32, beta: f32| RestSample {
+        alpha,
+        beta,
+        sigma: 0.5,
+        o_s: 1.0,
+        o_t: 1.0,
+    };
+    let gradient = FieldF32 {
+        width: 4,
+        height: 4,
+        values: (0..16).map(|v| 1.0 + 0.25 * v as f32).collect(),
+    };
+    let mut input = AaInput {
+        samples: vec![
+            sample(0.25, 0.5),
+            sample(0.75, 0.5),
+            sample(0.5, 0.25),
+            sample(0.5, 0.75),
+        ],
+        per_cell: 1,
+        rest_h: vec![0.5, 0.5],
+        rest_k: vec![0.5, 0.5],
+        s: vec![0.0, 0.5, 1.0],
+        t: vec![0.0, 0.5, 1.0],
+        s_index: vec![NO_UNKNOWN, 0, NO_UNKNOWN],
+        t_index: vec![NO_UNKNOWN, 1, NO_UNKNOWN],
+        d_s: gradient.clone(),
+        d_t: gradient,
+    };
+    let kernel = AaKernel::new(&gpu).unwrap();
+    let binding = kernel.bind(&gpu, &input).unwrap();
+    let at_rest = binding.run(&gpu, &input.s, &input.t).unwrap();
+    let (s, t) = (vec![0.0, 0.6, 1.0], vec![0.0, 0.35, 1.0]);
+    let moved = binding.run(&gpu, &s, &t).unwrap();
+    input.s = s;
+    input.t = t;
+    let fresh = aa_cells(&gpu, &input).unwrap();
+    assert_eq!(moved, fresh);
+    assert_ne!(moved, at_rest, "the kernel must see the new lines");
+    assert!(matches!(
+        binding.run(&gpu, &[0.0, 1.0], &input.t),
+        Err(GpuError::Input(_))
+    ));
+}

@@ -122,6 +122,7 @@ fn distance_to_line(p: C, a: C, b: C) -> f64 {
 
 /// Blended log ratio ℓ_t(z) = γ_ij ℓ_ij + γ_jk ℓ_jk + γ_ki ℓ_ki (seed step 7): a linear
 /// combination in the vector space sl(2,C).
+#[allow(clippy::needless_range_loop)] // e names the edge, as in the formula
 pub fn blended_log(t: &TriangleMaps, gamma: [f64; 3]) -> Sl2 {
     let mut l = Sl2::ZERO;
     for e in 0..3 {

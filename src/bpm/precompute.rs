@@ -191,6 +191,7 @@ pub fn gather_star(mesh: &TriMesh, adjacency: &Adjacency, degenerate: &[bool], f
 }
 
 /// Whether face `f` has (relatively) zero area in 3D or in UV, or a repeated corner.
+#[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a > b)` is meant: NaN areas are degenerate
 pub fn is_degenerate(mesh: &TriMesh, f: usize) -> bool {
     let [a, b, c] = mesh.face_positions(f);
     let area3 = (b - a).cross(&(c - a)).norm();
@@ -257,6 +258,7 @@ pub fn place_apex(z_a: C, z_b: C, p_a: &Point3<f64>, p_b: &Point3<f64>, p_apex: 
 /// M_t = fit(z_i, z_j, z_k → W_i, W_j, W_k) with W = w − w_origin; for each neighbour e across
 /// edge (a, b): M_e = fit(z_a, z_b, z_apex → W_a, W_b, W_apex), δ_e = M_t⁻¹ M_e (right order)
 /// or M_e M_t⁻¹ (left order), l_e = log δ_e after the sign fix; l_e = 0 without a neighbour.
+#[allow(clippy::needless_range_loop)] // e names the edge in every per-edge array
 pub fn triangle_maps(star: &Star, options: BpmOptions) -> TriangleMaps {
     let uv = [star.w[0], star.w[1], star.w[2]];
     let (z, mirrored) = star_layout(&star.p, uv);

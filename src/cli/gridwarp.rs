@@ -1,31 +1,63 @@
-//! `reparam gridwarp --scene <bump|saddle|worm|plane>`: solve a built-in scene frame by frame,
-//! write pictures, the grid lines of every frame (JSON) and the statistics.
+//! `reparam gridwarp`: solve a built-in scene or a mesh sequence (OBJ frames, skinned glTF) over
+//! one or more texture-space ROIs, frame by frame, with the axis-aligned or the
+//! non-axis-aligned variant; write pictures, every frame's grid (JSON) and the statistics.
 
 use std::path::{Path, PathBuf};
 
-use clap::Args;
+use clap::{Args, ValueEnum};
 use nalgebra::Vector3;
-use reparam::gridwarp::merit::{rigid_stretch, RigidStretch};
+use reparam::gridwarp::energy_naa::DeformedJacobian;
+use reparam::gridwarp::merit::{rigid_stretch, rigid_stretch_naa, RigidStretch};
 use reparam::gridwarp::picture::{
-    atlas_texture, detail_texture, grid_overlay, remap_mesh_uvs, render_textured, surface_mesh,
+    atlas_texture, detail_texture, grid_overlay, remap_mesh_uvs, render_remapped,
+    render_remapped_framed, rigid_faces, roi_crop, stretch_map, surface_mesh,
 };
-use reparam::gridwarp::rasterize::{frames_fields, rigidity_from_image, Roi};
-use reparam::gridwarp::scene::{analytic_scene, AnalyticScene, SCENES};
-use reparam::gridwarp::{grid_from_rigidity, solve_sequence, Grid, SolveOptions};
+use reparam::gridwarp::rasterize::{
+    frames_fields, rigidity_from_image, rigidity_from_image_of_size, texel_map, Roi,
+};
+use reparam::gridwarp::remap::check_disjoint;
+use reparam::gridwarp::rigidity::{parse_discs, rigidity_from_texture, AutoRigidityOptions};
+use reparam::gridwarp::scene::{analytic_scene, disc_rigidity, partials_of, AnalyticScene, SCENES};
+use reparam::gridwarp::{
+    grid_from_rigidity, solve_naa_sequence, solve_sequence, AtlasRemap, Grid, Remap, SolveOptions,
+    VertexGrid, Warped,
+};
 use reparam::gridwarp::{DeformedFields, Field, RestFields};
-use reparam::lm::{LmOptions, StopCode};
-use reparam::mesh::{load_gltf, load_obj, TriMesh};
+use reparam::lm::{LmOptions, LmReport, StopCode};
+use reparam::mesh::{load_gltf, load_gltf_base_colour, load_obj, write_obj, TriMesh};
 use reparam::report::sig;
-use reparam::texture::{save_png, side_by_side};
+use reparam::texture::{load_rgba8, save_png, side_by_side, Image};
 use reparam::{Error, Result};
 use serde::Serialize;
+
+/// Which energy to minimise.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Variant {
+    /// Axis-aligned lines (seed §5).
+    #[default]
+    Aa,
+    /// Non-axis-aligned vertices, bilinear cells (seed §8).
+    Naa,
+}
+
+/// Seed §10.2 boundary blending: `auto` = on for mesh inputs whose ROI is smaller than the
+/// texture (the seam would show on the surface), off for the built-in scenes (their ROI is the
+/// whole surface).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum Blend {
+    #[default]
+    Auto,
+    On,
+    Off,
+}
 
 #[derive(Args, Clone)]
 pub struct GridwarpArgs {
     /// Built-in scene (ignored with --gltf or --obj).
     #[arg(long, default_value = "bump", value_parser = clap::builder::PossibleValuesParser::new(SCENES))]
     pub scene: String,
-    /// A skinned glTF/GLB: the rest pose and `--frames` poses of `--animation` at uniform times.
+    /// A skinned glTF/GLB: `--frames` poses of `--animation` at uniform times over its duration.
     #[arg(long)]
     pub gltf: Option<PathBuf>,
     /// Animation of --gltf (default: the first).
@@ -34,13 +66,26 @@ pub struct GridwarpArgs {
     /// OBJ frames with the same connectivity and UVs; the first is the rest pose.
     #[arg(long, num_args = 2..)]
     pub obj: Vec<PathBuf>,
-    /// Texture-space region of interest u0,u1,v0,v1 (with --gltf / --obj).
-    #[arg(long, default_value = "0,1,0,1")]
-    pub roi: String,
-    /// Rigidity map (PNG 8/16-bit or EXR, values in [0, 1]) over the ROI; default: R ≡ 1.
+    /// Texture-space region of interest u0,u1,v0,v1 (with --gltf / --obj); repeat for several
+    /// ROIs (they must not overlap). Default: the whole texture.
     #[arg(long)]
-    pub rigidity: Option<PathBuf>,
-    /// Number of frames (the deformation grows to its full amount over them).
+    pub roi: Vec<String>,
+    /// Rigidity: a map (PNG 8/16-bit or EXR, values in [0, 1]), `auto` (from the model's
+    /// base-colour texture, see `gridwarp::rigidity`), or `discs:s,t,r;…` (rigid discs in ROI
+    /// coordinates). Give one per ROI, or one shared by all (a shared image covers the whole
+    /// texture; a per-ROI image covers its ROI). Default: R ≡ 1.
+    #[arg(long)]
+    pub rigidity: Vec<String>,
+    /// Axis-aligned lines or non-axis-aligned vertices.
+    #[arg(long, value_enum, default_value_t = Variant::Aa)]
+    pub variant: Variant,
+    /// NAA: let the border vertices slide along the ROI's edges.
+    #[arg(long)]
+    pub sliding_border: bool,
+    /// Boundary blending (seed §10.2) in the textures of the pictures.
+    #[arg(long, value_enum, default_value_t = Blend::Auto)]
+    pub boundary_blend: Blend,
+    /// Number of frames (scenes: the deformation grows to its full amount over them).
     #[arg(long, default_value_t = 6)]
     pub frames: usize,
     /// Field resolution (texels per side of the ROI).
@@ -69,7 +114,32 @@ pub struct GridwarpArgs {
     pub json: bool,
 }
 
-/// Per-frame figures.
+impl Default for GridwarpArgs {
+    fn default() -> Self {
+        GridwarpArgs {
+            scene: "bump".into(),
+            gltf: None,
+            animation: None,
+            obj: Vec::new(),
+            roi: Vec::new(),
+            rigidity: Vec::new(),
+            variant: Variant::Aa,
+            sliding_border: false,
+            boundary_blend: Blend::Auto,
+            frames: 6,
+            size: 128,
+            grid: "auto".into(),
+            epsilon: 0.5,
+            samples: 8,
+            smoothness: None,
+            paper: false,
+            out: PathBuf::from("out"),
+            json: false,
+        }
+    }
+}
+
+/// Per-frame figures of one ROI.
 #[derive(Clone, Debug, Serialize)]
 pub struct FrameStats {
     pub frame: usize,
@@ -84,22 +154,57 @@ pub struct FrameStats {
     pub stop: StopCode,
 }
 
+/// One ROI's solve.
+#[derive(Clone, Debug, Serialize)]
+pub struct RoiResult {
+    /// [u0, u1, v0, v1].
+    pub roi: [f64; 4],
+    pub unknowns: usize,
+    pub rest_grid: Grid,
+    pub frames: Vec<FrameStats>,
+    /// AA: the lines of every frame.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub grids: Vec<Grid>,
+    /// NAA: the vertices of every frame.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub vertices: Vec<VertexGrid>,
+}
+
+impl RoiResult {
+    /// The warp of frame `k`.
+    pub fn warped(&self, k: usize) -> Warped {
+        match self.grids.get(k) {
+            Some(g) => Warped::Lines(g.clone()),
+            None => self
+                .vertices
+                .get(k)
+                .map_or(Warped::Lines(self.rest_grid.clone()), |v| {
+                    Warped::Vertices(v.clone())
+                }),
+        }
+    }
+}
+
+/// Per-frame totals over all ROIs (the paper's "combined times", Table 1 aa-face49-all).
+#[derive(Clone, Debug, Serialize)]
+pub struct CombinedFrame {
+    pub frame: usize,
+    pub seconds: f64,
+    pub iterations: usize,
+    pub energy_evaluations: usize,
+    pub jacobian_evaluations: usize,
+}
+
 /// Everything `reparam gridwarp --json` prints.
 #[derive(Clone, Debug, Serialize)]
 pub struct GridwarpResult {
     pub scene: String,
-    pub unknowns: usize,
-    pub rest_grid: Grid,
-    pub frames: Vec<FrameStats>,
-    pub grids: Vec<Grid>,
+    pub variant: Variant,
+    pub rois: Vec<RoiResult>,
+    pub combined: Vec<CombinedFrame>,
+    /// The frame the render pictures show (the most stretched one before the warp).
+    pub pictured_frame: usize,
     pub pictures: Vec<PathBuf>,
-}
-
-fn parse_grid(spec: &str, scene: &AnalyticScene, epsilon: f64) -> Result<Grid> {
-    if spec == "auto" {
-        return Ok(grid_from_rigidity(&scene.rigidity, epsilon));
-    }
-    parse_grid_spec(spec)
 }
 
 /// `MxN` → a uniform grid of M × N lines.
@@ -117,45 +222,16 @@ fn parse_grid_spec(spec: &str) -> Result<Grid> {
     Ok(Grid::uniform(m, n))
 }
 
-/// Solve the scene (or the mesh input) and write its pictures; shared by the command and the demo.
-pub fn solve_scene(args: &GridwarpArgs) -> Result<GridwarpResult> {
-    if args.gltf.is_some() || !args.obj.is_empty() {
-        return solve_meshes(args);
+/// The starting grid: Algorithm 1 on `rigidity` or the user's uniform grid.
+fn starting_grid(args: &GridwarpArgs, rigidity: &Field) -> Result<Grid> {
+    match args.grid.as_str() {
+        "auto" => Ok(grid_from_rigidity(rigidity, args.epsilon)),
+        spec => parse_grid_spec(spec),
     }
-    let scene = analytic_scene(&args.scene, args.frames)
-        .ok_or_else(|| Error::InvalidArgument(format!("unknown scene '{}'", args.scene)))?;
-    if args.size < 2 || args.samples == 0 {
-        return Err(Error::InvalidArgument(
-            "--size must be ≥ 2 and --samples ≥ 1".into(),
-        ));
-    }
-    let fields = scene.fields(args.size);
-    let rest_grid = parse_grid(&args.grid, &scene, args.epsilon)?;
-    let (frames, grids) = solve_and_measure(args, &fields.rest, &rest_grid, &fields.frames)?;
-    let pictures = write_pictures(
-        &args.out,
-        &scene,
-        &rest_grid,
-        grids.last().unwrap_or(&rest_grid),
-    )?;
-    Ok(GridwarpResult {
-        scene: args.scene.clone(),
-        unknowns: rest_grid.unknowns(),
-        rest_grid,
-        frames,
-        grids,
-        pictures,
-    })
 }
 
-/// Solve every frame (warm-started) and measure it: per-frame statistics and grids.
-fn solve_and_measure(
-    args: &GridwarpArgs,
-    rest: &RestFields,
-    rest_grid: &Grid,
-    deformed: &[DeformedFields],
-) -> Result<(Vec<FrameStats>, Vec<Grid>)> {
-    let options = SolveOptions {
+fn solve_options(args: &GridwarpArgs) -> SolveOptions {
+    SolveOptions {
         samples: (args.samples, args.samples),
         lm: if args.paper {
             LmOptions::paper()
@@ -164,30 +240,181 @@ fn solve_and_measure(
         },
         smoothness: args.smoothness,
         looping: false,
-    };
-    let solutions = solve_sequence(rest, rest_grid, deformed, &options)?;
-    let frames = solutions
-        .iter()
-        .zip(deformed)
-        .enumerate()
-        .map(|(k, (s, deformed))| FrameStats {
-            frame: k,
-            rigid_stretch_before: rigid_stretch(rest, deformed, rest_grid, rest_grid, 256),
-            rigid_stretch_after: rigid_stretch(rest, deformed, rest_grid, &s.grid, 256),
-            energy_before: s.rest_energy,
-            energy_after: s.lm.energy,
-            seconds: s.seconds,
-            iterations: s.lm.iterations,
-            energy_evaluations: s.lm.energy_evaluations,
-            jacobian_evaluations: s.lm.jacobian_evaluations,
-            stop: s.lm.stop,
-        })
-        .collect();
-    let grids: Vec<Grid> = solutions.iter().map(|s| s.grid.clone()).collect();
-    Ok((frames, grids))
+    }
 }
 
-fn parse_roi(spec: &str) -> Result<Roi> {
+fn check_sizes(args: &GridwarpArgs) -> Result<()> {
+    if args.size < 2 || args.samples == 0 || args.frames == 0 {
+        return Err(Error::InvalidArgument(
+            "--size must be ≥ 2, --samples ≥ 1 and --frames ≥ 1".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// Solve the scene (or the mesh input) and write its pictures; shared by the command and the demo.
+pub fn solve_scene(args: &GridwarpArgs) -> Result<GridwarpResult> {
+    check_sizes(args)?;
+    if args.gltf.is_some() || !args.obj.is_empty() {
+        return solve_meshes(args);
+    }
+    if !args.roi.is_empty() || !args.rigidity.is_empty() {
+        return Err(Error::InvalidArgument(
+            "--roi and --rigidity apply to mesh inputs (--gltf, --obj); a built-in scene has its own"
+                .into(),
+        ));
+    }
+    let scene = analytic_scene(&args.scene, args.frames)
+        .ok_or_else(|| Error::InvalidArgument(format!("unknown scene '{}'", args.scene)))?;
+    let fields = scene.fields(args.size);
+    let jacobians = match args.variant {
+        Variant::Aa => Vec::new(),
+        Variant::Naa => scene
+            .frames
+            .iter()
+            .map(|x| DeformedJacobian::from_partials(args.size, |s, t| partials_of(&**x, s, t)))
+            .collect(),
+    };
+    let rest_grid = starting_grid(args, &scene.rigidity)?;
+    let roi = solve_roi(
+        args,
+        Roi::full(),
+        &fields.rest,
+        rest_grid,
+        &fields.frames,
+        &jacobians,
+    )?;
+    let pictured = most_stretched_frame(std::slice::from_ref(&roi));
+    let blend = args.boundary_blend == Blend::On;
+    let remap = Remap::new(roi.rest_grid.clone(), roi.warped(pictured)).with_boundary_blend(blend);
+    let pictures = write_scene_pictures(args, &scene, pictured, &remap)?;
+    Ok(GridwarpResult {
+        scene: args.scene.clone(),
+        variant: args.variant,
+        combined: combine(std::slice::from_ref(&roi)),
+        rois: vec![roi],
+        pictured_frame: pictured,
+        pictures,
+    })
+}
+
+/// Solve one ROI's sequence with the chosen variant and measure every frame.
+fn solve_roi(
+    args: &GridwarpArgs,
+    roi: Roi,
+    rest: &RestFields,
+    rest_grid: Grid,
+    frames: &[DeformedFields],
+    jacobians: &[DeformedJacobian],
+) -> Result<RoiResult> {
+    let options = solve_options(args);
+    let lattice = 256;
+    let stats = |k: usize, lm: &LmReport, rest_energy, seconds, before, after| FrameStats {
+        frame: k,
+        rigid_stretch_before: before,
+        rigid_stretch_after: after,
+        energy_before: rest_energy,
+        energy_after: lm.energy,
+        seconds,
+        iterations: lm.iterations,
+        energy_evaluations: lm.energy_evaluations,
+        jacobian_evaluations: lm.jacobian_evaluations,
+        stop: lm.stop,
+    };
+    let roi_box = [roi.u0, roi.u1, roi.v0, roi.v1];
+    match args.variant {
+        Variant::Aa => {
+            let solutions = solve_sequence(rest, &rest_grid, frames, &options)?;
+            let frames = solutions
+                .iter()
+                .zip(frames)
+                .enumerate()
+                .map(|(k, (s, d))| {
+                    let before = rigid_stretch(rest, d, &rest_grid, &rest_grid, lattice);
+                    let after = rigid_stretch(rest, d, &rest_grid, &s.grid, lattice);
+                    stats(k, &s.lm, s.rest_energy, s.seconds, before, after)
+                })
+                .collect();
+            Ok(RoiResult {
+                roi: roi_box,
+                unknowns: rest_grid.unknowns(),
+                frames,
+                grids: solutions.into_iter().map(|s| s.grid).collect(),
+                vertices: Vec::new(),
+                rest_grid,
+            })
+        }
+        Variant::Naa => {
+            let start = VertexGrid::from_grid(&rest_grid).with_sliding_border(args.sliding_border);
+            let solutions = solve_naa_sequence(rest, &rest_grid, &start, jacobians, &options)?;
+            let frames = solutions
+                .iter()
+                .zip(jacobians)
+                .enumerate()
+                .map(|(k, (s, d))| {
+                    let before = rigid_stretch_naa(rest, d, &rest_grid, &start, lattice);
+                    let after = rigid_stretch_naa(rest, d, &rest_grid, &s.vertices, lattice);
+                    stats(k, &s.lm, s.rest_energy, s.seconds, before, after)
+                })
+                .collect();
+            Ok(RoiResult {
+                roi: roi_box,
+                unknowns: start.unknowns(),
+                frames,
+                grids: Vec::new(),
+                vertices: solutions.into_iter().map(|s| s.vertices).collect(),
+                rest_grid,
+            })
+        }
+    }
+}
+
+/// Sums over the ROIs, frame by frame.
+fn combine(rois: &[RoiResult]) -> Vec<CombinedFrame> {
+    let frames = rois.iter().map(|r| r.frames.len()).max().unwrap_or(0);
+    (0..frames)
+        .map(|k| {
+            let of = |f: &dyn Fn(&FrameStats) -> f64| -> f64 {
+                rois.iter().filter_map(|r| r.frames.get(k)).map(f).sum()
+            };
+            CombinedFrame {
+                frame: k,
+                seconds: of(&|f| f.seconds),
+                iterations: of(&|f| f.iterations as f64) as usize,
+                energy_evaluations: of(&|f| f.energy_evaluations as f64) as usize,
+                jacobian_evaluations: of(&|f| f.jacobian_evaluations as f64) as usize,
+            }
+        })
+        .collect()
+}
+
+/// The frame whose rigid content is most stretched without the warp (largest mean over ROIs).
+fn most_stretched_frame(rois: &[RoiResult]) -> usize {
+    let frames = rois.iter().map(|r| r.frames.len()).max().unwrap_or(0);
+    (0..frames)
+        .map(|k| {
+            let total: f64 = rois
+                .iter()
+                .filter_map(|r| r.frames.get(k))
+                .map(|f| f.rigid_stretch_before.mean)
+                .sum();
+            (k, total)
+        })
+        .fold(
+            (0, f64::NEG_INFINITY),
+            |best, x| {
+                if x.1 > best.1 {
+                    x
+                } else {
+                    best
+                }
+            },
+        )
+        .0
+}
+
+/// `u0,u1,v0,v1` → a checked [`Roi`].
+pub fn parse_roi(spec: &str) -> Result<Roi> {
     let bad = || Error::InvalidArgument(format!("--roi must be u0,u1,v0,v1, got '{spec}'"));
     let v: Vec<f64> = spec
         .split(',')
@@ -200,8 +427,11 @@ fn parse_roi(spec: &str) -> Result<Roi> {
     }
 }
 
+/// The rest mesh, the deformed frames, a name, and the model's colour texture if it has one.
+type Frames = (TriMesh, Vec<TriMesh>, String, Option<Image<[u8; 4]>>);
+
 /// The rest mesh and the deformed frames from --gltf (poses at uniform times) or --obj.
-fn load_frames(args: &GridwarpArgs) -> Result<(TriMesh, Vec<TriMesh>, String)> {
+fn load_frames(args: &GridwarpArgs) -> Result<Frames> {
     if let Some(path) = &args.gltf {
         let skinned = load_gltf(path)?;
         let animation = match &args.animation {
@@ -228,7 +458,8 @@ fn load_frames(args: &GridwarpArgs) -> Result<(TriMesh, Vec<TriMesh>, String)> {
         let stem = path
             .file_stem()
             .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
-        return Ok((skinned.mesh, frames, stem));
+        let texture = load_gltf_base_colour(path)?;
+        return Ok((skinned.mesh, frames, stem, texture));
     }
     let meshes = args
         .obj
@@ -238,100 +469,308 @@ fn load_frames(args: &GridwarpArgs) -> Result<(TriMesh, Vec<TriMesh>, String)> {
     let stem = args.obj[0]
         .file_stem()
         .map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
-    Ok((meshes[0].clone(), meshes[1..].to_vec(), stem))
+    let texture = match &meshes[0].texture {
+        Some(path) => Some(load_rgba8(path)?),
+        None => None,
+    };
+    Ok((meshes[0].clone(), meshes[1..].to_vec(), stem, texture))
 }
 
-/// gridwarp on real meshes: fields rasterised over the ROI in texture space, then as for scenes.
-fn solve_meshes(args: &GridwarpArgs) -> Result<GridwarpResult> {
-    let roi = parse_roi(&args.roi)?;
-    let (rest_mesh, frame_meshes, stem) = load_frames(args)?;
+/// The rigidity map of ROI `k` of `rois` from the `--rigidity` words (see [`GridwarpArgs`]).
+fn roi_rigidity(
+    args: &GridwarpArgs,
+    rois: &[Roi],
+    k: usize,
+    rest: &TriMesh,
+    texture: Option<&Image<[u8; 4]>>,
+) -> Result<Field> {
     let size = (args.size, args.size);
-    let fields = frames_fields(&rest_mesh, &frame_meshes, &roi, size)?;
-    let rigidity = match &args.rigidity {
-        Some(path) => rigidity_from_image(path, None, size)?,
-        None => Field::constant(1.0),
+    let shared = args.rigidity.len() == 1 && rois.len() > 1;
+    let spec = match args.rigidity.len() {
+        0 => return Ok(Field::constant(1.0)),
+        1 => &args.rigidity[0],
+        n if n == rois.len() => &args.rigidity[k],
+        n => {
+            return Err(Error::InvalidArgument(format!(
+                "{n} --rigidity values for {} ROIs: give one per ROI or one shared by all",
+                rois.len()
+            )))
+        }
     };
-    let rest = fields.rest_fields(rigidity.clone());
-    let rest_grid = match args.grid.as_str() {
-        "auto" => grid_from_rigidity(&rigidity, args.epsilon),
-        spec => parse_grid_spec(spec)?,
+    let roi = &rois[k];
+    if spec == "auto" {
+        let texture = texture.ok_or_else(|| {
+            Error::InvalidArgument(
+                "--rigidity auto needs the model's colour texture (glTF base colour or the OBJ's map_Kd)"
+                    .into(),
+            )
+        })?;
+        let map = texel_map(rest, roi, size)?;
+        return rigidity_from_texture(
+            texture,
+            roi,
+            size,
+            Some(&map.covered),
+            &AutoRigidityOptions::default(),
+        );
+    }
+    if let Some(discs) = spec.strip_prefix("discs:") {
+        return Ok(disc_rigidity(args.size, &parse_discs(discs)?, 0.1));
+    }
+    let path = Path::new(spec);
+    // A shared image covers the whole texture, a per-ROI one its ROI; with a known texture its
+    // size must match the region it covers (±1 pixel of rounding).
+    let cover = if shared { Roi::full() } else { *roi };
+    match texture {
+        Some(t) => {
+            let (du, dv) = cover.size();
+            let expected = (
+                (du * t.width as f64).round() as usize,
+                (dv * t.height as f64).round() as usize,
+            );
+            rigidity_from_image_of_size(path, shared.then_some(roi), size, expected, 1)
+        }
+        None => rigidity_from_image(path, shared.then_some(roi), size),
+    }
+}
+
+/// gridwarp on real meshes: fields rasterised over each ROI in texture space, each ROI solved
+/// independently frame by frame; pictures of the most stretched frame.
+fn solve_meshes(args: &GridwarpArgs) -> Result<GridwarpResult> {
+    let rois: Vec<Roi> = if args.roi.is_empty() {
+        vec![Roi::full()]
+    } else {
+        args.roi
+            .iter()
+            .map(|s| parse_roi(s))
+            .collect::<Result<_>>()?
     };
-    let (frames, grids) = solve_and_measure(args, &rest, &rest_grid, &fields.frames)?;
-    let warped = grids.last().unwrap_or(&rest_grid);
-    let overlay = args.out.join(format!("gridwarp_{stem}_grid.png"));
-    save_png(
-        &grid_overlay(&detail_texture(&rigidity, 512), &rest_grid, warped),
-        &overlay,
+    check_disjoint(&rois)?;
+    let (rest_mesh, frame_meshes, stem, texture) = load_frames(args)?;
+    let size = (args.size, args.size);
+    let mut results = Vec::new();
+    let mut rigidities = Vec::new();
+    let mut stretch_inputs = Vec::new();
+    for (k, roi) in rois.iter().enumerate() {
+        let fields = frames_fields(&rest_mesh, &frame_meshes, roi, size)?;
+        let rigidity = roi_rigidity(args, &rois, k, &rest_mesh, texture.as_ref())?;
+        let rest = fields.rest_fields(rigidity.clone());
+        let rest_grid = starting_grid(args, &rigidity)?;
+        results.push(solve_roi(
+            args,
+            *roi,
+            &rest,
+            rest_grid,
+            &fields.frames,
+            &fields.jacobians,
+        )?);
+        rigidities.push(rigidity);
+        stretch_inputs.push((rest, fields.frames));
+    }
+    let pictured = most_stretched_frame(&results);
+    let pstem = picture_stem(args, &stem);
+    let mut stretch_pictures = Vec::new();
+    for (k, (rest, frames)) in stretch_inputs.iter().enumerate() {
+        let path = args.out.join(format!("{pstem}_roi{k}_stretch.png"));
+        save_png(&stretch_map(rest, &frames[pictured], 1.0, 512), &path)?;
+        stretch_pictures.push(path);
+    }
+    let blend = match args.boundary_blend {
+        Blend::On => true,
+        Blend::Off => false,
+        Blend::Auto => rois.iter().any(|r| !r.is_full()),
+    };
+    let remaps: Vec<(Roi, Remap)> = rois
+        .iter()
+        .zip(&results)
+        .map(|(roi, r)| {
+            let remap =
+                Remap::new(r.rest_grid.clone(), r.warped(pictured)).with_boundary_blend(blend);
+            (*roi, remap)
+        })
+        .collect();
+    let atlas = AtlasRemap::new(remaps)?;
+    let mut pictures = write_mesh_pictures(
+        args,
+        &pstem,
+        &frame_meshes[pictured.min(frame_meshes.len() - 1)],
+        texture.as_ref(),
+        &rigidities,
+        &atlas,
     )?;
-    let texture = atlas_texture(&roi, &rigidity, 1024);
-    let last = frame_meshes.last().unwrap_or(&rest_mesh);
-    let view = Vector3::new(-1.0, 0.3, 0.2);
-    let original = render_textured(last, &texture, view, 480);
-    let remapped = render_textured(
-        &remap_mesh_uvs(last, &roi, &rest_grid, warped),
-        &texture,
-        view,
-        480,
-    );
-    let render = args.out.join(format!("gridwarp_{stem}_render.png"));
-    save_png(&side_by_side(&[&original, &remapped], 8), &render)?;
+    pictures.extend(stretch_pictures);
     Ok(GridwarpResult {
         scene: stem,
-        unknowns: rest_grid.unknowns(),
-        rest_grid,
-        frames,
-        grids,
-        pictures: vec![overlay, render],
+        variant: args.variant,
+        combined: combine(&results),
+        rois: results,
+        pictured_frame: pictured,
+        pictures,
     })
 }
 
-/// The texture with both grids, and the last frame rendered with the original | warped UVs.
-fn write_pictures(
-    out: &Path,
-    scene: &AnalyticScene,
-    rest: &Grid,
-    warped: &Grid,
+/// File name stem of the pictures: the input's name, `_naa` for the non-axis-aligned variant.
+fn picture_stem(args: &GridwarpArgs, name: &str) -> String {
+    match args.variant {
+        Variant::Aa => format!("gridwarp_{name}"),
+        Variant::Naa => format!("gridwarp_{name}_naa"),
+    }
+}
+
+/// (`name` is the picture stem.) Per ROI the grids over the detail texture (and over the model's
+/// texture when it has one); the pictured frame rendered with the original | warped texture
+/// lookup, with the detail atlas and with the model's texture, the camera framing the faces
+/// on rigid content ([`rigid_faces`]); that frame as an OBJ with its UVs remapped per vertex (`_warped.obj`).
+fn write_mesh_pictures(
+    args: &GridwarpArgs,
+    name: &str,
+    mesh: &TriMesh,
+    texture: Option<&Image<[u8; 4]>>,
+    rigidities: &[Field],
+    atlas: &AtlasRemap,
 ) -> Result<Vec<PathBuf>> {
+    let stem = name;
+    let mut pictures = Vec::new();
+    for (k, ((roi, remap), rigidity)) in atlas.rois.iter().zip(rigidities).enumerate() {
+        let mut panels = vec![grid_overlay(&detail_texture(rigidity, 512), remap)];
+        if let Some(t) = texture {
+            panels.push(grid_overlay(&roi_crop(t, roi, 512, 512), remap));
+        }
+        let path = args.out.join(format!("{stem}_roi{k}_grid.png"));
+        save_png(&side_by_side(&panels.iter().collect::<Vec<_>>(), 8), &path)?;
+        pictures.push(path);
+    }
+    let view = Vector3::new(-1.0, 0.3, 0.2);
+    let lookup = |uv: [f64; 2]| atlas.lookup_uv(uv);
+    let pairs: Vec<(&str, Image<[u8; 4]>)> = {
+        let roi_maps: Vec<(Roi, &Field)> = atlas
+            .rois
+            .iter()
+            .zip(rigidities)
+            .map(|((roi, _), r)| (*roi, r))
+            .collect();
+        let mut v = vec![("render", atlas_texture(&roi_maps, 1024))];
+        if let Some(t) = texture {
+            v.push(("texture_render", t.clone()));
+        }
+        v
+    };
+    // The pictured frame with its UVs remapped per vertex (for other renderers).
+    let obj = args.out.join(format!("{stem}_warped.obj"));
+    let mut warped_mesh = remap_mesh_uvs(mesh, atlas);
+    warped_mesh.texture = None;
+    write_obj(&warped_mesh, &obj)?;
+    pictures.push(obj);
+    let roi_maps: Vec<(Roi, &Field)> = atlas
+        .rois
+        .iter()
+        .zip(rigidities)
+        .map(|((roi, _), r)| (*roi, r))
+        .collect();
+    let zoom = rigid_faces(mesh, &roi_maps);
+    for (suffix, tex) in pairs {
+        let original = render_remapped_framed(mesh, &zoom, &tex, view, 640, &|uv| uv);
+        let warped = render_remapped_framed(mesh, &zoom, &tex, view, 640, &lookup);
+        let path = args.out.join(format!("{stem}_{suffix}.png"));
+        save_png(&side_by_side(&[&original, &warped], 8), &path)?;
+        pictures.push(path);
+    }
+    Ok(pictures)
+}
+
+/// The texture with both grids, and the pictured frame rendered with the original | warped
+/// lookup.
+fn write_scene_pictures(
+    args: &GridwarpArgs,
+    scene: &AnalyticScene,
+    frame: usize,
+    remap: &Remap,
+) -> Result<Vec<PathBuf>> {
+    let stem = picture_stem(args, scene.name);
     let texture = detail_texture(&scene.rigidity, 512);
-    let overlay = out.join(format!("gridwarp_{}_grid.png", scene.name));
-    save_png(&grid_overlay(&texture, rest, warped), &overlay)?;
-    let surface = scene.frames.last().map_or(&scene.rest, |f| f);
+    let overlay = args.out.join(format!("{stem}_grid.png"));
+    save_png(&grid_overlay(&texture, remap), &overlay)?;
+    let surface = scene.frames.get(frame).unwrap_or(&scene.rest);
     let view = match scene.name {
         "worm" => Vector3::new(0.2, -0.3, 1.0),
         _ => Vector3::new(0.25, -0.6, 1.0),
     };
-    let original = render_textured(&surface_mesh(&**surface, 160, None), &texture, view, 480);
-    let remapped = render_textured(
-        &surface_mesh(&**surface, 160, Some((rest, warped))),
-        &texture,
-        view,
-        480,
-    );
-    let render = out.join(format!("gridwarp_{}_render.png", scene.name));
-    save_png(&side_by_side(&[&original, &remapped], 8), &render)?;
+    let mesh = surface_mesh(&**surface, 160);
+    let original = render_remapped(&mesh, &texture, view, 480, &|uv| uv);
+    let warped = render_remapped(&mesh, &texture, view, 480, &|uv| remap.lookup(uv));
+    let render = args.out.join(format!("{stem}_render.png"));
+    save_png(&side_by_side(&[&original, &warped], 8), &render)?;
     Ok(vec![overlay, render])
 }
 
 pub fn run(args: GridwarpArgs) -> Result<()> {
+    std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
     let result = solve_scene(&args)?;
     let lines = args
         .out
-        .join(format!("gridwarp_{}_lines.json", result.scene));
-    let text = serde_json::to_string_pretty(&result.grids)
-        .map_err(|e| Error::InvalidArgument(e.to_string()))?;
+        .join(format!("{}_lines.json", picture_stem(&args, &result.scene)));
+    let grids: Vec<serde_json::Value> = result
+        .rois
+        .iter()
+        .map(|r| {
+            serde_json::json!({
+                "roi": r.roi,
+                "rest_grid": r.rest_grid,
+                "grids": r.grids,
+                "vertices": r.vertices,
+            })
+        })
+        .collect();
+    let text =
+        serde_json::to_string_pretty(&grids).map_err(|e| Error::InvalidArgument(e.to_string()))?;
     std::fs::write(&lines, text).map_err(|e| Error::io(&lines, e))?;
     if args.json {
         return super::print_json(&result);
     }
     println!(
-        "scene {}: {} unknowns (rest grid {}×{} lines), {} frames",
+        "{} ({}): {} ROI(s), {} frames",
         result.scene,
-        result.unknowns,
-        result.rest_grid.s.len(),
-        result.rest_grid.t.len(),
-        result.frames.len()
+        match result.variant {
+            Variant::Aa => "axis-aligned",
+            Variant::Naa => "non-axis-aligned",
+        },
+        result.rois.len(),
+        result.combined.len()
     );
-    println!("{}", frame_table(&result.frames));
+    for (k, r) in result.rois.iter().enumerate() {
+        println!(
+            "ROI {k} u [{}, {}] x v [{}, {}]: {} unknowns (rest grid {}×{} lines)",
+            r.roi[0],
+            r.roi[1],
+            r.roi[2],
+            r.roi[3],
+            r.unknowns,
+            r.rest_grid.s.len(),
+            r.rest_grid.t.len()
+        );
+        println!("{}", frame_table(&r.frames));
+    }
+    if result.rois.len() > 1 {
+        println!("all ROIs combined:");
+        let header: Vec<String> = ["frame", "ms", "iterations", "evaluations (E + J)"]
+            .iter()
+            .map(|h| h.to_string())
+            .collect();
+        let rows: Vec<Vec<String>> = result
+            .combined
+            .iter()
+            .map(|c| {
+                vec![
+                    c.frame.to_string(),
+                    sig(c.seconds * 1e3, 3),
+                    c.iterations.to_string(),
+                    format!("{} + {}", c.energy_evaluations, c.jacobian_evaluations),
+                ]
+            })
+            .collect();
+        println!("{}", super::text_table(&header, &rows));
+    }
+    println!("pictures show frame {}", result.pictured_frame);
     for p in result.pictures.iter().chain([&lines]) {
         println!("wrote {}", p.display());
     }

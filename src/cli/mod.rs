@@ -6,6 +6,9 @@ mod crosscheck;
 mod demo;
 mod gridwarp;
 mod inputs;
+mod maps;
+mod skinsimp;
+mod unwarp;
 
 use std::process::ExitCode;
 
@@ -27,8 +30,16 @@ enum Command {
     /// Blended Piecewise Möbius Maps: render, quality protocol.
     #[command(subcommand)]
     Bpm(bpm::BpmCommand),
-    /// Content-aware grid warp of a texture region (axis-aligned), on a built-in scene.
+    /// Content-aware grid warp of texture regions (axis-aligned or not): built-in scenes, OBJ
+    /// frames or a skinned glTF.
     Gridwarp(gridwarp::GridwarpArgs),
+    /// Distortion-free displacement mapping: the per-texel offset map of a height map.
+    Unwarp(unwarp::UnwarpArgs),
+    /// Quadric simplification of a skinned glTF model with optimised skin weights (or of an
+    /// OBJ frame sequence); writes a skinned GLB.
+    Skinsimp(skinsimp::SkinsimpArgs),
+    /// MAPS: multiresolution parameterisation over a base domain, and remeshing (OBJ/PLY/OFF).
+    Maps(maps::MapsArgs),
     /// Compare a GPU f32 kernel with the f64 reference from identical inputs.
     #[command(subcommand)]
     Crosscheck(crosscheck::CrosscheckCommand),
@@ -47,6 +58,9 @@ pub fn main() -> ExitCode {
         Command::Bpm(cmd) => bpm::run(cmd),
         Command::Crosscheck(cmd) => crosscheck::run(cmd),
         Command::Gridwarp(args) => gridwarp::run(args),
+        Command::Maps(args) => maps::run(args),
+        Command::Unwarp(args) => unwarp::run(args),
+        Command::Skinsimp(args) => skinsimp::run(args),
         Command::ReferenceData { out } => reparam::reference_data::write_all(&out).map(|files| {
             for f in files {
                 println!("wrote {}", f.display());

@@ -6,6 +6,9 @@
 //! arithmetic and nothing else. Summaries are rounded to significant digits (never to decimal
 //! places, which would turn 3.7e-7 into 0) before they are snapshotted or printed.
 
+// `!(e <= tolerance)` is meant throughout: a NaN error counts as over any tolerance.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use serde::Serialize;
 
 /// Differences between a GPU result and the f64 reference over many samples.

@@ -8,15 +8,17 @@
 //! with w = h_i k_j/(K L) the sample's area, (s, t) = (ŝ_i + α h_i, t̂_j + β k_j) the rest point,
 //! p = (s_i + α(s_{i+1} − s_i), t_j + β(t_{j+1} − t_j)) the warped point, a_i = (s_{i+1} − s_i)/h_i,
 //! b_j = (t_{j+1} − t_j)/k_j, c = ‖D_·‖ at p, o = ‖O_·‖ at the rest point. Σ r² is the
-//! Gauss–Newton model of the integral (notes). JᵀJ and Jᵀr are accumulated sample by sample
-//! (each row has at most 4 non-zeros); J is never stored.
+//! Gauss–Newton model of the integral (notes). A cell's residuals depend on its four lines
+//! only (s_i, s_{i+1}, t_j, t_{j+1}, the cell's "slots"), so JᵀJ and Jᵀr are accumulated per cell
+//! in a 4×4 block ([`LocalNormalEquations`], the GPU kernel's `CellContribution`), cells in
+//! parallel, and the blocks scattered in cell order; J is never stored.
 
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use super::field::{Field, Sample};
+use super::field::{Axis, Field, Sample};
 use super::grid::Grid;
-use crate::lm::{NormalEquations, Residuals};
+use crate::lm::{LocalNormalEquations, NormalEquations, Residuals};
 
 /// The fields of the rest pose: ‖O_s‖, ‖O_t‖ and the rigidity R.
 #[derive(Clone, Debug)]
@@ -77,9 +79,19 @@ pub fn rest_samples(rest: &RestFields, rest_grid: &Grid, k: usize, l: usize) -> 
 pub struct AaEnergy<'a> {
     rest_grid: &'a Grid,
     deformed: &'a DeformedFields,
-    /// Samples of cell (i, j) at `samples[(i·(N−1) + j)·K·L ..]`.
+    /// Samples of cell (i, j) at `samples[(i·(N−1) + j)·K·L ..]`, sample (a, b) at a·L + b.
     samples: Vec<RestSample>,
-    per_cell: usize,
+    k: usize,
+    l: usize,
+}
+
+/// The warped sample coordinates of one grid, separable because the grid is axis-aligned:
+/// f = s_i + α_a (s_{i+1} − s_i) depends on the cell column and α only, g = t_j + β_b (t_{j+1} −
+/// t_j) on the row and β only. Their texel [`Axis`] positions are found once per column sample
+/// (index i·K + a) and row sample (j·L + b), not once per sample.
+struct WarpedAxes {
+    columns: Vec<Axis>,
+    rows: Vec<Axis>,
 }
 
 impl<'a> AaEnergy<'a> {
@@ -96,7 +108,8 @@ impl<'a> AaEnergy<'a> {
             rest_grid,
             deformed,
             samples,
-            per_cell: k.max(1) * l.max(1),
+            k: k.max(1),
+            l: l.max(1),
         }
     }
 
@@ -106,6 +119,10 @@ impl<'a> AaEnergy<'a> {
 
     fn rows(&self) -> usize {
         self.rest_grid.t.len() - 1
+    }
+
+    fn cells(&self) -> usize {
+        self.columns() * self.rows()
     }
 
     /// Index of line s_i in the unknowns (None for the fixed lines 0 and 1).
@@ -119,52 +136,86 @@ impl<'a> AaEnergy<'a> {
         (j > 0 && j < self.rest_grid.t.len() - 1).then(|| m - 2 + j - 1)
     }
 
-    /// Visit every residual of cell column i at the grid `g`: `visit(r, [(unknown, ∂r/∂x)])`.
+    /// The unknowns of cell `cell` = (i, j) in slot order (s_i, s_{i+1}, t_j, t_{j+1}).
+    pub fn cell_unknowns(&self, cell: usize) -> [Option<usize>; 4] {
+        let (i, j) = (cell / self.rows(), cell % self.rows());
+        [
+            self.s_index(i),
+            self.s_index(i + 1),
+            self.t_index(j),
+            self.t_index(j + 1),
+        ]
+    }
+
+    /// The [`Axis`] positions of every column and row sample of the grid `g` (on the D_s
+    /// field's texels; [`Field::bilinear_at`] redoes them if D_t has another resolution).
+    fn warped_axes(&self, g: &Grid) -> WarpedAxes {
+        let along = |lines: &[f64], per_cell: usize, texels: usize| -> Vec<Axis> {
+            let mut axes = Vec::with_capacity((lines.len() - 1) * per_cell);
+            for i in 0..lines.len() - 1 {
+                for a in 0..per_cell {
+                    let alpha = (a as f64 + 0.5) / per_cell as f64;
+                    axes.push(Axis::new(
+                        lines[i] + alpha * (lines[i + 1] - lines[i]),
+                        texels,
+                    ));
+                }
+            }
+            axes
+        };
+        WarpedAxes {
+            columns: along(&g.s, self.k, self.deformed.d_s.width),
+            rows: along(&g.t, self.l, self.deformed.d_s.height),
+        }
+    }
+
+    /// Visit every residual of cell `cell` = (i, j) at the grid `g`: `visit(r, ∂r/∂x)`, the
+    /// derivatives in slot order (s_i, s_{i+1}, t_j, t_{j+1}) of [`AaEnergy::cell_unknowns`].
+    #[inline]
     fn for_each_residual(
         &self,
         g: &Grid,
-        i: usize,
-        mut visit: impl FnMut(f64, [(Option<usize>, f64); 4]),
+        axes: &WarpedAxes,
+        cell: usize,
+        mut visit: impl FnMut(f64, &[f64; 4]),
     ) {
+        let (i, j) = (cell / self.rows(), cell % self.rows());
         let h = self.rest_grid.s[i + 1] - self.rest_grid.s[i];
+        let kj = self.rest_grid.t[j + 1] - self.rest_grid.t[j];
         let a = (g.s[i + 1] - g.s[i]) / h;
-        for j in 0..self.rows() {
-            let kj = self.rest_grid.t[j + 1] - self.rest_grid.t[j];
-            let b = (g.t[j + 1] - g.t[j]) / kj;
-            let cell = &self.samples[(i * self.rows() + j) * self.per_cell..][..self.per_cell];
-            let (si, si1, tj, tj1) = (
-                self.s_index(i),
-                self.s_index(i + 1),
-                self.t_index(j),
-                self.t_index(j + 1),
-            );
-            for p in cell {
+        let b = (g.t[j + 1] - g.t[j]) / kj;
+        let per_cell = self.k * self.l;
+        let samples = &self.samples[cell * per_cell..][..per_cell];
+        let column_axes = &axes.columns[i * self.k..][..self.k];
+        let row_axes = &axes.rows[j * self.l..][..self.l];
+        for (ka, x) in column_axes.iter().enumerate() {
+            for (lb, y) in row_axes.iter().enumerate() {
+                let p = &samples[ka * self.l + lb];
                 if p.sigma == 0.0 {
                     continue;
                 }
-                let f = g.s[i] + p.alpha * (g.s[i + 1] - g.s[i]);
-                let gt = g.t[j] + p.beta * (g.t[j + 1] - g.t[j]);
-                let cs: Sample = self.deformed.d_s.bilinear(f, gt);
-                let ct: Sample = self.deformed.d_t.bilinear(f, gt);
+                // c_s, c_t at the warped point p = (f, g).
+                let cs: Sample = self.deformed.d_s.bilinear_at(x, y);
+                let ct: Sample = self.deformed.d_t.bilinear_at(x, y);
                 let (al, be, sg) = (p.alpha, p.beta, p.sigma);
                 // r^s = σ (c_s a − o_s) and its four partial derivatives (notes).
                 visit(
                     sg * (cs.value * a - p.o_s),
-                    [
-                        (si, sg * (a * cs.ds * (1.0 - al) - cs.value / h)),
-                        (si1, sg * (a * cs.ds * al + cs.value / h)),
-                        (tj, sg * a * cs.dt * (1.0 - be)),
-                        (tj1, sg * a * cs.dt * be),
+                    &[
+                        sg * (a * cs.ds * (1.0 - al) - cs.value / h),
+                        sg * (a * cs.ds * al + cs.value / h),
+                        sg * a * cs.dt * (1.0 - be),
+                        sg * a * cs.dt * be,
                     ],
                 );
                 // r^t = σ (c_t b − o_t), symmetric.
                 visit(
                     sg * (ct.value * b - p.o_t),
-                    [
-                        (tj, sg * (b * ct.dt * (1.0 - be) - ct.value / kj)),
-                        (tj1, sg * (b * ct.dt * be + ct.value / kj)),
-                        (si, sg * b * ct.ds * (1.0 - al)),
-                        (si1, sg * b * ct.ds * al),
+                    &[
+                        sg * b * ct.ds * (1.0 - al),
+                        sg * b * ct.ds * al,
+                        sg * (b * ct.dt * (1.0 - be) - ct.value / kj),
+                        sg * (b * ct.dt * be + ct.value / kj),
                     ],
                 );
             }
@@ -174,9 +225,10 @@ impl<'a> AaEnergy<'a> {
     /// All residuals at `x`, in a fixed order (cell column, row, sample, axis). For tests.
     pub fn residuals(&self, x: &[f64]) -> Vec<f64> {
         let g = self.rest_grid.with_unknowns(x);
+        let axes = self.warped_axes(&g);
         let mut out = Vec::new();
-        for i in 0..self.columns() {
-            self.for_each_residual(&g, i, |r, _| out.push(r));
+        for cell in 0..self.cells() {
+            self.for_each_residual(&g, &axes, cell, |r, _| out.push(r));
         }
         out
     }
@@ -184,51 +236,80 @@ impl<'a> AaEnergy<'a> {
     /// The dense Jacobian at `x` (rows as in [`AaEnergy::residuals`]). For tests.
     pub fn jacobian(&self, x: &[f64]) -> DMatrix<f64> {
         let g = self.rest_grid.with_unknowns(x);
+        let axes = self.warped_axes(&g);
         let mut rows = Vec::new();
-        for i in 0..self.columns() {
-            self.for_each_residual(&g, i, |_, d| rows.push(d));
+        for cell in 0..self.cells() {
+            let slots = self.cell_unknowns(cell);
+            self.for_each_residual(&g, &axes, cell, |_, d| rows.push((slots, *d)));
         }
         let mut jac = DMatrix::zeros(rows.len(), x.len());
-        for (row, d) in rows.iter().enumerate() {
-            for (col, v) in d.iter().filter_map(|(c, v)| c.map(|c| (c, *v))) {
-                jac[(row, col)] += v;
+        for (row, (slots, d)) in rows.iter().enumerate() {
+            for (slot, v) in slots.iter().zip(d) {
+                if let Some(col) = slot {
+                    jac[(row, *col)] += v;
+                }
             }
         }
         jac
     }
+
+    /// One cell's energy and normal equations over its four slots.
+    pub fn cell_normal_equations(&self, g: &Grid, cell: usize) -> LocalNormalEquations<4> {
+        self.cell_normal_equations_with(g, &self.warped_axes(g), cell)
+    }
+
+    fn cell_normal_equations_with(
+        &self,
+        g: &Grid,
+        axes: &WarpedAxes,
+        cell: usize,
+    ) -> LocalNormalEquations<4> {
+        let mut local = LocalNormalEquations::default();
+        self.for_each_residual(g, axes, cell, |r, d| local.accumulate(r, d));
+        local
+    }
 }
+
+/// Cells per parallel task: enough work (≥ a few thousand samples at 8×8) to amortise rayon's
+/// scheduling; the results do not depend on it.
+const CELLS_PER_TASK: usize = 4;
 
 impl Residuals for AaEnergy<'_> {
     fn dim(&self) -> usize {
         self.rest_grid.unknowns()
     }
 
-    /// F(x) = Σ r², summed per cell column in parallel, then in column order (deterministic).
+    /// F(x) = Σ r², per cell in parallel, then summed in cell order (deterministic).
     fn energy(&mut self, x: &[f64]) -> f64 {
         let g = self.rest_grid.with_unknowns(x);
-        let per_column: Vec<f64> = (0..self.columns())
+        let axes = self.warped_axes(&g);
+        let per_cell: Vec<f64> = (0..self.cells())
             .into_par_iter()
-            .map(|i| {
+            .with_min_len(CELLS_PER_TASK)
+            .map(|cell| {
                 let mut e = 0.0;
-                self.for_each_residual(&g, i, |r, _| e += r * r);
+                self.for_each_residual(&g, &axes, cell, |r, _| e += r * r);
                 e
             })
             .collect();
-        per_column.iter().sum()
+        per_cell.iter().sum()
     }
 
-    /// F, JᵀJ and Jᵀr, accumulated per cell column in parallel and reduced in column order.
+    /// F, JᵀJ and Jᵀr: each cell's 4×4 block in parallel, scattered in cell order
+    /// (deterministic for any number of threads; the GPU kernel computes the same blocks).
     fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
-        let n = self.dim();
         let g = self.rest_grid.with_unknowns(x);
-        let per_column: Vec<NormalEquations> = (0..self.columns())
+        let axes = self.warped_axes(&g);
+        let blocks: Vec<([Option<usize>; 4], LocalNormalEquations<4>)> = (0..self.cells())
             .into_par_iter()
-            .map(|i| {
-                let mut ne = NormalEquations::zeros(n);
-                self.for_each_residual(&g, i, |r, d| ne.add_row(r, &d));
-                ne
+            .with_min_len(CELLS_PER_TASK)
+            .map(|cell| {
+                (
+                    self.cell_unknowns(cell),
+                    self.cell_normal_equations_with(&g, &axes, cell),
+                )
             })
             .collect();
-        NormalEquations::sum_in_order(n, per_column)
+        NormalEquations::assemble(self.dim(), blocks.iter().map(|(s, b)| (s, b)))
     }
 }

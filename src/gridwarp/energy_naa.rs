@@ -33,8 +33,9 @@
 //!   ∂r^s/∂P_c,k = σ [(∂φ_c/∂s) m_s,k + φ_c g_s,k],  m_s = J_D(p)ᵀ u_s,
 //!   g_s,k = u_s · (∂_k J_D(p)) W_s   (the sample moving: ∂_k J_D from the fields' gradients),
 //! ∂φ_c/∂s = (∂φ_c/∂α)/h_i; r^t likewise with ∂φ_c/∂t = (∂φ_c/∂β)/k_j and W_t. At most 8
-//! non-zeros per row; JᵀJ and Jᵀr are accumulated sample by sample per cell column in parallel
-//! and reduced in column order (deterministic for any number of threads).
+//! non-zeros per row, all among the cell's 8 slots (its corners' coordinates): JᵀJ and Jᵀr are
+//! accumulated per cell in an 8×8 block ([`crate::lm::LocalNormalEquations`]), cells in
+//! parallel, and the blocks scattered in cell order (deterministic for any number of threads).
 //!
 //! # Validity
 //! det(∂W/∂α, ∂W/∂β) is bilinear in (α, β) (∂W/∂α depends on β only, ∂W/∂β on α only), so it
@@ -49,11 +50,11 @@ use rayon::prelude::*;
 
 use super::bounds::{foldover, loop_distance, merge, BoundOptions, Interval};
 use super::energy::{rest_samples, RestFields, RestSample};
-use super::field::{Field, Sample};
+use super::field::{Axis, Field, Sample};
 use super::grid::Grid;
 use super::solve::SolveOptions;
 use crate::error::{Error, Result};
-use crate::lm::{minimize, Bounds, LmReport, NormalEquations, Residuals};
+use crate::lm::{minimize, Bounds, LmReport, LocalNormalEquations, NormalEquations, Residuals};
 
 /// A 3-vector field over the unit square: one scalar [`Field`] per component.
 #[derive(Clone, Debug, PartialEq)]
@@ -81,11 +82,15 @@ impl VectorField {
         }
     }
 
+    /// The three components at (s, t), the texel positions found once for all three
+    /// ([`Field::bilinear_at`] redoes them only for a component of another resolution).
+    #[inline(always)]
     fn bilinear(&self, s: f64, t: f64) -> VectorSample {
+        let (x, y) = (Axis::new(s, self.x.width), Axis::new(t, self.x.height));
         let c: [Sample; 3] = [
-            self.x.bilinear(s, t),
-            self.y.bilinear(s, t),
-            self.z.bilinear(s, t),
+            self.x.bilinear_at(&x, &y),
+            self.y.bilinear_at(&x, &y),
+            self.z.bilinear_at(&x, &y),
         ];
         VectorSample {
             value: c.map(|c| c.value),
@@ -257,9 +262,6 @@ impl VertexGrid {
     }
 }
 
-/// One residual row: value and up to 8 (unknown, ∂r/∂x) pairs (4 corners × 2 coordinates).
-type Row = (f64, [(Option<usize>, f64); 8]);
-
 /// The non-axis-aligned energy of one frame as a least-squares problem in the interior vertices.
 pub struct NaaEnergy<'a> {
     rest_grid: &'a Grid,
@@ -310,84 +312,107 @@ impl<'a> NaaEnergy<'a> {
         self.rest_grid.t.len() - 1
     }
 
-    /// Visit every residual of cell column i at the vertices `g`: `visit(r, [(unknown, ∂r/∂x)])`.
-    fn for_each_residual(&self, g: &VertexGrid, i: usize, mut visit: impl FnMut(Row)) {
+    /// J_D = [D_s D_t] at the point p, with its derivatives along s and t.
+    #[inline(always)]
+    fn jacobian_at(&self, p: [f64; 2]) -> (VectorSample, VectorSample) {
+        (
+            self.deformed.d_s.bilinear(p[0], p[1]),
+            self.deformed.d_t.bilinear(p[0], p[1]),
+        )
+    }
+
+    fn cells(&self) -> usize {
+        self.columns() * self.rows()
+    }
+
+    /// The unknowns of cell `cell` = (i, j) in slot order: corners P00 = P_ij, P10, P01, P11,
+    /// each (s, t); None for fixed coordinates.
+    pub fn cell_unknowns(&self, g: &VertexGrid, cell: usize) -> [Option<usize>; 8] {
+        let (i, j) = (cell / self.rows(), cell % self.rows());
+        let [a, b, c, d] = [
+            g.unknown_index(i, j),
+            g.unknown_index(i + 1, j),
+            g.unknown_index(i, j + 1),
+            g.unknown_index(i + 1, j + 1),
+        ];
+        [a[0], a[1], b[0], b[1], c[0], c[1], d[0], d[1]]
+    }
+
+    /// Visit every residual of cell `cell` = (i, j) at the vertices `g`: `visit(r, ∂r/∂x)`, the
+    /// derivatives in the slot order of [`NaaEnergy::cell_unknowns`].
+    #[inline]
+    fn for_each_residual(
+        &self,
+        g: &VertexGrid,
+        cell: usize,
+        mut visit: impl FnMut(f64, &[f64; 8]),
+    ) {
+        let (i, j) = (cell / self.rows(), cell % self.rows());
         let h = self.rest_grid.s[i + 1] - self.rest_grid.s[i];
-        for j in 0..self.rows() {
-            let kj = self.rest_grid.t[j + 1] - self.rest_grid.t[j];
-            let cell = &self.samples[(i * self.rows() + j) * self.per_cell..][..self.per_cell];
-            let (p00, p10, p01, p11) = (
-                g.at(i, j),
-                g.at(i + 1, j),
-                g.at(i, j + 1),
-                g.at(i + 1, j + 1),
+        let kj = self.rest_grid.t[j + 1] - self.rest_grid.t[j];
+        let samples = &self.samples[cell * self.per_cell..][..self.per_cell];
+        let (p00, p10, p01, p11) = (
+            g.at(i, j),
+            g.at(i + 1, j),
+            g.at(i, j + 1),
+            g.at(i + 1, j + 1),
+        );
+        // Edge vectors and the twist P11 − P10 − P01 + P00 (exactly 0 on a rectangle, so that
+        // an axis-aligned grid reproduces the AA sample points and slopes bit for bit).
+        let e_a0 = sub(p10, p00); // ∂W/∂α at β = 0
+        let e_b0 = sub(p01, p00); // ∂W/∂β at α = 0
+        let twist = sub(sub(p11, p10), e_b0);
+        for p in samples {
+            if p.sigma == 0.0 {
+                continue;
+            }
+            let (al, be, sg) = (p.alpha, p.beta, p.sigma);
+            let w_a = add(e_a0, scale(be, twist));
+            let w_b = add(e_b0, scale(al, twist));
+            let w_s = [w_a[0] / h, w_a[1] / h];
+            let w_t = [w_b[0] / kj, w_b[1] / kj];
+            let pos = add(
+                add(p00, scale(al, e_a0)),
+                add(scale(be, e_b0), scale(al * be, twist)),
             );
-            // Unknown indices of the corners 00, 10, 01, 11, per coordinate.
-            let idx = [
-                g.unknown_index(i, j),
-                g.unknown_index(i + 1, j),
-                g.unknown_index(i, j + 1),
-                g.unknown_index(i + 1, j + 1),
+            let (ds, dt) = self.jacobian_at(pos);
+            let phi = [
+                (1.0 - al) * (1.0 - be),
+                al * (1.0 - be),
+                (1.0 - al) * be,
+                al * be,
             ];
-            // Edge vectors and the twist P11 − P10 − P01 + P00 (exactly 0 on a rectangle, so that
-            // an axis-aligned grid reproduces the AA sample points and slopes bit for bit).
-            let e_a0 = sub(p10, p00); // ∂W/∂α at β = 0
-            let e_b0 = sub(p01, p00); // ∂W/∂β at α = 0
-            let twist = sub(sub(p11, p10), e_b0);
-            for p in cell {
-                if p.sigma == 0.0 {
-                    continue;
-                }
-                let (al, be, sg) = (p.alpha, p.beta, p.sigma);
-                let w_a = add(e_a0, scale(be, twist));
-                let w_b = add(e_b0, scale(al, twist));
-                let w_s = [w_a[0] / h, w_a[1] / h];
-                let w_t = [w_b[0] / kj, w_b[1] / kj];
-                let pos = add(
-                    add(p00, scale(al, e_a0)),
-                    add(scale(be, e_b0), scale(al * be, twist)),
-                );
-                let ds = self.deformed.d_s.bilinear(pos[0], pos[1]);
-                let dt = self.deformed.d_t.bilinear(pos[0], pos[1]);
-                let phi = [
-                    (1.0 - al) * (1.0 - be),
-                    al * (1.0 - be),
-                    (1.0 - al) * be,
-                    al * be,
+            let dphi_da = [-(1.0 - be), 1.0 - be, -be, be];
+            let dphi_db = [-(1.0 - al), -al, 1.0 - al, al];
+            for (w, dphi, o, len) in [(w_s, dphi_da, p.o_s, h), (w_t, dphi_db, p.o_t, kj)] {
+                // q = J_D(p) w = D_s w_s + D_t w_t.
+                let q: [f64; 3] = std::array::from_fn(|c| ds.value[c] * w[0] + dt.value[c] * w[1]);
+                let norm = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
+                let u = if norm > 0.0 {
+                    q.map(|v| v / norm)
+                } else {
+                    [0.0; 3]
+                };
+                // m = J_Dᵀ u; g_k = u · (∂_k J_D) w.
+                let m = [dot(ds.value, u), dot(dt.value, u)];
+                let gk = [
+                    dot(
+                        u,
+                        std::array::from_fn(|c| ds.ds[c] * w[0] + dt.ds[c] * w[1]),
+                    ),
+                    dot(
+                        u,
+                        std::array::from_fn(|c| ds.dt[c] * w[0] + dt.dt[c] * w[1]),
+                    ),
                 ];
-                let dphi_da = [-(1.0 - be), 1.0 - be, -be, be];
-                let dphi_db = [-(1.0 - al), -al, 1.0 - al, al];
-                for (w, dphi, o, len) in [(w_s, dphi_da, p.o_s, h), (w_t, dphi_db, p.o_t, kj)] {
-                    // q = J_D(p) w = D_s w_s + D_t w_t.
-                    let q: [f64; 3] =
-                        std::array::from_fn(|c| ds.value[c] * w[0] + dt.value[c] * w[1]);
-                    let norm = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
-                    let u = if norm > 0.0 {
-                        q.map(|v| v / norm)
-                    } else {
-                        [0.0; 3]
-                    };
-                    // m = J_Dᵀ u; g_k = u · (∂_k J_D) w.
-                    let m = [dot(ds.value, u), dot(dt.value, u)];
-                    let gk = [
-                        dot(
-                            u,
-                            std::array::from_fn(|c| ds.ds[c] * w[0] + dt.ds[c] * w[1]),
-                        ),
-                        dot(
-                            u,
-                            std::array::from_fn(|c| ds.dt[c] * w[0] + dt.dt[c] * w[1]),
-                        ),
-                    ];
-                    let mut d = [(None, 0.0); 8];
-                    for c in 0..4 {
-                        let dp = dphi[c] / len;
-                        for k in 0..2 {
-                            d[2 * c + k] = (idx[c][k], sg * (dp * m[k] + phi[c] * gk[k]));
-                        }
+                let mut d = [0.0; 8];
+                for c in 0..4 {
+                    let dp = dphi[c] / len;
+                    for k in 0..2 {
+                        d[2 * c + k] = sg * (dp * m[k] + phi[c] * gk[k]);
                     }
-                    visit((sg * (norm - o), d));
                 }
+                visit(sg * (norm - o), &d);
             }
         }
     }
@@ -396,8 +421,8 @@ impl<'a> NaaEnergy<'a> {
     pub fn residuals(&self, x: &[f64]) -> Vec<f64> {
         let g = self.rest_vertices.with_unknowns(x);
         let mut out = Vec::new();
-        for i in 0..self.columns() {
-            self.for_each_residual(&g, i, |(r, _)| out.push(r));
+        for cell in 0..self.cells() {
+            self.for_each_residual(&g, cell, |r, _| out.push(r));
         }
         out
     }
@@ -406,16 +431,26 @@ impl<'a> NaaEnergy<'a> {
     pub fn jacobian(&self, x: &[f64]) -> DMatrix<f64> {
         let g = self.rest_vertices.with_unknowns(x);
         let mut rows = Vec::new();
-        for i in 0..self.columns() {
-            self.for_each_residual(&g, i, |(_, d)| rows.push(d));
+        for cell in 0..self.cells() {
+            let slots = self.cell_unknowns(&g, cell);
+            self.for_each_residual(&g, cell, |_, d| rows.push((slots, *d)));
         }
         let mut jac = DMatrix::zeros(rows.len(), x.len());
-        for (row, d) in rows.iter().enumerate() {
-            for (col, v) in d.iter().filter_map(|(c, v)| c.map(|c| (c, *v))) {
-                jac[(row, col)] += v;
+        for (row, (slots, d)) in rows.iter().enumerate() {
+            for (slot, v) in slots.iter().zip(d) {
+                if let Some(col) = slot {
+                    jac[(row, *col)] += v;
+                }
             }
         }
         jac
+    }
+
+    /// One cell's energy and normal equations over its eight slots.
+    pub fn cell_normal_equations(&self, g: &VertexGrid, cell: usize) -> LocalNormalEquations<8> {
+        let mut local = LocalNormalEquations::default();
+        self.for_each_residual(g, cell, |r, d| local.accumulate(r, d));
+        local
     }
 }
 
@@ -440,26 +475,28 @@ impl Residuals for NaaEnergy<'_> {
         self.rest_vertices.unknowns()
     }
 
-    /// F(x) = Σ r², summed per cell column in parallel, then in column order (deterministic);
-    /// +∞ if any cell folds (a corner determinant ≤ 0).
+    /// F(x) = Σ r², per cell in parallel, then summed in cell order (deterministic); +∞ if any
+    /// cell folds (a corner determinant ≤ 0).
     fn energy(&mut self, x: &[f64]) -> f64 {
         let g = self.rest_vertices.with_unknowns(x);
         if !g.is_valid() {
             return f64::INFINITY;
         }
-        let per_column: Vec<f64> = (0..self.columns())
+        let per_cell: Vec<f64> = (0..self.cells())
             .into_par_iter()
-            .map(|i| {
+            .with_min_len(CELLS_PER_TASK)
+            .map(|cell| {
                 let mut e = 0.0;
-                self.for_each_residual(&g, i, |(r, _)| e += r * r);
+                self.for_each_residual(&g, cell, |r, _| e += r * r);
                 e
             })
             .collect();
-        per_column.iter().sum()
+        per_cell.iter().sum()
     }
 
-    /// F, JᵀJ and Jᵀr, accumulated per cell column in parallel and reduced in column order. At
-    /// a folded grid: F = +∞ and zero JᵀJ, Jᵀr (the solver rejects such a starting point).
+    /// F, JᵀJ and Jᵀr: each cell's 8×8 block in parallel, scattered in cell order
+    /// (deterministic for any number of threads). At a folded grid: F = +∞ and zero JᵀJ, Jᵀr
+    /// (the solver rejects such a starting point).
     fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
         let n = self.dim();
         let g = self.rest_vertices.with_unknowns(x);
@@ -469,17 +506,22 @@ impl Residuals for NaaEnergy<'_> {
                 ..NormalEquations::zeros(n)
             };
         }
-        let per_column: Vec<NormalEquations> = (0..self.columns())
+        let blocks: Vec<([Option<usize>; 8], LocalNormalEquations<8>)> = (0..self.cells())
             .into_par_iter()
-            .map(|i| {
-                let mut ne = NormalEquations::zeros(n);
-                self.for_each_residual(&g, i, |(r, d)| ne.add_row(r, &d));
-                ne
+            .with_min_len(CELLS_PER_TASK)
+            .map(|cell| {
+                (
+                    self.cell_unknowns(&g, cell),
+                    self.cell_normal_equations(&g, cell),
+                )
             })
             .collect();
-        NormalEquations::sum_in_order(n, per_column)
+        NormalEquations::assemble(n, blocks.iter().map(|(s, b)| (s, b)))
     }
 }
+
+/// Cells per parallel task (as in the axis-aligned energy; results do not depend on it).
+const CELLS_PER_TASK: usize = 4;
 
 /// Foldover interval of one coordinate: between the midpoints to the previous neighbours along
 /// that axis (with [`super::bounds::FOLDOVER_MARGIN`]); frozen at the current value if those
@@ -599,4 +641,15 @@ pub fn solve_naa_frame(
         rest_energy,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+impl VectorField {
+    /// The bilinear value of the three components at (s, t) (each [`Field::bilinear`]).
+    pub fn value(&self, s: f64, t: f64) -> [f64; 3] {
+        [
+            self.x.bilinear(s, t).value,
+            self.y.bilinear(s, t).value,
+            self.z.bilinear(s, t).value,
+        ]
+    }
 }

@@ -63,23 +63,34 @@ impl Field {
     /// the gradient being 0 along an axis where the sample is clamped.
     #[inline]
     pub fn bilinear(&self, s: f64, t: f64) -> Sample {
-        let (x0, alpha, gx) = axis(s, self.width);
-        let (y0, beta, gy) = axis(t, self.height);
-        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
-        let (f00, f10, f01, f11) = (
-            self.at(x0, y0),
-            self.at(x1, y0),
-            self.at(x0, y1),
-            self.at(x1, y1),
-        );
-        Sample {
-            value: (1.0 - alpha) * (1.0 - beta) * f00
-                + alpha * (1.0 - beta) * f10
-                + (1.0 - alpha) * beta * f01
-                + alpha * beta * f11,
-            ds: gx * ((1.0 - beta) * (f10 - f00) + beta * (f11 - f01)),
-            dt: gy * ((1.0 - alpha) * (f01 - f00) + alpha * (f11 - f10)),
+        self.bilinear_on_axes(&Axis::new(s, self.width), &Axis::new(t, self.height))
+    }
+
+    /// [`Field::bilinear`] at a point whose [`Axis`] positions are already known (an
+    /// axis-aligned grid's sample points share them along whole columns and rows). An `Axis`
+    /// made for another resolution is recomputed for this field's.
+    #[inline(always)]
+    pub fn bilinear_at(&self, x: &Axis, y: &Axis) -> Sample {
+        if x.texels != self.width || y.texels != self.height {
+            return self.bilinear(x.s, y.s);
         }
+        self.bilinear_on_axes(x, y)
+    }
+
+    /// The interpolation itself, `x` and `y` made for this field's width and height.
+    #[inline(always)]
+    fn bilinear_on_axes(&self, x: &Axis, y: &Axis) -> Sample {
+        let (row0, row1) = (y.lower * self.width, y.upper * self.width);
+        interpolate(
+            x,
+            y,
+            [
+                self.values[row0 + x.lower],
+                self.values[row0 + x.upper],
+                self.values[row1 + x.lower],
+                self.values[row1 + x.upper],
+            ],
+        )
     }
 
     /// The value of the texel containing (s, t) (clamped to the field).
@@ -90,19 +101,65 @@ impl Field {
     }
 }
 
-/// For one axis of `n` texels: (index of the lower texel centre, fraction α ∈ [0, 1], d(u)/d(s)
-/// = n inside the texel-centre range, 0 where clamped).
-/// (`!(u > 0)` also sends NaN to the first texel: never an out-of-range index.)
-#[inline]
-fn axis(s: f64, n: usize) -> (usize, f64, f64) {
-    let u = s * n as f64 - 0.5;
-    if n == 1 || !(u > 0.0) {
-        return (0, 0.0, 0.0);
+/// The bilinear formula of [`Field::bilinear`] on the four texels [f₀₀, f₁₀, f₀₁, f₁₁] around a
+/// point at [`Axis`] positions x, y (fractions α = x.frac, β = y.frac).
+#[inline(always)]
+pub fn interpolate(x: &Axis, y: &Axis, [f00, f10, f01, f11]: [f64; 4]) -> Sample {
+    let (alpha, beta) = (x.frac, y.frac);
+    Sample {
+        value: (1.0 - alpha) * (1.0 - beta) * f00
+            + alpha * (1.0 - beta) * f10
+            + (1.0 - alpha) * beta * f01
+            + alpha * beta * f11,
+        ds: x.scale * ((1.0 - beta) * (f10 - f00) + beta * (f11 - f01)),
+        dt: y.scale * ((1.0 - alpha) * (f01 - f00) + alpha * (f11 - f10)),
     }
-    if u >= (n - 1) as f64 {
-        return (n - 1, 0.0, 0.0);
+}
+
+/// Where a coordinate s falls on one axis of `texels` texel centres: u = s·n − ½ = lower + frac,
+/// upper = min(lower + 1, n − 1), and scale = du/ds = n inside the texel-centre range, 0 where
+/// the sample is clamped to an edge texel. (`!(u > 0)` also sends NaN to the first texel:
+/// never an out-of-range index.)
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Axis {
+    pub s: f64,
+    pub texels: usize,
+    pub lower: usize,
+    pub upper: usize,
+    pub frac: f64,
+    pub scale: f64,
+}
+
+impl Axis {
+    /// The position of s on an axis of `texels` texels.
+    #[inline]
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(u > 0)` is meant: it catches NaN too
+    pub fn new(s: f64, texels: usize) -> Axis {
+        let n = texels;
+        let u = s * n as f64 - 0.5;
+        let clamped = |i: usize| Axis {
+            s,
+            texels,
+            lower: i,
+            upper: i,
+            frac: 0.0,
+            scale: 0.0,
+        };
+        if n <= 1 || !(u > 0.0) {
+            return clamped(0);
+        }
+        if u >= (n - 1) as f64 {
+            return clamped(n - 1);
+        }
+        // u > 0: truncation is the floor, without a libm call.
+        let lower = u as usize;
+        Axis {
+            s,
+            texels,
+            lower,
+            upper: lower + 1,
+            frac: u - lower as f64,
+            scale: n as f64,
+        }
     }
-    // u > 0: truncation is the floor, without a libm call.
-    let x0 = u as usize;
-    (x0, u - x0 as f64, n as f64)
 }

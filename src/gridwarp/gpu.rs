@@ -11,7 +11,7 @@
 use std::time::Instant;
 
 use reparam_gpu::gridwarp::{
-    AaInput, AaKernel, CellContribution, FieldF32, RestSample, NO_UNKNOWN,
+    AaBinding, AaInput, AaKernel, CellContribution, FieldF32, RestSample, NO_UNKNOWN,
 };
 use reparam_gpu::Gpu;
 
@@ -21,9 +21,9 @@ use super::energy::AaEnergy;
 use super::energy::{DeformedFields, RestFields};
 use super::field::Field;
 use super::grid::Grid;
-use super::solve::{FrameSolution, SolveOptions};
+use super::solve::{solve_frames, FrameSolution, SolveOptions};
 use crate::error::{Error, Result};
-use crate::lm::{minimize, NormalEquations, Residuals};
+use crate::lm::{minimize, LocalNormalEquations, NormalEquations, Residuals};
 
 fn gpu_error(e: reparam_gpu::GpuError) -> Error {
     Error::Gpu(e.to_string())
@@ -108,25 +108,23 @@ pub fn set_lines(input: &mut AaInput, grid: &Grid) {
     input.t = grid.t.iter().map(|&v| v as f32).collect();
 }
 
+/// A cell's contribution widened to f64: its slots (−1: a fixed line) and its 4×4 block, the
+/// [`LocalNormalEquations`] that [`AaEnergy`] computes for the same cell.
+pub fn cell_block(c: &CellContribution) -> ([Option<usize>; 4], LocalNormalEquations<4>) {
+    let slots = c.unknowns.map(|u| usize::try_from(u).ok());
+    let local = LocalNormalEquations {
+        energy: c.energy as f64,
+        jtj: std::array::from_fn(|u| std::array::from_fn(|v| c.jtj[u * 4 + v] as f64)),
+        jtr: c.jtr.map(|v| v as f64),
+    };
+    (slots, local)
+}
+
 /// Sum the cells' contributions in f64, in cell order: F, and JᵀJ (n×n), Jᵀr (n) with each
-/// cell's 4×4 block scattered to its unknowns (fixed lines dropped).
+/// cell's 4×4 block scattered to its unknowns (fixed lines dropped), as the CPU energy does.
 pub fn assemble(cells: &[CellContribution], n: usize) -> NormalEquations {
-    let mut ne = NormalEquations::zeros(n);
-    for c in cells {
-        ne.energy += c.energy as f64;
-        for (u, &iu) in c.unknowns.iter().enumerate() {
-            if iu < 0 {
-                continue;
-            }
-            ne.jtr[iu as usize] += c.jtr[u] as f64;
-            for (v, &iv) in c.unknowns.iter().enumerate() {
-                if iv >= 0 {
-                    ne.jtj[(iu as usize, iv as usize)] += c.jtj[u * 4 + v] as f64;
-                }
-            }
-        }
-    }
-    ne
+    let blocks: Vec<_> = cells.iter().map(cell_block).collect();
+    NormalEquations::assemble(n, blocks.iter().map(|(s, b)| (s, b)))
 }
 
 /// The axis-aligned energy of one frame evaluated by the `gridwarp_aa_cell` kernel in f32: the
@@ -136,7 +134,8 @@ pub fn assemble(cells: &[CellContribution], n: usize) -> NormalEquations {
 /// [`GpuAaEnergy::try_normal_equations`] returns the error instead.
 pub struct GpuAaEnergy<'a> {
     gpu: Gpu,
-    kernel: AaKernel,
+    /// The kernel with the rest samples and fields resident on the device (uploaded once).
+    binding: AaBinding,
     rest_grid: &'a Grid,
     input: AaInput,
     /// Kernel evaluations so far (energy and normal equations alike).
@@ -147,7 +146,7 @@ pub struct GpuAaEnergy<'a> {
 
 impl<'a> GpuAaEnergy<'a> {
     /// Precompute the rest samples (as [`AaEnergy::new`] does, then rounded to f32), round the
-    /// deformed fields to f32 and compile the kernel.
+    /// deformed fields to f32, compile the kernel and upload the fixed data.
     pub fn new(
         gpu: &Gpu,
         rest: &RestFields,
@@ -156,11 +155,26 @@ impl<'a> GpuAaEnergy<'a> {
         k: usize,
         l: usize,
     ) -> Result<Self> {
+        let kernel = AaKernel::new(gpu).map_err(gpu_error)?;
+        Self::with_kernel(gpu, &kernel, rest, rest_grid, deformed, k, l)
+    }
+
+    /// [`GpuAaEnergy::new`] with an already compiled kernel (compile once per sequence).
+    pub fn with_kernel(
+        gpu: &Gpu,
+        kernel: &AaKernel,
+        rest: &RestFields,
+        rest_grid: &'a Grid,
+        deformed: &DeformedFields,
+        k: usize,
+        l: usize,
+    ) -> Result<Self> {
+        let input = aa_input(rest, rest_grid, deformed, k, l);
         Ok(GpuAaEnergy {
             gpu: gpu.clone(),
-            kernel: AaKernel::new(gpu).map_err(gpu_error)?,
+            binding: kernel.bind(gpu, &input).map_err(gpu_error)?,
             rest_grid,
-            input: aa_input(rest, rest_grid, deformed, k, l),
+            input,
             evaluations: 0,
             seconds: 0.0,
         })
@@ -175,7 +189,10 @@ impl<'a> GpuAaEnergy<'a> {
     pub fn cells(&mut self, x: &[f64]) -> Result<Vec<CellContribution>> {
         let start = Instant::now();
         set_lines(&mut self.input, &self.rest_grid.with_unknowns(x));
-        let cells = self.kernel.run(&self.gpu, &self.input).map_err(gpu_error)?;
+        let cells = self
+            .binding
+            .run(&self.gpu, &self.input.s, &self.input.t)
+            .map_err(gpu_error)?;
         self.evaluations += 1;
         self.seconds += start.elapsed().as_secs_f64();
         Ok(cells)
@@ -213,11 +230,13 @@ impl Residuals for GpuAaEnergy<'_> {
     }
 }
 
-/// [`super::solve_frame`] with the objective on the GPU ([`GpuAaEnergy`]): same samples per
-/// cell, bounds, warm start and LM options.
+/// [`super::solve_frame`] with the objective on the GPU ([`GpuAaEnergy`], the kernel compiled
+/// once by the caller: `AaKernel::new(gpu)`): same samples per cell, bounds, warm start and LM
+/// options.
 #[allow(clippy::too_many_arguments)]
 pub fn solve_frame_gpu(
     gpu: &Gpu,
+    kernel: &AaKernel,
     rest: &RestFields,
     rest_grid: &Grid,
     deformed: &DeformedFields,
@@ -228,7 +247,7 @@ pub fn solve_frame_gpu(
 ) -> Result<FrameSolution> {
     let start = Instant::now();
     let (k, l) = options.samples_per_cell();
-    let mut energy = GpuAaEnergy::new(gpu, rest, rest_grid, deformed, k, l)?;
+    let mut energy = GpuAaEnergy::with_kernel(gpu, kernel, rest, rest_grid, deformed, k, l)?;
     let bounds = frame_bounds(previous, first, &options.bound_options(frame, frames));
     let rest_energy = energy.energy(&rest_grid.to_unknowns());
     let report = minimize(&mut energy, &previous.to_unknowns(), &bounds, &options.lm)?;
@@ -238,4 +257,28 @@ pub fn solve_frame_gpu(
         rest_energy,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// [`super::solve_sequence`] with the objective on the GPU: the kernel compiled once, every
+/// frame warm-started from the previous solution.
+pub fn solve_sequence_gpu(
+    gpu: &Gpu,
+    rest: &RestFields,
+    rest_grid: &Grid,
+    frames: &[DeformedFields],
+    options: &SolveOptions,
+) -> Result<Vec<FrameSolution>> {
+    let kernel = AaKernel::new(gpu).map_err(gpu_error)?;
+    solve_frames(
+        rest_grid,
+        frames.len(),
+        |s: &FrameSolution| &s.grid,
+        |j, previous, first| {
+            let frame = (j, frames.len());
+            let deformed = &frames[j];
+            solve_frame_gpu(
+                gpu, &kernel, rest, rest_grid, deformed, previous, first, frame, options,
+            )
+        },
+    )
 }

@@ -10,7 +10,9 @@
 //! (R ≥ ½). For the rest grid, a = b = 1: the stretch the content would suffer without the warp.
 
 use super::energy::{DeformedFields, RestFields};
+use super::energy_naa::{DeformedJacobian, VertexGrid};
 use super::grid::Grid;
+use super::remap::{bilinear, cell_of, quad};
 
 /// Stretch of rigid content (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -19,19 +21,12 @@ pub struct RigidStretch {
     pub max: f64,
 }
 
-/// Index of the cell of `lines` containing x (the last cell for x = 1).
-fn cell_of(lines: &[f64], x: f64) -> usize {
-    lines.partition_point(|&v| v <= x).clamp(1, lines.len() - 1) - 1
-}
-
-/// The rigid-stretch figure of merit of `warped` (relative to `rest_grid`) on a
-/// `lattice`×`lattice` grid of points.
-pub fn rigid_stretch(
+/// The R-weighted mean and rigid max of per-point stretches `stretch(s, t)` = (v_s, v_t) over a
+/// `lattice`×`lattice` grid of rest points (module docs); points with R ≤ 0 are skipped.
+pub fn rigid_stretch_over(
     rest: &RestFields,
-    deformed: &DeformedFields,
-    rest_grid: &Grid,
-    warped: &Grid,
     lattice: usize,
+    stretch: impl Fn(f64, f64) -> (f64, f64),
 ) -> RigidStretch {
     let (mut weighted, mut weights, mut max) = (0.0, 0.0, 0.0f64);
     for y in 0..lattice {
@@ -44,21 +39,7 @@ pub fn rigid_stretch(
             if r <= 0.0 {
                 continue;
             }
-            let (i, j) = (cell_of(&rest_grid.s, s), cell_of(&rest_grid.t, t));
-            let alpha = (s - rest_grid.s[i]) / (rest_grid.s[i + 1] - rest_grid.s[i]);
-            let beta = (t - rest_grid.t[j]) / (rest_grid.t[j + 1] - rest_grid.t[j]);
-            let a = (warped.s[i + 1] - warped.s[i]) / (rest_grid.s[i + 1] - rest_grid.s[i]);
-            let b = (warped.t[j + 1] - warped.t[j]) / (rest_grid.t[j + 1] - rest_grid.t[j]);
-            let p = (
-                warped.s[i] + alpha * (warped.s[i + 1] - warped.s[i]),
-                warped.t[j] + beta * (warped.t[j + 1] - warped.t[j]),
-            );
-            let v_s = (deformed.d_s.bilinear(p.0, p.1).value * a / rest.o_s.bilinear(s, t).value
-                - 1.0)
-                .abs();
-            let v_t = (deformed.d_t.bilinear(p.0, p.1).value * b / rest.o_t.bilinear(s, t).value
-                - 1.0)
-                .abs();
+            let (v_s, v_t) = stretch(s, t);
             weighted += r * 0.5 * (v_s + v_t);
             weights += r;
             if r >= 0.5 {
@@ -74,4 +55,76 @@ pub fn rigid_stretch(
         },
         max,
     }
+}
+
+/// The rigid-stretch figure of merit of `warped` (relative to `rest_grid`) on a
+/// `lattice`×`lattice` grid of points.
+pub fn rigid_stretch(
+    rest: &RestFields,
+    deformed: &DeformedFields,
+    rest_grid: &Grid,
+    warped: &Grid,
+    lattice: usize,
+) -> RigidStretch {
+    rigid_stretch_over(rest, lattice, |s, t| {
+        let (i, j) = (cell_of(&rest_grid.s, s), cell_of(&rest_grid.t, t));
+        let alpha = (s - rest_grid.s[i]) / (rest_grid.s[i + 1] - rest_grid.s[i]);
+        let beta = (t - rest_grid.t[j]) / (rest_grid.t[j + 1] - rest_grid.t[j]);
+        let a = (warped.s[i + 1] - warped.s[i]) / (rest_grid.s[i + 1] - rest_grid.s[i]);
+        let b = (warped.t[j + 1] - warped.t[j]) / (rest_grid.t[j + 1] - rest_grid.t[j]);
+        let p = (
+            warped.s[i] + alpha * (warped.s[i + 1] - warped.s[i]),
+            warped.t[j] + beta * (warped.t[j + 1] - warped.t[j]),
+        );
+        let v_s =
+            (deformed.d_s.bilinear(p.0, p.1).value * a / rest.o_s.bilinear(s, t).value - 1.0).abs();
+        let v_t =
+            (deformed.d_t.bilinear(p.0, p.1).value * b / rest.o_t.bilinear(s, t).value - 1.0).abs();
+        (v_s, v_t)
+    })
+}
+
+/// The rigid-stretch figure of merit of a non-axis-aligned warp (seed §8): at the rest point
+/// (s, t) in rest cell (i, j) at (α, β), with W the cell's bilinear map onto the warped quad,
+/// p = W(α, β), W_s = (∂W/∂α)/h_i, W_t = (∂W/∂β)/k_j and J_D = [D_s D_t] at p,
+///
+///   v_s = |‖J_D W_s‖ / ‖O_s(s, t)‖ − 1|,  v_t = |‖J_D W_t‖ / ‖O_t(s, t)‖ − 1|
+///
+/// (the NAA energy's q_s, q_t); for the rest vertices W_s = (1, 0), W_t = (0, 1) and this is the
+/// stretch without the warp. Mean and max as in [`rigid_stretch`].
+pub fn rigid_stretch_naa(
+    rest: &RestFields,
+    deformed: &DeformedJacobian,
+    rest_grid: &Grid,
+    warped: &VertexGrid,
+    lattice: usize,
+) -> RigidStretch {
+    rigid_stretch_over(rest, lattice, |s, t| {
+        let (i, j) = (cell_of(&rest_grid.s, s), cell_of(&rest_grid.t, t));
+        let (h, k) = (
+            rest_grid.s[i + 1] - rest_grid.s[i],
+            rest_grid.t[j + 1] - rest_grid.t[j],
+        );
+        let (alpha, beta) = ((s - rest_grid.s[i]) / h, (t - rest_grid.t[j]) / k);
+        let q = quad(warped, i, j);
+        let p = bilinear(&q, alpha, beta);
+        let w_s: [f64; 2] = std::array::from_fn(|c| {
+            ((1.0 - beta) * (q[1][c] - q[0][c]) + beta * (q[3][c] - q[2][c])) / h
+        });
+        let w_t: [f64; 2] = std::array::from_fn(|c| {
+            ((1.0 - alpha) * (q[2][c] - q[0][c]) + alpha * (q[3][c] - q[1][c])) / k
+        });
+        let ds = deformed.d_s.value(p[0], p[1]);
+        let dt = deformed.d_t.value(p[0], p[1]);
+        let image = |w: [f64; 2]| -> f64 {
+            (0..3)
+                .map(|c| (ds[c] * w[0] + dt[c] * w[1]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        (
+            (image(w_s) / rest.o_s.bilinear(s, t).value - 1.0).abs(),
+            (image(w_t) / rest.o_t.bilinear(s, t).value - 1.0).abs(),
+        )
+    })
 }

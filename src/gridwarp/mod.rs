@@ -11,11 +11,14 @@
 //! | stage | seed | file |
 //! |---|---|---|
 //! | fields ‖O_s‖, ‖O_t‖, ‖D_s‖, ‖D_t‖, R over the ROI | §3.1, §7 | [`field`] |
+//! | the same fields (and D_s, D_t vectors) rasterised from meshes over a UV ROI | §3.1, §7 | [`rasterize`] |
 //! | starting grid from R (Algorithm 1) | §4 | [`grid`] |
 //! | axis-aligned energy, analytic Jacobian | §5.1, appendix A | [`energy`] |
+//! | non-axis-aligned energy (bilinear cells), analytic Jacobian | §8 | [`energy_naa`] |
 //! | foldover / smoothness / looping bounds and their merge | §5.2 | [`bounds`] |
 //! | bound-constrained Levenberg–Marquardt, warm start | §5.3, §7 | [`solve`], [`crate::lm`] |
-//! | remapping F_s, F_t and inverses | §6 | [`remap`] |
+//! | remapping F_s, F_t and inverses, inverse bilinear lookup, boundary blending, several ROIs | §6, §8, §10.2 | [`remap`] |
+//! | rigidity maps from a texture's detail or from discs | §9 | [`rigidity`] |
 //! | procedural scenes | figs. 3, 5, 9 | [`scene`] |
 //! | rigid-stretch figure of merit, pictures | — | [`merit`], [`picture`] |
 
@@ -30,6 +33,7 @@ pub mod merit;
 pub mod picture;
 pub mod rasterize;
 pub mod remap;
+pub mod rigidity;
 pub mod scene;
 pub mod solve;
 
@@ -37,4 +41,5 @@ pub use energy::{AaEnergy, DeformedFields, RestFields};
 pub use energy_naa::{solve_naa_frame, DeformedJacobian, NaaEnergy, NaaFrameSolution, VertexGrid};
 pub use field::Field;
 pub use grid::{grid_from_rigidity, Grid};
-pub use solve::{solve_frame, solve_sequence, FrameSolution, SolveOptions};
+pub use remap::{AtlasRemap, Remap, RemapOptions, Warped};
+pub use solve::{solve_frame, solve_naa_sequence, solve_sequence, FrameSolution, SolveOptions};

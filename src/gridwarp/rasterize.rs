@@ -34,6 +34,7 @@ use nalgebra::{Point2, Vector3};
 use rayon::prelude::*;
 
 use super::energy::DeformedFields;
+use super::energy_naa::{DeformedJacobian, VectorField};
 use super::field::Field;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
@@ -98,6 +99,16 @@ impl Roi {
         )
     }
 
+    /// Whether the UV point lies in the closed rectangle.
+    pub fn contains(&self, uv: [f64; 2]) -> bool {
+        (self.u0..=self.u1).contains(&uv[0]) && (self.v0..=self.v1).contains(&uv[1])
+    }
+
+    /// Whether this is the whole texture square [0, 1]².
+    pub fn is_full(&self) -> bool {
+        *self == Roi::full()
+    }
+
     /// The ROI coordinates (s, t) of a UV point.
     pub fn st(&self, uv: Point2<f64>) -> (f64, f64) {
         (
@@ -134,12 +145,15 @@ pub struct TexelMap {
     pub coverage: Coverage,
 }
 
-/// The rest stretch fields, every frame's deformed fields, and the coverage of the ROI.
+/// The rest stretch fields, every frame's deformed fields (lengths for the axis-aligned energy,
+/// vectors for the non-axis-aligned one), and the coverage of the ROI.
 #[derive(Clone, Debug)]
 pub struct MeshFields {
     pub o_s: Field,
     pub o_t: Field,
     pub frames: Vec<DeformedFields>,
+    /// D_s, D_t of every frame as vectors (the same texel → face map as `frames`).
+    pub jacobians: Vec<DeformedJacobian>,
     pub coverage: Coverage,
 }
 
@@ -187,6 +201,10 @@ pub fn frames_fields(
     }
     let map = texel_map(rest, roi, size)?;
     let (o_s, o_t) = stretch_from_map(rest, roi, &map);
+    let jacobians = frames
+        .iter()
+        .map(|frame| jacobian_from_map(frame, roi, &map))
+        .collect();
     let frames = frames
         .iter()
         .map(|frame| {
@@ -198,6 +216,7 @@ pub fn frames_fields(
         o_s,
         o_t,
         frames,
+        jacobians,
         coverage: map.coverage,
     })
 }
@@ -270,6 +289,45 @@ fn stretch_from_map(mesh: &TriMesh, roi: &Roi, map: &TexelMap) -> (Field, Field)
         values,
     };
     (field(s), field(t))
+}
+
+/// (X_s, X_t) of one face.
+type FacePartials = (Vector3<f64>, Vector3<f64>);
+
+/// The vectors X_s = X_u (u1 − u0), X_t = X_v (v1 − v0) of every texel's face (the
+/// non-axis-aligned energy's D_s, D_t, seed §8), mirroring the length fields: constant per
+/// triangle, each component a [`Field`] on the map's texels.
+pub fn jacobian_from_map(mesh: &TriMesh, roi: &Roi, map: &TexelMap) -> DeformedJacobian {
+    let (du, dv) = roi.size();
+    let mut per_face: Vec<Option<FacePartials>> = vec![None; mesh.faces.len()];
+    for &f in &map.face {
+        let slot = &mut per_face[f as usize];
+        if slot.is_none() {
+            let (xu, xv) = face_partials(mesh, f as usize);
+            *slot = Some((xu * du, xv * dv));
+        }
+    }
+    let component = |pick: &dyn Fn(&FacePartials) -> f64| Field {
+        width: map.width,
+        height: map.height,
+        values: map
+            .face
+            .iter()
+            .map(|&f| pick(per_face[f as usize].as_ref().expect("computed above")))
+            .collect(),
+    };
+    DeformedJacobian {
+        d_s: VectorField {
+            x: component(&|p| p.0.x),
+            y: component(&|p| p.0.y),
+            z: component(&|p| p.0.z),
+        },
+        d_t: VectorField {
+            x: component(&|p| p.1.x),
+            y: component(&|p| p.1.y),
+            z: component(&|p| p.1.z),
+        },
+    }
 }
 
 /// (X_u, X_v) of face `f`: [X_u X_v] = [e1 e2]·[w1−w0  w2−w0]⁻¹ (non-degenerate UVs).
@@ -595,4 +653,32 @@ pub fn rigidity_from_image(path: &Path, roi: Option<&Roi>, size: (usize, usize))
             value.clamp(0.0, 1.0)
         }
     }))
+}
+
+/// [`rigidity_from_image`] for a map that must have `expected` = (W, H) pixels, up to `slack`
+/// pixels per axis (a map painted over a ROI rectangle of a W_tex × H_tex texture has
+/// (u1 − u0)·W_tex × (v1 − v0)·H_tex pixels, rounded either way: slack 1). A map of another size
+/// was painted for another texture or region; resampling it would misplace every feature.
+///
+/// Errors: those of [`rigidity_from_image`]; a size outside the slack ([`Error::Image`] naming
+/// the file, its size and the expected one).
+pub fn rigidity_from_image_of_size(
+    path: &Path,
+    roi: Option<&Roi>,
+    size: (usize, usize),
+    expected: (usize, usize),
+    slack: usize,
+) -> Result<Field> {
+    let image = load_gray_f32(path)?;
+    let (w, h) = (image.width, image.height);
+    if w.abs_diff(expected.0) > slack || h.abs_diff(expected.1) > slack {
+        return Err(Error::Image {
+            path: path.to_path_buf(),
+            message: format!(
+                "rigidity map is {w}x{h} pixels, expected {}x{} (±{slack}) for the region it covers",
+                expected.0, expected.1
+            ),
+        });
+    }
+    rigidity_from_image(path, roi, size)
 }

@@ -37,13 +37,13 @@ pub struct Scene {
 
 /// The rest pose: the plane, with rigidity `rigidity`.
 pub fn flat_rest(size: usize, rigidity: Field) -> RestFields {
-    let (o_s, o_t) = stretch_fields(size, &plane_partials);
+    let (o_s, o_t) = stretch_fields(size, plane_partials);
     RestFields { o_s, o_t, rigidity }
 }
 
 /// D = (σ s, t, 0): a uniform stretch by σ along s.
 pub fn uniform_stretch(size: usize, sigma: f64) -> DeformedFields {
-    let (d_s, d_t) = stretch_fields(size, &move |_, _| (Vector3::x() * sigma, Vector3::y()));
+    let (d_s, d_t) = stretch_fields(size, move |_, _| (Vector3::x() * sigma, Vector3::y()));
     DeformedFields { d_s, d_t }
 }
 
@@ -54,7 +54,7 @@ pub fn plane_stretch(size: usize, frames: usize, sigma_max: f64, rigidity: Field
     let frames = (1..=frames.max(1))
         .map(|k| {
             let sigma = 1.0 + (sigma_max - 1.0) * k as f64 / frames.max(1) as f64;
-            let (d_s, d_t) = stretch_fields(size, &move |s: f64, _| {
+            let (d_s, d_t) = stretch_fields(size, move |s: f64, _| {
                 let ramp = (3.0 * s * s - 2.0 * s * s * s).clamp(0.0, 1.0);
                 (Vector3::x() * (1.0 + (sigma - 1.0) * ramp), Vector3::y())
             });
@@ -107,12 +107,12 @@ pub struct AnalyticScene {
 impl AnalyticScene {
     /// Sample the scene's fields on `size`×`size` texels.
     pub fn fields(&self, size: usize) -> Scene {
-        let (o_s, o_t) = stretch_fields(size, &|s, t| partials_of(&*self.rest, s, t));
+        let (o_s, o_t) = stretch_fields(size, |s, t| partials_of(&*self.rest, s, t));
         let frames = self
             .frames
             .iter()
             .map(|x| {
-                let (d_s, d_t) = stretch_fields(size, &|s, t| partials_of(&**x, s, t));
+                let (d_s, d_t) = stretch_fields(size, |s, t| partials_of(&**x, s, t));
                 DeformedFields { d_s, d_t }
             })
             .collect();

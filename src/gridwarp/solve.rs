@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use super::bounds::{frame_bounds, BoundOptions};
 use super::energy::{AaEnergy, DeformedFields, RestFields};
+use super::energy_naa::{solve_naa_frame, DeformedJacobian, NaaFrameSolution, VertexGrid};
 use super::grid::Grid;
 use crate::error::Result;
 use crate::lm::{minimize, LmOptions, LmReport};
@@ -76,6 +77,25 @@ pub fn solve_frame(
     })
 }
 
+/// The frame loop of seed §5.3, shared by every sequence solver: frame j is solved by
+/// `solve(j, previous, first)` warm-started from frame j − 1's solution (frame 0 from `start`),
+/// `first` being frame 0's solution (the centre of the looping bounds; `start` for frame 0).
+pub fn solve_frames<G, S>(
+    start: &G,
+    frames: usize,
+    grid_of: impl Fn(&S) -> &G,
+    mut solve: impl FnMut(usize, &G, &G) -> Result<S>,
+) -> Result<Vec<S>> {
+    let mut solutions: Vec<S> = Vec::with_capacity(frames);
+    for j in 0..frames {
+        let previous = solutions.last().map_or(start, &grid_of);
+        let first = solutions.first().map_or(start, &grid_of);
+        let solution = solve(j, previous, first)?;
+        solutions.push(solution);
+    }
+    Ok(solutions)
+}
+
 /// Solve a whole sequence frame by frame, each frame warm-started from the previous solution
 /// (the first from the rest grid).
 pub fn solve_sequence(
@@ -84,20 +104,39 @@ pub fn solve_sequence(
     frames: &[DeformedFields],
     options: &SolveOptions,
 ) -> Result<Vec<FrameSolution>> {
-    let mut solutions: Vec<FrameSolution> = Vec::with_capacity(frames.len());
-    for (j, deformed) in frames.iter().enumerate() {
-        let previous = solutions.last().map_or(rest_grid, |s| &s.grid);
-        let first = solutions.first().map_or(rest_grid, |s| &s.grid);
-        let solution = solve_frame(
-            rest,
-            rest_grid,
-            deformed,
-            previous,
-            first,
-            (j, frames.len()),
-            options,
-        )?;
-        solutions.push(solution);
-    }
-    Ok(solutions)
+    solve_frames(
+        rest_grid,
+        frames.len(),
+        |s: &FrameSolution| &s.grid,
+        |j, previous, first| {
+            let frame = (j, frames.len());
+            solve_frame(rest, rest_grid, &frames[j], previous, first, frame, options)
+        },
+    )
+}
+
+/// Solve a whole non-axis-aligned sequence frame by frame (seed §5.3 with §8's vertices), as
+/// [`solve_sequence`] does for the lines: frame j starts from frame j − 1's vertices (frame 0
+/// from `start`, normally [`VertexGrid::from_grid`] of the rest grid), its bounds are
+/// [`super::energy_naa::naa_frame_bounds`] around them — foldover boxes, the smoothness bound o
+/// and, with `looping`, the looping box around frame 0's solution — and every frame is solved by
+/// [`solve_naa_frame`]. The border mode (fixed or sliding) is `start`'s.
+///
+/// Errors: those of [`solve_naa_frame`] (`start` of the wrong shape or folded).
+pub fn solve_naa_sequence(
+    rest: &RestFields,
+    rest_grid: &Grid,
+    start: &VertexGrid,
+    frames: &[DeformedJacobian],
+    options: &SolveOptions,
+) -> Result<Vec<NaaFrameSolution>> {
+    solve_frames(
+        start,
+        frames.len(),
+        |s: &NaaFrameSolution| &s.vertices,
+        |j, previous, first| {
+            let frame = (j, frames.len());
+            solve_naa_frame(rest, rest_grid, &frames[j], previous, first, frame, options)
+        },
+    )
 }

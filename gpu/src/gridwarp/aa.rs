@@ -166,6 +166,12 @@ impl AaKernel {
     /// One evaluation: upload `input`, run one invocation per cell, read the cells back (in
     /// cell order `i·(N − 1) + j`).
     pub fn run(&self, gpu: &Gpu, input: &AaInput) -> Result<Vec<CellContribution>, GpuError> {
+        self.bind(gpu, input)?.run(gpu, &input.s, &input.t)
+    }
+
+    /// Upload everything of `input` that stays fixed during a solve (rest samples, rest
+    /// widths, unknown map, fields) once; [`AaBinding::run`] then only writes the lines.
+    pub fn bind(&self, gpu: &Gpu, input: &AaInput) -> Result<AaBinding, GpuError> {
         input.check()?;
         let cells = input.cells();
         let count =
@@ -202,18 +208,63 @@ impl AaKernel {
             .copied()
             .collect();
         let label = "gridwarp_aa_cell";
-        let params = gpu.upload_uniform(label, &params);
-        let samples = gpu.upload_storage(label, &input.samples)?;
-        let geometry = gpu.upload_storage(label, &geometry)?;
-        let index = gpu.upload_storage(label, &index)?;
-        let fields = gpu.upload_storage(label, &fields)?;
-        let out = gpu.output_storage::<CellContribution>(label, cells)?;
+        Ok(AaBinding {
+            kernel: self.kernel.clone(),
+            count,
+            lines: (m, n),
+            params: gpu.upload_uniform(label, &params),
+            samples: gpu.upload_storage(label, &input.samples)?,
+            geometry: gpu.upload_storage(label, &geometry)?,
+            index: gpu.upload_storage(label, &index)?,
+            fields: gpu.upload_storage(label, &fields)?,
+            out: gpu.output_storage::<CellContribution>(label, cells)?,
+        })
+    }
+}
+
+/// The `gridwarp_aa_cell` kernel with one solve's fixed data resident on the device.
+#[derive(Debug)]
+pub struct AaBinding {
+    kernel: ComputeKernel,
+    count: u32,
+    /// (M, N): the number of s and t lines.
+    lines: (usize, usize),
+    params: wgpu::Buffer,
+    samples: wgpu::Buffer,
+    geometry: wgpu::Buffer,
+    index: wgpu::Buffer,
+    fields: wgpu::Buffer,
+    out: wgpu::Buffer,
+}
+
+impl AaBinding {
+    /// One evaluation at the lines `s` (M values) and `t` (N values): write them, run one
+    /// invocation per cell, read the cells back in cell order.
+    pub fn run(&self, gpu: &Gpu, s: &[f32], t: &[f32]) -> Result<Vec<CellContribution>, GpuError> {
+        if (s.len(), t.len()) != self.lines {
+            return Err(GpuError::Input(format!(
+                "gridwarp_aa_cell: {}×{} lines for a kernel bound to {}×{}",
+                s.len(),
+                t.len(),
+                self.lines.0,
+                self.lines.1
+            )));
+        }
+        let lines: Vec<f32> = s.iter().chain(t).copied().collect();
+        gpu.write_storage(&self.geometry, &lines);
         gpu.dispatch(
             &self.kernel,
-            &[&params, &samples, &geometry, &index, &fields, &out],
-            count,
+            &[
+                &self.params,
+                &self.samples,
+                &self.geometry,
+                &self.index,
+                &self.fields,
+                &self.out,
+            ],
+            self.count,
         )?;
-        gpu.read_back(&out, cells)
+        gpu.read_back(&self.out, self.count as usize)
     }
 }
 

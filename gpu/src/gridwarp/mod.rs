@@ -11,4 +11,6 @@
 
 pub mod aa;
 
-pub use aa::{aa_cells, AaInput, AaKernel, CellContribution, FieldF32, RestSample, NO_UNKNOWN};
+pub use aa::{
+    aa_cells, AaBinding, AaInput, AaKernel, CellContribution, FieldF32, RestSample, NO_UNKNOWN,
+};

@@ -1042,3 +1042,49 @@ fn percent_decode(uri: &str) -> Option<String> {
     }
     String::from_utf8(decoded).ok()
 }
+
+/// The base-colour image of the first material (in document order) that has one, decoded to
+/// RGBA8: embedded in a GLB's `BIN` chunk or a buffer view (a `bufferView` image), or an
+/// external file next to the glTF. `Ok(None)` when no material has a base-colour texture.
+///
+/// Errors ([`Error::Gltf`] naming the image, [`Error::Image`], [`Error::Io`]): an unreadable
+/// file, a buffer view outside its buffer, an undecodable image.
+pub fn load_gltf_base_colour(path: &Path) -> Result<Option<crate::texture::Image<[u8; 4]>>> {
+    let file = GltfFile::open(path)?;
+    let Some(image) = file.document.materials().find_map(|m| {
+        m.pbr_metallic_roughness()
+            .base_color_texture()
+            .map(|info| info.texture().source())
+    }) else {
+        return Ok(None);
+    };
+    let element = format!("image {}", image.index());
+    let decoded = match image.source() {
+        gltf::image::Source::View { view, .. } => {
+            let buffer = file
+                .buffers
+                .get(view.buffer().index())
+                .ok_or_else(|| file.error(&element, "buffer not loaded"))?;
+            let bytes = buffer
+                .get(view.offset()..view.offset() + view.length())
+                .ok_or_else(|| file.error(&element, "buffer view reaches outside its buffer"))?;
+            image::load_from_memory(bytes)
+                .map_err(|e| file.error(&element, format!("cannot decode: {e}")))?
+        }
+        gltf::image::Source::Uri { uri, .. } => {
+            let relative = percent_decode(uri)
+                .filter(|_| !uri.contains(':'))
+                .ok_or_else(|| file.error(&element, format!("unsupported image URI '{uri}'")))?;
+            let full = path.parent().unwrap_or(Path::new("")).join(relative);
+            return crate::texture::load_rgba8(&full).map(Some);
+        }
+    };
+    let rgba = decoded.to_rgba8();
+    let (w, h) = (rgba.width() as usize, rgba.height() as usize);
+    let pixels = rgba.pixels().map(|p| p.0).collect();
+    Ok(Some(crate::texture::Image {
+        width: w,
+        height: h,
+        pixels,
+    }))
+}

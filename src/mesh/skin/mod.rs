@@ -29,7 +29,7 @@ use nalgebra::{Matrix4, Point3, UnitQuaternion, Vector3, Vector4};
 use super::trimesh::TriMesh;
 use crate::error::{Error, Result};
 
-pub use load::{load_gltf, load_gltf_with, GltfOptions};
+pub use load::{load_gltf, load_gltf_base_colour, load_gltf_with, GltfOptions};
 pub use sample::{hermite, slerp};
 
 /// A mesh with its skeleton and animations, as loaded by [`load_gltf`].

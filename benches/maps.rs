@@ -1,0 +1,124 @@
+//! maps benchmarks (issue #5): hierarchy creation time, level count and base size on procedural
+//! tori of 12k, 100k and 1M triangles and on the 70k-triangle Nefertiti scan, and remesh times.
+//!
+//! Each case is first run once and its figures printed (levels, base size, seconds per stage —
+//! the line to compare with the paper's Table 1); criterion then times the hierarchy of the
+//! cases below 1M triangles (its minimum of 10 samples would take minutes at 1M, so that case
+//! is timed by the single printed run only). Levels are not kept (`keep_levels: false`): the
+//! per-level face lists are for pictures and tests, not part of the algorithm.
+//!
+//! Run: `cargo bench --bench maps`.
+
+use std::hint::black_box;
+use std::path::Path;
+use std::time::Instant;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use reparam::maps::remesh::{adaptive, uniform, AdaptiveOptions};
+use reparam::maps::{build, Features, MapsOptions};
+use reparam::mesh::{load_obj, procedural, TriMesh};
+
+fn options() -> MapsOptions {
+    MapsOptions {
+        keep_levels: false,
+        ..MapsOptions::default()
+    }
+}
+
+fn torus(major: usize, minor: usize) -> TriMesh {
+    let mut m = procedural::torus(major, minor, 1.0, 0.35);
+    m.uvs.clear();
+    m.uv_faces.clear();
+    m
+}
+
+fn nefertiti() -> Option<TriMesh> {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/realdata/large/nefertiti-lowres.obj");
+    load_obj(&path).ok()
+}
+
+/// The cases: name, mesh, and a base size target (0 = as coarse as possible, and the
+/// paper-like ≈ 200 triangles for the remesh comparison).
+fn cases() -> Vec<(String, TriMesh)> {
+    let mut v = vec![
+        ("torus 12k".to_string(), torus(96, 64)),
+        ("torus 100k".to_string(), torus(320, 160)),
+        ("torus 1M".to_string(), procedural::big_torus()),
+    ];
+    if let Some(n) = nefertiti() {
+        v.push(("nefertiti 70k".to_string(), n));
+    }
+    v
+}
+
+/// One timed run per case and base size, printed.
+fn print_figures(cases: &[(String, TriMesh)]) {
+    for (name, mesh) in cases {
+        for base_size in [0, 200] {
+            let opts = MapsOptions {
+                base_size,
+                ..options()
+            };
+            let t = Instant::now();
+            let maps = build(mesh, &Features::default(), &opts).expect("builds");
+            let total = t.elapsed().as_secs_f64();
+            println!(
+                "{name}: {} triangles, base size target {base_size}: {} levels, base {} triangles, \
+                 hierarchy {:.3} s (check {:.3} s, levels {:.3} s, Π {:.4} s), total {total:.3} s",
+                mesh.faces.len(),
+                maps.level_count(),
+                maps.base_faces.len(),
+                maps.timings.check + maps.timings.hierarchy + maps.timings.param,
+                maps.timings.check,
+                maps.timings.hierarchy,
+                maps.timings.param,
+            );
+            if base_size == 200 && mesh.faces.len() <= 200_000 {
+                let t = Instant::now();
+                let u = uniform(&maps, 3).expect("uniform");
+                let tu = t.elapsed().as_secs_f64();
+                println!(
+                    "  uniform j=3: {} triangles in {tu:.3} s (of which Hausdorff {:.3} s), Hausdorff/diag {:.2e}",
+                    u.mesh.faces.len(),
+                    u.hausdorff_seconds,
+                    u.hausdorff.max() / u.diagonal
+                );
+                for eps in [0.01, 0.005] {
+                    let t = Instant::now();
+                    let a = adaptive(
+                        &maps,
+                        &AdaptiveOptions {
+                            epsilon: eps,
+                            ..AdaptiveOptions::default()
+                        },
+                    )
+                    .expect("adaptive");
+                    let ta = t.elapsed().as_secs_f64();
+                    println!(
+                        "  adaptive eps={eps}: {} triangles in {ta:.3} s (of which Hausdorff {:.3} s), Hausdorff/diag {:.2e}",
+                        a.mesh.faces.len(),
+                        a.hausdorff_seconds,
+                        a.hausdorff.max() / a.diagonal
+                    );
+                }
+            }
+        }
+    }
+}
+
+fn bench_hierarchy(c: &mut Criterion) {
+    let cases = cases();
+    print_figures(&cases);
+    let mut group = c.benchmark_group("maps_hierarchy");
+    group.sample_size(10);
+    for (name, mesh) in cases.iter().filter(|(_, m)| m.faces.len() < 1_000_000) {
+        group.bench_function(name, |b| {
+            b.iter(|| black_box(build(mesh, &Features::default(), &options()).expect("builds")))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_hierarchy);
+criterion_main!(benches);

@@ -1,0 +1,332 @@
+//! `reparam maps`: build the MAPS hierarchy of a mesh (OBJ, PLY, OFF or built-in), optionally
+//! remesh it, write the base domain, remeshes and pictures, print a summary (or `--json`).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use reparam::maps::remesh::{adaptive, uniform, AdaptiveOptions, Remesh};
+use reparam::maps::{
+    build_with_progress, detect_features, load_features, picture, FeatureOptions, Features,
+    LevelReport, Maps, MapsOptions, RejectCounts, Timings,
+};
+use reparam::mesh::{write_obj, TriMesh};
+use reparam::report::sig;
+use reparam::texture::{save_png, side_by_side};
+use reparam::{Error, Result};
+use serde::Serialize;
+
+use super::inputs::builtin_mesh;
+
+#[derive(Args, Clone, Debug)]
+pub struct MapsArgs {
+    /// The mesh: an .obj, .ply or .off file, or `procedural:<name>` (e.g. procedural:torus).
+    pub mesh: String,
+    /// Stop when the base domain has at most this many triangles (0: as coarse as possible).
+    #[arg(long, default_value_t = 0)]
+    pub base_size: usize,
+    /// λ of the priority w(λ, i) = λ a/max a + (1 − λ) κ/max κ.
+    #[arg(long, default_value_t = 0.5)]
+    pub lambda: f64,
+    /// Features: `auto` (detect by dihedral angle and curvature) or a sidecar file with lines
+    /// `v I` (corner vertex, 0-based) and `e I J` (feature edge). None by default.
+    #[arg(long)]
+    pub features: Option<String>,
+    /// Remeshes to make: `uniform:J` (quadrisect J times) or `adaptive:EPS` (EPS relative to
+    /// the longest bounding-box side). May be repeated.
+    #[arg(long)]
+    pub remesh: Vec<String>,
+    /// Output folder for the base domain, remeshes (OBJ) and pictures.
+    #[arg(long, default_value = "out/maps")]
+    pub out: PathBuf,
+    /// Picture size in pixels (0: no pictures).
+    #[arg(long, default_value_t = 512)]
+    pub picture_size: usize,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One requested remesh.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RemeshSpec {
+    Uniform(u32),
+    Adaptive(f64),
+}
+
+/// Parse `uniform:J` or `adaptive:EPS`.
+pub fn parse_remesh(s: &str) -> Result<RemeshSpec> {
+    let bad =
+        || Error::InvalidArgument(format!("--remesh {s}: expected uniform:J or adaptive:EPS"));
+    match s.split_once(':') {
+        Some(("uniform", j)) => j.parse().map(RemeshSpec::Uniform).map_err(|_| bad()),
+        Some(("adaptive", e)) => e.parse().map(RemeshSpec::Adaptive).map_err(|_| bad()),
+        _ => Err(bad()),
+    }
+}
+
+/// Summary of one remesh.
+#[derive(Clone, Debug, Serialize)]
+pub struct RemeshSummary {
+    pub kind: String,
+    pub faces: usize,
+    pub vertices: usize,
+    /// Sampled Hausdorff distance remesh → input and input → remesh, and their max relative to
+    /// the bounding-box diagonal.
+    pub hausdorff_remesh_to_input: f64,
+    pub hausdorff_input_to_remesh: f64,
+    pub hausdorff_relative: f64,
+    /// Wall-clock seconds of the remesh, and the part of them spent on the Hausdorff distance.
+    pub seconds: f64,
+    pub hausdorff_seconds: f64,
+    pub file: String,
+}
+
+/// The `--json` summary.
+#[derive(Clone, Debug, Serialize)]
+pub struct MapsSummary {
+    pub mesh: String,
+    pub input_faces: usize,
+    pub input_vertices: usize,
+    pub levels: usize,
+    pub base_faces: usize,
+    pub base_vertices: usize,
+    pub feature_corners: usize,
+    pub feature_edges: usize,
+    pub rejected: RejectCounts,
+    pub per_level: Vec<LevelReport>,
+    pub timings: Timings,
+    pub remeshes: Vec<RemeshSummary>,
+    pub pictures: Vec<String>,
+}
+
+pub fn run(args: MapsArgs) -> Result<()> {
+    let summary = maps(&args, !args.json)?;
+    if args.json {
+        super::print_json(&summary)
+    } else {
+        print_summary(&summary);
+        Ok(())
+    }
+}
+
+/// Load the mesh named on the command line.
+fn load(spec: &str) -> Result<TriMesh> {
+    match spec.strip_prefix("procedural:") {
+        Some(name) => builtin_mesh(name)
+            .map(|mut m| {
+                m.uvs.clear();
+                m.uv_faces.clear();
+                m
+            })
+            .ok_or_else(|| Error::InvalidArgument(format!("unknown built-in mesh '{name}'"))),
+        None => reparam::mesh::load_mesh(Path::new(spec)),
+    }
+}
+
+/// The features asked for: none, detected, or read from a sidecar file.
+fn features_of(mesh: &TriMesh, spec: Option<&str>) -> Result<Features> {
+    match spec {
+        None => Ok(Features::default()),
+        Some("auto") => Ok(detect_features(mesh, &FeatureOptions::default())),
+        Some(path) => load_features(Path::new(path)),
+    }
+}
+
+/// Run the whole command; `progress` shows a bar per level on stderr.
+pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
+    let mesh = load(&args.mesh)?;
+    let specs: Vec<RemeshSpec> = args
+        .remesh
+        .iter()
+        .map(|s| parse_remesh(s))
+        .collect::<Result<_>>()?;
+    let features = features_of(&mesh, args.features.as_deref())?;
+    let options = MapsOptions {
+        lambda: args.lambda,
+        base_size: args.base_size,
+        ..MapsOptions::default()
+    };
+    let bar = if progress {
+        let bar = ProgressBar::new(mesh.faces.len() as u64);
+        if let Ok(style) = ProgressStyle::with_template("{bar:40} level {msg}") {
+            bar.set_style(style);
+        }
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let mut per_level = Vec::new();
+    let maps = build_with_progress(&mesh, &features, &options, &mut |r: LevelReport| {
+        bar.set_position((mesh.faces.len() - r.faces) as u64);
+        bar.set_message(format!(
+            "{}: {} faces, {} removed, {} rejected",
+            r.level, r.faces, r.removed, r.rejected
+        ));
+        per_level.push(r);
+    })?;
+    bar.finish_and_clear();
+    std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
+    let stem = stem_of(&args.mesh);
+    write_obj(
+        &maps.base_mesh(),
+        &args.out.join(format!("{stem}_base.obj")),
+    )?;
+    let mut remeshes = Vec::new();
+    let mut made: Vec<Remesh> = Vec::new();
+    for spec in specs {
+        let t = Instant::now();
+        let (r, kind) = match spec {
+            RemeshSpec::Uniform(j) => (uniform(&maps, j)?, format!("uniform:{j}")),
+            RemeshSpec::Adaptive(eps) => (
+                adaptive(
+                    &maps,
+                    &AdaptiveOptions {
+                        epsilon: eps,
+                        ..AdaptiveOptions::default()
+                    },
+                )?,
+                format!("adaptive:{eps}"),
+            ),
+        };
+        let seconds = t.elapsed().as_secs_f64();
+        let file = args
+            .out
+            .join(format!("{stem}_{}.obj", kind.replace(':', "_")));
+        write_obj(&r.mesh, &file)?;
+        remeshes.push(RemeshSummary {
+            kind,
+            faces: r.mesh.faces.len(),
+            vertices: r.mesh.positions.len(),
+            hausdorff_remesh_to_input: r.hausdorff.a_to_b,
+            hausdorff_input_to_remesh: r.hausdorff.b_to_a,
+            hausdorff_relative: r.hausdorff.max() / r.diagonal,
+            seconds,
+            hausdorff_seconds: r.hausdorff_seconds,
+            file: file.display().to_string(),
+        });
+        made.push(r);
+    }
+    let pictures = if args.picture_size > 0 {
+        write_pictures(&maps, &made, &args.out, &stem, args.picture_size)?
+    } else {
+        Vec::new()
+    };
+    let base_vertices = maps
+        .base_faces
+        .iter()
+        .flatten()
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
+    Ok(MapsSummary {
+        mesh: mesh.name.clone(),
+        input_faces: mesh.faces.len(),
+        input_vertices: mesh.positions.len(),
+        levels: maps.level_count(),
+        base_faces: maps.base_faces.len(),
+        base_vertices,
+        feature_corners: features.corners.len(),
+        feature_edges: features.edges.len(),
+        rejected: maps.rejects,
+        per_level,
+        timings: maps.timings,
+        remeshes,
+        pictures,
+    })
+}
+
+/// A file-name stem for the mesh spec.
+fn stem_of(spec: &str) -> String {
+    match spec.strip_prefix("procedural:") {
+        Some(name) => name.to_string(),
+        None => Path::new(spec)
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("mesh")
+            .to_string(),
+    }
+}
+
+/// Levels side by side, the base domain with the input's points, iso-parameter lines, and one
+/// picture per remesh. Returns the file names.
+pub fn write_pictures(
+    maps: &Maps,
+    remeshes: &[Remesh],
+    out: &Path,
+    stem: &str,
+    size: usize,
+) -> Result<Vec<String>> {
+    let mut files = Vec::new();
+    let mut save =
+        |name: String, img: &reparam::texture::Image<reparam::texture::Rgba8>| -> Result<()> {
+            save_png(img, &out.join(&name))?;
+            files.push(name);
+            Ok(())
+        };
+    let levels = picture::hierarchy_levels(maps, 4, size);
+    let refs: Vec<_> = levels.iter().collect();
+    save(format!("{stem}_levels.png"), &side_by_side(&refs, 4))?;
+    save(
+        format!("{stem}_base_points.png"),
+        &picture::base_domain_points(maps, size),
+    )?;
+    save(
+        format!("{stem}_iso_lines.png"),
+        &picture::iso_lines(maps, 8, size),
+    )?;
+    for r in remeshes {
+        let name = r
+            .mesh
+            .name
+            .rsplit('(')
+            .next()
+            .unwrap_or("remesh")
+            .trim_end_matches(')')
+            .replace([' ', '=', ':'], "_");
+        save(
+            format!("{stem}_{name}.png"),
+            &picture::remesh_picture(maps, &r.mesh, size),
+        )?;
+    }
+    Ok(files)
+}
+
+fn print_summary(s: &MapsSummary) {
+    println!(
+        "{}: {} faces, {} vertices → {} levels, base domain {} faces / {} vertices ({} corners, {} feature edges tagged)",
+        s.mesh, s.input_faces, s.input_vertices, s.levels, s.base_faces, s.base_vertices, s.feature_corners, s.feature_edges
+    );
+    println!(
+        "rejected removals: {} by the flattening guard, {} by the triangulation checks",
+        s.rejected.flatten, s.rejected.triangulation
+    );
+    println!(
+        "time: check {} s, hierarchy {} s, Π/Π⁻¹ {} s",
+        sig(s.timings.check, 3),
+        sig(s.timings.hierarchy, 3),
+        sig(s.timings.param, 3)
+    );
+    if !s.remeshes.is_empty() {
+        let header: Vec<String> = ["remesh", "faces", "vertices", "Hausdorff/diag", "seconds"]
+            .map(String::from)
+            .to_vec();
+        let rows: Vec<Vec<String>> = s
+            .remeshes
+            .iter()
+            .map(|r| {
+                vec![
+                    r.kind.clone(),
+                    r.faces.to_string(),
+                    r.vertices.to_string(),
+                    sig(r.hausdorff_relative, 3),
+                    sig(r.seconds, 3),
+                ]
+            })
+            .collect();
+        println!("{}", super::text_table(&header, &rows));
+    }
+    for p in &s.pictures {
+        println!("wrote {p}");
+    }
+}

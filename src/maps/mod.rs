@@ -1,0 +1,270 @@
+//! # MAPS — Multiresolution Adaptive Parameterization of Surfaces
+//!
+//! Lee, Sweldens, Schröder, Cowsar, Dobkin, SIGGRAPH 98 (seed 002, notes `maps.md`). A
+//! 2-manifold triangle mesh (any genus, with or without boundary) is simplified by levels of
+//! maximal independent vertex removals down to a coarse *base domain*; every input vertex is
+//! carried along as (base triangle, barycentrics), which defines the parameterisation
+//! Π: input surface → base domain, a bijection, and its inverse Π⁻¹. Remeshing samples Π⁻¹.
+//!
+//! | stage | notes / seed section | file |
+//! |---|---|---|
+//! | loading, 2-manifold check (typed errors listing bad edges/vertices) | issue #5 "Input" | `mesh/{ply,off,manifold}.rs` |
+//! | priority w(λ, i) = λ a/max a + (1−λ) κ/max κ | notes "Hierarchy"; seed "Constructing (2/5)", "Notation (4/4)" | [`priority`] |
+//! | features: tags, sidecar file, detection by curvature and dihedral angle | notes "Features"; seed "Preserving Image Features" | [`features`] |
+//! | z^a flattening of a 1-ring (disk, boundary half-disk, feature-line split) | notes "Flattening a 1-ring"; seed "Constructing (4/5)" | [`flatten`] |
+//! | constrained Delaunay retriangulation (spade), fans, robust location | notes "Retriangulating the hole"; seed "Constructing (5/5)" | [`retriangulate`] |
+//! | levels, maximal independent sets, validity checks, bookkeeping | notes "Hierarchy", "Parameter bookkeeping"; seed "Parameterization" | [`hierarchy`] |
+//! | Π and Π⁻¹: the level maps composed forwards and backwards | notes "Parameter bookkeeping"; seed "Parameterization", "Remeshing (1/5)" | [`param`] |
+//! | point–triangle distance, sampled two-sided Hausdorff distance | issue #5 "Remeshing" | [`crate::mesh::distance`] |
+//! | pictures: levels, base domain, iso-parameter lines, remeshes | issue #5 "Pictures" | [`picture`] |
+//! | uniform and adaptive remeshing | notes "Smoothing and remeshing"; seed "Remeshing" | [`remesh`] |
+//!
+//! Entry point: [`build`] (or [`build_with_progress`]), then [`Maps::param`] for Π / Π⁻¹ and
+//! [`remesh::uniform`] / [`remesh::adaptive`].
+
+pub mod features;
+pub mod flatten;
+pub mod hierarchy;
+pub mod param;
+pub mod picture;
+pub mod priority;
+pub mod remesh;
+pub mod retriangulate;
+
+use std::collections::BTreeSet;
+use std::time::Instant;
+
+use nalgebra::Point3;
+
+pub use features::{detect_features, load_features, parse_features, FeatureOptions, Features};
+pub use hierarchy::{Level, LevelReport, Location, RejectCounts, Removal};
+pub use param::{BasePoint, Param, SurfacePoint};
+
+use crate::error::{Error, Result};
+use crate::mesh::{check_manifold, TriMesh};
+use hierarchy::{decimate, Work};
+
+/// Options of the hierarchy.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MapsOptions {
+    /// λ of the priority w(λ, i) (seed 2/5). Default 0.5, the paper's suggestion.
+    pub lambda: f64,
+    /// Stop as soon as the mesh has at most this many triangles. Default 0: simplify until no
+    /// vertex is removable.
+    pub base_size: usize,
+    /// Vertices of higher degree are not removed (notes). Default 12.
+    pub max_degree: usize,
+    /// Stop after this many levels. Default `usize::MAX` (no limit); tests use it to look at
+    /// Π of intermediate levels.
+    pub max_levels: usize,
+    /// Keep every level's faces in [`Level::faces`] (pictures, per-level tests). Default true.
+    pub keep_levels: bool,
+    /// A feature-line or boundary vertex whose two feature edges turn by more than this
+    /// (radians) is a corner ([`features::vertex_role`]). Default 60°.
+    pub corner_turn: f64,
+}
+
+impl Default for MapsOptions {
+    fn default() -> Self {
+        MapsOptions {
+            lambda: 0.5,
+            base_size: 0,
+            max_degree: 12,
+            max_levels: usize::MAX,
+            keep_levels: true,
+            corner_turn: FeatureOptions::default().corner_turn,
+        }
+    }
+}
+
+/// Wall-clock seconds per stage.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct Timings {
+    /// Manifold check and feature validation.
+    pub check: f64,
+    /// All levels (candidates, priorities, sets, plans, commits).
+    pub hierarchy: f64,
+    /// Building the base domain and Π / Π⁻¹.
+    pub param: f64,
+}
+
+/// The MAPS hierarchy of a mesh and its parameterisation over the base domain.
+#[derive(Clone, Debug)]
+pub struct Maps {
+    /// The input positions (base vertices are input vertices).
+    pub positions: Vec<Point3<f64>>,
+    /// The input faces.
+    pub input_faces: Vec<[u32; 3]>,
+    /// The levels in processing order ([`Level`]).
+    pub levels: Vec<Level>,
+    /// The base domain's faces (input vertex indices).
+    pub base_faces: Vec<[u32; 3]>,
+    /// Feature edges of the base domain (each the image of a chain of input feature edges).
+    pub base_feature_edges: BTreeSet<(u32, u32)>,
+    /// The features the hierarchy respected.
+    pub features: Features,
+    /// Π of every input vertex: (base face, barycentrics); face `u32::MAX` for a vertex that
+    /// no input face uses.
+    pub location: Vec<Location>,
+    /// Removals rejected by the checks, by cause.
+    pub rejects: RejectCounts,
+    /// Seconds per stage.
+    pub timings: Timings,
+    /// Π and Π⁻¹ (charts over the base domain).
+    pub param: Param,
+    /// Name of the input mesh.
+    pub name: String,
+}
+
+/// [`build_with_progress`] without progress reports.
+pub fn build(mesh: &TriMesh, features: &Features, options: &MapsOptions) -> Result<Maps> {
+    build_with_progress(mesh, features, options, &mut |_| {})
+}
+
+/// Build the MAPS hierarchy of `mesh` respecting `features`, reporting each level to `progress`.
+///
+/// Errors: those of [`check_manifold`] (empty mesh, non-finite coordinates, degenerate faces,
+/// non-manifold edges or vertices), [`Error::InvalidArgument`] for λ outside [0, 1], a degree
+/// limit below 3 or features that are not elements of the mesh.
+pub fn build_with_progress(
+    mesh: &TriMesh,
+    features: &Features,
+    options: &MapsOptions,
+    progress: &mut dyn FnMut(LevelReport),
+) -> Result<Maps> {
+    let t0 = Instant::now();
+    if !(0.0..=1.0).contains(&options.lambda) {
+        return Err(Error::InvalidArgument(format!(
+            "lambda {} is not in [0, 1]",
+            options.lambda
+        )));
+    }
+    if options.max_degree < 3 {
+        return Err(Error::InvalidArgument(format!(
+            "max_degree {} is below 3",
+            options.max_degree
+        )));
+    }
+    check_manifold(mesh)?;
+    features.validate(mesh)?;
+    let check = t0.elapsed().as_secs_f64();
+
+    let t1 = Instant::now();
+    let mut work = Work::new(&mesh.positions, &mesh.faces, features, options.corner_turn);
+    let mut rejects = RejectCounts::default();
+    let levels = decimate(&mut work, options, &mut rejects, progress);
+    let hierarchy_time = t1.elapsed().as_secs_f64();
+
+    let t2 = Instant::now();
+    let (base_faces, base_to_face, location) = base_domain(&work);
+    let base_feature_edges = work
+        .feature_edges
+        .iter()
+        .copied()
+        .filter(|&(a, b)| work.vert_alive[a as usize] && work.vert_alive[b as usize])
+        .collect();
+    let param = Param::new(
+        &mesh.positions,
+        std::mem::take(&mut work.faces),
+        std::mem::take(&mut work.created_by),
+        std::mem::take(&mut work.removed_by),
+        std::mem::take(&mut work.records),
+        base_to_face,
+        mesh.faces.len(),
+        location.clone(),
+    );
+    let param_time = t2.elapsed().as_secs_f64();
+    Ok(Maps {
+        positions: mesh.positions.clone(),
+        input_faces: mesh.faces.clone(),
+        levels,
+        base_faces,
+        base_feature_edges,
+        features: features.clone(),
+        location,
+        rejects,
+        timings: Timings {
+            check,
+            hierarchy: hierarchy_time,
+            param: param_time,
+        },
+        param,
+        name: mesh.name.clone(),
+    })
+}
+
+/// The alive faces renumbered 0.. in id order, and Π of every input vertex: a removed vertex's
+/// stored location with its face renumbered; a base vertex at its corner (barycentric 1) of the
+/// first base face that contains it.
+fn base_domain(work: &Work) -> (Vec<[u32; 3]>, Vec<u32>, Vec<Location>) {
+    let mut new_id = vec![u32::MAX; work.faces.len()];
+    let mut base_faces = Vec::with_capacity(work.alive_faces);
+    let mut base_to_face = Vec::with_capacity(work.alive_faces);
+    for (f, tri) in work.faces.iter().enumerate() {
+        if work.face_alive[f] {
+            new_id[f] = base_faces.len() as u32;
+            base_faces.push(*tri);
+            base_to_face.push(f as u32);
+        }
+    }
+    let mut first_face = vec![u32::MAX; work.positions.len()];
+    for (f, tri) in base_faces.iter().enumerate() {
+        for &v in tri {
+            if first_face[v as usize] == u32::MAX {
+                first_face[v as usize] = f as u32;
+            }
+        }
+    }
+    let location = (0..work.positions.len())
+        .map(|v| {
+            if work.vert_faces[v].is_empty() && work.loc[v].0 == u32::MAX {
+                (u32::MAX, [0.0; 3]) // a vertex no face uses: not on the surface
+            } else if work.vert_alive[v] {
+                let f = first_face[v];
+                let mut b = [0.0; 3];
+                let corner = base_faces[f as usize]
+                    .iter()
+                    .position(|&w| w as usize == v)
+                    .expect("corner");
+                b[corner] = 1.0;
+                (f, b)
+            } else {
+                let (f, b) = work.loc[v];
+                (new_id[f as usize], b)
+            }
+        })
+        .collect();
+    (base_faces, base_to_face, location)
+}
+
+impl Maps {
+    /// Number of levels (removal rounds) of the hierarchy.
+    pub fn level_count(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// The base domain as a mesh (input positions, base faces; unused vertices stay, unreferenced).
+    pub fn base_mesh(&self) -> TriMesh {
+        TriMesh::with_shared_indices(
+            format!("{} (base domain)", self.name),
+            self.positions.clone(),
+            Vec::new(),
+            self.base_faces.clone(),
+        )
+    }
+
+    /// The base-domain point of input vertex `v` mapped into 3D: Σ b_c P(base corner c)
+    /// (`None` for a vertex that no face uses).
+    pub fn base_position(&self, v: usize) -> Option<Point3<f64>> {
+        let (f, b) = self.location[v];
+        if f == u32::MAX {
+            return None;
+        }
+        let t = self.base_faces[f as usize];
+        let mut p = Point3::origin();
+        for c in 0..3 {
+            p += self.positions[t[c] as usize].coords * b[c];
+        }
+        Some(p)
+    }
+}

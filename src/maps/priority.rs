@@ -1,0 +1,87 @@
+//! Removal priority w(λ, i) (notes "Hierarchy"; seed "Constructing the Mesh Hierarchies (2/5)"
+//! and "Notation (4/4)").
+
+use nalgebra::{Matrix3, Point3, Vector3};
+
+/// 1-ring area a(i) = Σ over the faces of star(i) of ½|(q − p) × (r − p)|.
+pub fn ring_area(positions: &[Point3<f64>], star: &[[u32; 3]]) -> f64 {
+    star.iter()
+        .map(|f| {
+            triangle_area(
+                &positions[f[0] as usize],
+                &positions[f[1] as usize],
+                &positions[f[2] as usize],
+            )
+        })
+        .sum()
+}
+
+/// Area of the triangle (p, q, r).
+pub fn triangle_area(p: &Point3<f64>, q: &Point3<f64>, r: &Point3<f64>) -> f64 {
+    0.5 * (q - p).cross(&(r - p)).norm()
+}
+
+/// Area-weighted normal Σ (q − p) × (r − p) of `star` (not normalised; zero if degenerate).
+pub fn star_normal(positions: &[Point3<f64>], star: &[[u32; 3]]) -> Vector3<f64> {
+    star.iter().fold(Vector3::zeros(), |n, f| {
+        let [p, q, r] = f.map(|v| positions[v as usize]);
+        n + (q - p).cross(&(r - p))
+    })
+}
+
+/// Curvature magnitude κ(i) = |κ₁| + |κ₂| from a local fit (seed "Notation (4/4)"): in the frame
+/// (e₁, e₂, n) at p_i, n the area-weighted star normal, fit the height z = A x² + B xy + C y² of
+/// the ring vertices by least squares; the shape operator is [[2A, B], [B, 2C]] with eigenvalues
+/// κ₁,₂ = (A + C) ± √((A − C)² + B²). Returns 0 when the normal or the 3×3 normal equations are
+/// degenerate (fewer than three independent directions), so no NaN reaches the priority.
+pub fn curvature(centre: &Point3<f64>, ring: &[Point3<f64>], normal: &Vector3<f64>) -> f64 {
+    let len = normal.norm();
+    if len.is_nan() || len <= 0.0 || ring.len() < 3 {
+        return 0.0;
+    }
+    let n = normal / len;
+    let helper = if n.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let e1 = n.cross(&helper).normalize();
+    let e2 = n.cross(&e1);
+    let mut m = Matrix3::zeros();
+    let mut rhs = Vector3::zeros();
+    for q in ring {
+        let d = q - centre;
+        let (x, y, z) = (d.dot(&e1), d.dot(&e2), d.dot(&n));
+        let row = Vector3::new(x * x, x * y, y * y);
+        m += row * row.transpose();
+        rhs += row * z;
+    }
+    let Some(inv) = m.try_inverse() else {
+        return 0.0;
+    };
+    let coef = inv * rhs;
+    let (a, b, c) = (coef.x, coef.y, coef.z);
+    let mean = a + c;
+    let dev = ((a - c) * (a - c) + b * b).sqrt();
+    let k = (mean + dev).abs() + (mean - dev).abs();
+    if k.is_finite() {
+        k
+    } else {
+        0.0
+    }
+}
+
+/// w(λ, i) = λ a(i)/max a + (1 − λ) κ(i)/max κ (seed 2/5), maxima over the level's candidates.
+/// A term whose maximum is 0 (a flat mesh has κ ≡ 0) contributes 0.
+pub fn priorities(lambda: f64, area: &[f64], kappa: &[f64]) -> Vec<f64> {
+    let max_a = area.iter().fold(0.0f64, |m, &x| m.max(x));
+    let max_k = kappa.iter().fold(0.0f64, |m, &x| m.max(x));
+    area.iter()
+        .zip(kappa)
+        .map(|(&a, &k)| {
+            let ta = if max_a > 0.0 { a / max_a } else { 0.0 };
+            let tk = if max_k > 0.0 { k / max_k } else { 0.0 };
+            lambda * ta + (1.0 - lambda) * tk
+        })
+        .collect()
+}

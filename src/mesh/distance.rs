@@ -1,0 +1,293 @@
+//! Point-to-surface distances: the closest point of a triangle, a uniform grid for
+//! nearest-surface queries, and the sampled two-sided Hausdorff distance. Shared by the MAPS
+//! remesh errors (issue #5) and the skinned-simplification errors (issue #6).
+
+use nalgebra::{Point3, Vector3};
+use rayon::prelude::*;
+
+/// Distance from `p` to the closed triangle (a, b, c): the Voronoi-region case analysis of
+/// Ericson, *Real-Time Collision Detection* §5.1.5 (closest point on a triangle), exact for
+/// degenerate triangles too (it falls through to an edge or a vertex).
+pub fn point_triangle_distance(
+    p: &Point3<f64>,
+    a: &Point3<f64>,
+    b: &Point3<f64>,
+    c: &Point3<f64>,
+) -> f64 {
+    (p - closest_point_on_triangle(p, a, b, c)).norm()
+}
+
+/// The closest point of triangle (a, b, c) to `p` (Ericson §5.1.5).
+pub fn closest_point_on_triangle(
+    p: &Point3<f64>,
+    a: &Point3<f64>,
+    b: &Point3<f64>,
+    c: &Point3<f64>,
+) -> Point3<f64> {
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = ab.dot(&ap);
+    let d2 = ac.dot(&ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return *a;
+    }
+    let bp = p - b;
+    let d3 = ab.dot(&bp);
+    let d4 = ac.dot(&bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return *b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let d5 = ab.dot(&cp);
+    let d6 = ac.dot(&cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return *c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = va + vb + vc;
+    if denom == 0.0 {
+        // Degenerate (collinear) triangle: the closest of its three edges.
+        let edges = [(a, b), (b, c), (c, a)];
+        return edges
+            .iter()
+            .map(|(x, y)| closest_on_segment(p, x, y))
+            .min_by(|u, v| (p - u).norm().total_cmp(&(p - v).norm()))
+            .expect("three edges");
+    }
+    let v = vb / denom;
+    let w = vc / denom;
+    a + ab * v + ac * w
+}
+
+fn closest_on_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> Point3<f64> {
+    let d = b - a;
+    let len2 = d.norm_squared();
+    if len2 == 0.0 {
+        return *a;
+    }
+    a + d * ((p - a).dot(&d) / len2).clamp(0.0, 1.0)
+}
+
+/// A uniform grid over a triangle set for nearest-surface queries: each triangle is listed in
+/// every cell its bounding box touches; a query searches shells of cells around the query's cell
+/// until the best distance found is below the distance to the next shell.
+pub struct SurfaceGrid<'a> {
+    positions: &'a [Point3<f64>],
+    faces: &'a [[u32; 3]],
+    lo: Point3<f64>,
+    cell: f64,
+    dims: [usize; 3],
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl<'a> SurfaceGrid<'a> {
+    /// Build the grid with about one triangle per cell (cell side from the bounding box volume,
+    /// at least 1/256 of the longest side).
+    pub fn new(positions: &'a [Point3<f64>], faces: &'a [[u32; 3]]) -> Self {
+        let mut lo = Point3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        let mut hi = Point3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for f in faces {
+            for &v in f {
+                let p = positions[v as usize];
+                for a in 0..3 {
+                    lo[a] = lo[a].min(p[a]);
+                    hi[a] = hi[a].max(p[a]);
+                }
+            }
+        }
+        let ext: Vector3<f64> = hi - lo;
+        let longest = ext.max().max(1e-300);
+        // Surface-like sets: about one triangle per cell on a 2D sheet means a side of
+        // longest/√F; never finer than longest/256 along an axis.
+        let cell = (longest / (faces.len() as f64).sqrt().max(1.0)).max(longest / 256.0);
+        let dims = [0, 1, 2].map(|a| ((ext[a] / cell).floor() as usize + 1).min(257));
+        let index = |p: &Point3<f64>| {
+            [0, 1, 2].map(|a| (((p[a] - lo[a]) / cell).floor().max(0.0) as usize).min(dims[a] - 1))
+        };
+        let mut counts = vec![0u32; dims[0] * dims[1] * dims[2] + 1];
+        let mut ranges = Vec::with_capacity(faces.len());
+        for f in faces {
+            let pts = f.map(|v| positions[v as usize]);
+            let mut flo = pts[0];
+            let mut fhi = pts[0];
+            for p in &pts[1..] {
+                for a in 0..3 {
+                    flo[a] = flo[a].min(p[a]);
+                    fhi[a] = fhi[a].max(p[a]);
+                }
+            }
+            let (i0, i1) = (index(&flo), index(&fhi));
+            ranges.push((i0, i1));
+            for x in i0[0]..=i1[0] {
+                for y in i0[1]..=i1[1] {
+                    for z in i0[2]..=i1[2] {
+                        counts[(z * dims[1] + y) * dims[0] + x + 1] += 1;
+                    }
+                }
+            }
+        }
+        for k in 1..counts.len() {
+            counts[k] += counts[k - 1];
+        }
+        let mut fill = counts.clone();
+        let mut items = vec![0u32; *counts.last().unwrap() as usize];
+        for (f, (i0, i1)) in ranges.iter().enumerate() {
+            for x in i0[0]..=i1[0] {
+                for y in i0[1]..=i1[1] {
+                    for z in i0[2]..=i1[2] {
+                        let c = (z * dims[1] + y) * dims[0] + x;
+                        items[fill[c] as usize] = f as u32;
+                        fill[c] += 1;
+                    }
+                }
+            }
+        }
+        SurfaceGrid {
+            positions,
+            faces,
+            lo,
+            cell,
+            dims,
+            start: counts,
+            items,
+        }
+    }
+
+    /// Distance from `p` to the nearest triangle.
+    pub fn distance(&self, p: &Point3<f64>) -> f64 {
+        // Clamping a query outside the grid to its nearest cell keeps the shell bound valid:
+        // cells s+1 index steps away are still at least s cells away from p.
+        let c = [0, 1, 2].map(|a| {
+            (((p[a] - self.lo[a]) / self.cell).floor().max(0.0) as i64).min(self.dims[a] as i64 - 1)
+        });
+        let mut best = f64::INFINITY;
+        let max_shell = self.dims.iter().max().copied().unwrap_or(1) as i64;
+        for shell in 0..=max_shell {
+            self.search_shell(p, c, shell, &mut best);
+            // Every triangle not yet seen lies outside the searched block of cells, at least
+            // `gap` away from p (a block side at the grid's edge has nothing beyond it).
+            if best <= self.block_gap(p, c, shell) {
+                break;
+            }
+        }
+        best
+    }
+
+    /// The distance from p to the nearest side of the block of cells within Chebyshev index
+    /// distance `shell` of cell `c` that has cells beyond it (∞ when the block covers the grid).
+    fn block_gap(&self, p: &Point3<f64>, c: [i64; 3], shell: i64) -> f64 {
+        let mut gap = f64::INFINITY;
+        for a in 0..3 {
+            if c[a] - shell > 0 {
+                gap = gap.min(p[a] - (self.lo[a] + (c[a] - shell) as f64 * self.cell));
+            }
+            if c[a] + shell < self.dims[a] as i64 - 1 {
+                gap = gap.min(self.lo[a] + (c[a] + shell + 1) as f64 * self.cell - p[a]);
+            }
+        }
+        gap
+    }
+
+    /// Update `best` with the triangles of the cells at Chebyshev index distance exactly
+    /// `shell` from cell `c`.
+    fn search_shell(&self, p: &Point3<f64>, c: [i64; 3], shell: i64, best: &mut f64) {
+        let range = |a: usize| (c[a] - shell).max(0)..=(c[a] + shell).min(self.dims[a] as i64 - 1);
+        for x in range(0) {
+            for y in range(1) {
+                for z in range(2) {
+                    let on_shell = (x - c[0]).abs() == shell
+                        || (y - c[1]).abs() == shell
+                        || (z - c[2]).abs() == shell;
+                    if !on_shell {
+                        continue;
+                    }
+                    let cell = (z as usize * self.dims[1] + y as usize) * self.dims[0] + x as usize;
+                    for &f in &self.items[self.start[cell] as usize..self.start[cell + 1] as usize]
+                    {
+                        let [a, b, cc] = self.faces[f as usize].map(|v| self.positions[v as usize]);
+                        *best = best.min(point_triangle_distance(p, &a, &b, &cc));
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Sample points of a triangle set: every vertex used by a face, and per face the centroid and
+/// the three points halfway between the centroid and a corner (4 interior samples per face).
+pub fn surface_samples(positions: &[Point3<f64>], faces: &[[u32; 3]]) -> Vec<Point3<f64>> {
+    let mut used = vec![false; positions.len()];
+    for f in faces {
+        for &v in f {
+            used[v as usize] = true;
+        }
+    }
+    let mut out: Vec<Point3<f64>> = positions
+        .iter()
+        .zip(&used)
+        .filter(|(_, &u)| u)
+        .map(|(p, _)| *p)
+        .collect();
+    for f in faces {
+        let [a, b, c] = f.map(|v| positions[v as usize]);
+        let g = Point3::from((a.coords + b.coords + c.coords) / 3.0);
+        out.push(g);
+        for p in [a, b, c] {
+            out.push(Point3::from((g.coords + p.coords) * 0.5));
+        }
+    }
+    out
+}
+
+/// Two-sided sampled Hausdorff distance between surfaces A and B.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Hausdorff {
+    /// max over samples of A of the distance to B.
+    pub a_to_b: f64,
+    /// max over samples of B of the distance to A.
+    pub b_to_a: f64,
+}
+
+impl Hausdorff {
+    /// max(a_to_b, b_to_a).
+    pub fn max(&self) -> f64 {
+        self.a_to_b.max(self.b_to_a)
+    }
+}
+
+/// Sampled Hausdorff distance: each side's [`surface_samples`] (vertices, centroids and the
+/// three centroid–corner midpoints of every face) measured exactly against the other side's
+/// triangles. A lower bound of the true Hausdorff distance, tight when the faces are small
+/// compared with the surfaces' features. Parallel, order-independent (a max).
+pub fn hausdorff(
+    a_positions: &[Point3<f64>],
+    a_faces: &[[u32; 3]],
+    b_positions: &[Point3<f64>],
+    b_faces: &[[u32; 3]],
+) -> Hausdorff {
+    let one_way =
+        |from_p: &[Point3<f64>], from_f: &[[u32; 3]], to_p: &[Point3<f64>], to_f: &[[u32; 3]]| {
+            let grid = SurfaceGrid::new(to_p, to_f);
+            surface_samples(from_p, from_f)
+                .par_iter()
+                .map(|p| grid.distance(p))
+                .reduce(|| 0.0, f64::max)
+        };
+    Hausdorff {
+        a_to_b: one_way(a_positions, a_faces, b_positions, b_faces),
+        b_to_a: one_way(b_positions, b_faces, a_positions, a_faces),
+    }
+}

@@ -1,0 +1,114 @@
+//! Reading OFF meshes (Geomview "Object File Format"): a small own parser, in file order, with
+//! typed `path:line` errors.
+//!
+//! Accepted: an optional `OFF` header line (also `COFF`/`NOFF`/`CNOFF`, whose extra per-vertex
+//! values are ignored), then `V F E`, then `V` lines `x y z …`, then `F` lines `n i₀ … iₙ₋₁ …`
+//! (0-based; polygons split into the fan `(i₀, iₖ, iₖ₊₁)`, trailing colour values ignored).
+//! `#` starts a comment; blank lines are skipped.
+
+use std::fs;
+use std::path::Path;
+
+use nalgebra::Point3;
+
+use super::trimesh::TriMesh;
+use crate::error::{Error, Result};
+
+/// Load an OFF file as a [`TriMesh`] named after `path` (no UVs).
+///
+/// Errors: [`Error::Io`] when unreadable; [`Error::MeshParse`] naming `path:line` for syntax
+/// errors and for a face with fewer than 3 corners; [`Error::NonFinite`] /
+/// [`Error::IndexOutOfRange`] / [`Error::EmptyMesh`] from [`TriMesh::validate`].
+pub fn load_off(path: &Path) -> Result<TriMesh> {
+    let text = fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let mesh = parse_off(&text, path)?;
+    mesh.validate()?;
+    Ok(mesh)
+}
+
+/// The data lines of an OFF file: `(1-based line number, words)`, comments and blanks removed.
+fn data_lines(text: &str) -> impl Iterator<Item = (usize, Vec<&str>)> {
+    text.lines().enumerate().filter_map(|(n, line)| {
+        let line = line.split('#').next().unwrap_or("");
+        let words: Vec<&str> = line.split_whitespace().collect();
+        (!words.is_empty()).then_some((n + 1, words))
+    })
+}
+
+/// Parse OFF text (see the module docs); `path` is only used in error messages.
+pub fn parse_off(text: &str, path: &Path) -> Result<TriMesh> {
+    let err = |line: usize, message: String| Error::MeshParse {
+        path: path.to_path_buf(),
+        message: format!("line {line}: {message}"),
+    };
+    let mut lines = data_lines(text).peekable();
+    if let Some((_, words)) = lines.peek() {
+        if words[0].ends_with("OFF") {
+            if words[0] != "OFF" && words[0] != "COFF" && words[0] != "NOFF" && words[0] != "CNOFF"
+            {
+                return Err(err(1, format!("unsupported header {}", words[0])));
+            }
+            let extra = words.len() > 1;
+            let (n, _) = lines.next().expect("peeked");
+            if extra {
+                return Err(err(n, "the counts must be on their own line".into()));
+            }
+        }
+    }
+    let (count_line, counts) = lines
+        .next()
+        .ok_or_else(|| err(1, "missing the `V F E` counts line".into()))?;
+    let parse_count = |w: Option<&&str>, what: &str| -> Result<usize> {
+        w.and_then(|w| w.parse::<usize>().ok())
+            .ok_or_else(|| err(count_line, format!("cannot read the {what} count")))
+    };
+    let vertex_count = parse_count(counts.first(), "vertex")?;
+    let face_count = parse_count(counts.get(1), "face")?;
+    let mut positions = Vec::with_capacity(vertex_count);
+    let mut faces = Vec::with_capacity(face_count);
+    for _ in 0..vertex_count {
+        let (n, words) = lines
+            .next()
+            .ok_or_else(|| err(count_line, format!("expected {vertex_count} vertices")))?;
+        if words.len() < 3 {
+            return Err(err(n, "a vertex needs x y z".into()));
+        }
+        let mut xyz = [0.0; 3];
+        for (a, w) in words[..3].iter().enumerate() {
+            xyz[a] = w
+                .parse::<f64>()
+                .map_err(|_| err(n, format!("cannot read coordinate `{w}`")))?;
+        }
+        positions.push(Point3::new(xyz[0], xyz[1], xyz[2]));
+    }
+    for _ in 0..face_count {
+        let (n, words) = lines
+            .next()
+            .ok_or_else(|| err(count_line, format!("expected {face_count} faces")))?;
+        let corners: usize = words[0]
+            .parse()
+            .map_err(|_| err(n, format!("cannot read the corner count `{}`", words[0])))?;
+        if corners < 3 || words.len() < corners + 1 {
+            return Err(err(
+                n,
+                format!("a face needs at least 3 corners, got {corners}"),
+            ));
+        }
+        let mut idx = Vec::with_capacity(corners);
+        for w in &words[1..=corners] {
+            idx.push(
+                w.parse::<u32>()
+                    .map_err(|_| err(n, format!("cannot read vertex index `{w}`")))?,
+            );
+        }
+        for k in 1..corners - 1 {
+            faces.push([idx[0], idx[k], idx[k + 1]]);
+        }
+    }
+    Ok(TriMesh::with_shared_indices(
+        path.display().to_string(),
+        positions,
+        Vec::new(),
+        faces,
+    ))
+}

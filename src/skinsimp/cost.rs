@@ -1,0 +1,513 @@
+//! The skinned collapse cost `E(v, α)` and where the merged vertex goes (notes "The error and
+//! its alternating minimisation"; seed slides "Modify QEF equation", "Quadratic #1", "Quadratic
+//! #2", "Alternating minimization", "Weight reduction").
+//!
+//! For an edge `(a, b)` with summed per-pose quadrics `Q^j = Q_a^j + Q_b^j` and candidate bones
+//! `k ∈ C` (the union of the endpoints' joints), the merged vertex has a rest position `v` and
+//! weights `α` over `C`, and
+//!
+//! `E(v, α) = Σ_j (A^j v̂)ᵀ Q^j (A^j v̂)`,  `A^j = Σ_k α_k M_k^j`.
+//!
+//! - Position step ([`position_step`], α fixed): `Q̃ = Σ_j A^{jT} Q^j A^j`; solve
+//!   `Q̃[0:3,0:3] v = −Q̃[0:3,3]`; when that 3×3 block is ill-conditioned (or the solution is
+//!   worse) the best of {current v, a, b, midpoint} is kept.
+//! - Weight step ([`weight_matrix`] + [`super::weights`], v fixed): `E = αᵀHα`,
+//!   `H_kl = Σ_j (M_k^j v̂)ᵀ Q^j (M_l^j v̂)`; the QP on the simplex.
+//! - [`place_full`] alternates the two from the better endpoint's weights; each half-step is
+//!   accepted only if `E` does not increase, so `E` is monotone. Then weight reduction to
+//!   `W_max`: keep the largest, re-solve the QP on that support, re-solve `v`.
+//! - Baselines: [`place_endpoint_weights`] (Mohr–Gleicher: the better endpoint's weights, the
+//!   optimal position for them) and [`place_rest`] (plain quadrics of the rest pose, weights
+//!   of the endpoint nearer to the new position).
+//! - Shared-connectivity frame sequences without weights: [`place_frames`], each pose's
+//!   position optimal for its own quadric.
+
+use nalgebra::{Matrix3, Matrix4, Point3, Vector3, Vector4};
+
+use super::quadric::Quadric;
+use super::weights::{
+    kkt_residual, largest_support, regulariser, restrict, solve_active_set, solve_enumerate,
+    WeightQp, Weights, MAX_CANDIDATES,
+};
+
+/// Which exact solver the weight step uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum WeightSolver {
+    /// Primal active set ([`super::weights::solve_active_set`]). Default.
+    #[default]
+    ActiveSet,
+    /// Enumerate all supports ([`super::weights::solve_enumerate`]); O(2^K K³).
+    Enumerate,
+}
+
+/// Parameters of the alternating minimisation.
+#[derive(Clone, Copy, Debug)]
+pub struct CostOptions {
+    /// Most alternations (weight step + position step). Default 5 (notes: ≈5 to converge).
+    pub max_alternations: usize,
+    /// Stop when an alternation lowers `E` by less than this fraction. Default 1e-9.
+    pub relative_tolerance: f64,
+    /// Most influences of the merged vertex, `W_max`. Default 4 (one glTF set).
+    pub max_weights: usize,
+    /// `μ / (tr H / K)`, the weight of `‖α − α₀‖²` in the QP. Default 1e-9.
+    pub regularisation: f64,
+    /// Largest `cond_F(Q̃[0:3,0:3])` at which the position is solved. Default 1e10.
+    pub max_condition: f64,
+    /// The weight-QP solver. Default [`WeightSolver::ActiveSet`].
+    pub solver: WeightSolver,
+}
+
+impl Default for CostOptions {
+    fn default() -> Self {
+        CostOptions {
+            max_alternations: 5,
+            relative_tolerance: 1e-9,
+            max_weights: 4,
+            regularisation: 1e-9,
+            max_condition: 1e10,
+            solver: WeightSolver::ActiveSet,
+        }
+    }
+}
+
+/// One edge's data: summed quadrics per pose, the joint matrices `M_k^j`, the endpoints.
+pub struct EdgeProblem<'a> {
+    /// `Q^j = Q_a^j + Q_b^j`, one per pose.
+    pub quadrics: &'a [Quadric],
+    /// `mats[j][joint]`: the joint matrices of pose `j` (for the rest pose: identities).
+    pub mats: &'a [Vec<Matrix4<f64>>],
+    /// Rest positions of `a` and `b`.
+    pub ends: [Point3<f64>; 2],
+    /// Weights of `a` and `b`.
+    pub weights: [Weights; 2],
+}
+
+/// Where the merged vertex goes and its cost.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    /// Rest (bind-pose) position.
+    pub rest: Point3<f64>,
+    /// Skin weights (at most `W_max`).
+    pub weights: Weights,
+    /// `E(v, α)`.
+    pub cost: f64,
+}
+
+/// The candidate bones `C` of an edge (union of the endpoints' joints, sorted) with their
+/// per-pose matrices `cand[j][k] = M_{C_k}^j`.
+pub struct Candidates {
+    pub joints: Vec<u32>,
+    pub mats: Vec<Vec<Matrix4<f64>>>,
+}
+
+impl Candidates {
+    /// The union of the endpoints' joints of `problem`, at most [`MAX_CANDIDATES`].
+    pub fn of(problem: &EdgeProblem) -> Candidates {
+        let mut joints: Vec<u32> = problem.weights[0]
+            .pairs()
+            .chain(problem.weights[1].pairs())
+            .map(|p| p.0)
+            .collect();
+        joints.sort_unstable();
+        joints.dedup();
+        joints.truncate(MAX_CANDIDATES);
+        let mats = problem
+            .mats
+            .iter()
+            .map(|pose| joints.iter().map(|&j| pose[j as usize]).collect())
+            .collect();
+        Candidates { joints, mats }
+    }
+
+    /// `weights` as a vector over the candidates.
+    pub fn vector(&self, weights: &Weights) -> Vec<f64> {
+        self.joints.iter().map(|&j| weights.weight_of(j)).collect()
+    }
+
+    /// The vector `alpha` over the candidates as [`Weights`] (zeros dropped).
+    pub fn weights(&self, alpha: &[f64]) -> Weights {
+        let pairs: Vec<(u32, f64)> = self
+            .joints
+            .iter()
+            .copied()
+            .zip(alpha.iter().copied())
+            .collect();
+        Weights::from_pairs(&pairs)
+    }
+
+    /// `A^j = Σ_k α_k M_k^j`.
+    fn blend(&self, pose: usize, alpha: &[f64]) -> Matrix4<f64> {
+        let mut a = Matrix4::zeros();
+        for (m, &w) in self.mats[pose].iter().zip(alpha) {
+            if w != 0.0 {
+                a += m * w;
+            }
+        }
+        a
+    }
+}
+
+/// `E(v, α) = Σ_j (A^j v̂)ᵀ Q^j (A^j v̂)` (module docs), summed over poses in order.
+pub fn energy(quadrics: &[Quadric], cand: &Candidates, v: &Point3<f64>, alpha: &[f64]) -> f64 {
+    let h = v.to_homogeneous();
+    quadrics
+        .iter()
+        .enumerate()
+        .map(|(j, q)| {
+            let p = cand.blend(j, alpha) * h;
+            p.dot(&(q.matrix() * p))
+        })
+        .sum()
+}
+
+/// `Q̃ = Σ_j A^{jT} Q^j A^j` for fixed weights `alpha`.
+pub fn position_quadric(quadrics: &[Quadric], cand: &Candidates, alpha: &[f64]) -> Matrix4<f64> {
+    let mut total = Matrix4::zeros();
+    for (j, q) in quadrics.iter().enumerate() {
+        let a = cand.blend(j, alpha);
+        total += a.transpose() * q.matrix() * a;
+    }
+    total
+}
+
+/// The position step: the minimiser of `v̂ᵀ Q̃ v̂` (solve `Q̃[0:3,0:3] v = −Q̃[0:3,3]` when the
+/// block's Frobenius condition number is at most `max_condition`), compared with the fallback
+/// points `fallback` (current position, endpoints, midpoint); the least `v̂ᵀQ̃v̂` wins (ties:
+/// the solution, then `fallback` in order). Returns the point and its value.
+pub fn position_step(
+    q: &Matrix4<f64>,
+    fallback: &[Point3<f64>],
+    max_condition: f64,
+) -> (Point3<f64>, f64) {
+    let value = |p: &Point3<f64>| {
+        let h = p.to_homogeneous();
+        h.dot(&(q * h))
+    };
+    let mut best: Option<(Point3<f64>, f64)> =
+        solve_position(q, max_condition).map(|p| (p, value(&p)));
+    for p in fallback {
+        let e = value(p);
+        if best.is_none_or(|(_, b)| e < b) {
+            best = Some((*p, e));
+        }
+    }
+    best.unwrap_or((Point3::origin(), f64::INFINITY))
+}
+
+/// `v = −Q̃[0:3,0:3]⁻¹ Q̃[0:3,3]`, `None` when the block is singular or its condition number
+/// `‖A‖_F ‖A⁻¹‖_F` exceeds `max_condition`.
+pub fn solve_position(q: &Matrix4<f64>, max_condition: f64) -> Option<Point3<f64>> {
+    let a: Matrix3<f64> = q.fixed_view::<3, 3>(0, 0).into_owned();
+    let b = Vector3::new(q[(0, 3)], q[(1, 3)], q[(2, 3)]);
+    let inv = a.try_inverse()?;
+    let cond = a.norm() * inv.norm();
+    if cond.is_nan() || cond > max_condition {
+        return None;
+    }
+    let v = -(inv * b);
+    v.iter().all(|x| x.is_finite()).then_some(Point3::from(v))
+}
+
+/// `H_kl = Σ_j (M_k^j v̂)ᵀ Q^j (M_l^j v̂)` (K×K row-major), so that `E(v, α) = αᵀHα`.
+pub fn weight_matrix(quadrics: &[Quadric], cand: &Candidates, v: &Point3<f64>) -> Vec<f64> {
+    let k = cand.joints.len();
+    let h = v.to_homogeneous();
+    let mut out = vec![0.0; k * k];
+    let mut columns: Vec<Vector4<f64>> = Vec::with_capacity(k);
+    for (j, q) in quadrics.iter().enumerate() {
+        let qm = q.matrix();
+        columns.clear();
+        columns.extend(cand.mats[j].iter().map(|m| m * h));
+        for r in 0..k {
+            let qr = qm * columns[r];
+            for c in r..k {
+                let x = qr.dot(&columns[c]);
+                out[r * k + c] += x;
+                if c != r {
+                    out[c * k + r] += x;
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Solve the weight QP of `h` with anchor `alpha0`, starting (active set) from `start`.
+pub fn weight_step(
+    h: &[f64],
+    k: usize,
+    alpha0: &[f64],
+    start: &[f64],
+    options: &CostOptions,
+) -> Vec<f64> {
+    let mu = regulariser(h, k, options.regularisation);
+    let qp = WeightQp::new(h, k, alpha0, mu);
+    match options.solver {
+        WeightSolver::ActiveSet => solve_active_set(&qp, start),
+        WeightSolver::Enumerate => solve_enumerate(&qp),
+    }
+}
+
+/// The fallback points of the position step: current, `a`, `b`, midpoint.
+fn fallbacks(problem: &EdgeProblem, current: Option<Point3<f64>>) -> Vec<Point3<f64>> {
+    let [a, b] = problem.ends;
+    let mid = Point3::from((a.coords + b.coords) * 0.5);
+    current.into_iter().chain([a, b, mid]).collect()
+}
+
+/// Mohr–Gleicher baseline: for each endpoint's weights `α_e`, the optimal position for
+/// `α_e`; the one of lower `E` (ties: `a`). Also the start of [`place_full`].
+pub fn place_endpoint_weights(problem: &EdgeProblem, options: &CostOptions) -> Placement {
+    let cand = Candidates::of(problem);
+    endpoint_start(problem, &cand, options).0
+}
+
+/// [`place_endpoint_weights`] with the winning weight vector over `cand`.
+fn endpoint_start(
+    problem: &EdgeProblem,
+    cand: &Candidates,
+    options: &CostOptions,
+) -> (Placement, Vec<f64>) {
+    let mut best: Option<(Placement, Vec<f64>)> = None;
+    for e in 0..2 {
+        let alpha = cand.vector(&problem.weights[e]);
+        let q = position_quadric(problem.quadrics, cand, &alpha);
+        let (v, _) = position_step(&q, &fallbacks(problem, None), options.max_condition);
+        let cost = energy(problem.quadrics, cand, &v, &alpha);
+        if best.as_ref().is_none_or(|(b, _)| cost < b.cost) {
+            let placement = Placement {
+                rest: v,
+                weights: problem.weights[e],
+                cost,
+            };
+            best = Some((placement, alpha));
+        }
+    }
+    best.expect("two endpoints")
+}
+
+/// Rest-pose baseline: `problem.quadrics` holds the rest-pose quadric (`problem.mats` is not
+/// used: the rest pose has identity joint matrices, so `Q̃ = Σ_j Q^j`); the optimal position, and the weights of the endpoint nearer to it (ties: `a`).
+pub fn place_rest(problem: &EdgeProblem, options: &CostOptions) -> Placement {
+    let q: Matrix4<f64> = problem.quadrics.iter().map(Quadric::matrix).sum();
+    let (v, cost) = position_step(&q, &fallbacks(problem, None), options.max_condition);
+    let [a, b] = problem.ends;
+    let nearer = usize::from((v - b).norm_squared() < (v - a).norm_squared());
+    Placement {
+        rest: v,
+        weights: problem.weights[nearer],
+        cost,
+    }
+}
+
+/// The record of one alternating minimisation: `E` after the start and after every half-step.
+#[derive(Clone, Debug, Default)]
+pub struct Alternation {
+    pub energies: Vec<f64>,
+    /// KKT residual of every weight step's QP solution.
+    pub kkt: Vec<f64>,
+}
+
+/// The full method (notes): from the better endpoint's weights ([`place_endpoint_weights`])
+/// alternate weight step and position step (each accepted only if `E` does not grow) until
+/// `E` drops by less than `relative_tolerance` or `max_alternations`; then reduce to
+/// `max_weights` influences (largest kept, QP re-solved on that support, `v` re-solved). If the
+/// reduced result is worse than the start, the start is returned (it already has ≤ W_max).
+pub fn place_full(problem: &EdgeProblem, options: &CostOptions) -> (Placement, Alternation) {
+    let cand = Candidates::of(problem);
+    let (start, alpha0) = endpoint_start(problem, &cand, options);
+    let mut trace = Alternation {
+        energies: vec![start.cost],
+        kkt: Vec::new(),
+    };
+    let k = cand.joints.len();
+    let (mut v, mut alpha, mut e) = (start.rest, alpha0.clone(), start.cost);
+    for _ in 0..options.max_alternations {
+        let before = e;
+        // Weight step.
+        let h = weight_matrix(problem.quadrics, &cand, &v);
+        let new_alpha = weight_step(&h, k, &alpha0, &alpha, options);
+        trace.kkt.push(kkt_of(&h, k, &alpha0, &new_alpha, options));
+        let e_w = energy(problem.quadrics, &cand, &v, &new_alpha);
+        if e_w <= e {
+            alpha = new_alpha;
+            e = e_w;
+        }
+        trace.energies.push(e);
+        // Position step.
+        let (nv, ne) = position_given_weights(problem, &cand, &alpha, v, options);
+        if ne <= e {
+            v = nv;
+            e = ne;
+        }
+        trace.energies.push(e);
+        if before - e <= options.relative_tolerance * before {
+            break;
+        }
+    }
+    if alpha.iter().filter(|&&a| a > 0.0).count() > options.max_weights {
+        let (rv, ralpha, re) = reduce(problem, &cand, v, &alpha, &alpha0, options);
+        if re <= start.cost {
+            v = rv;
+            alpha = ralpha;
+            e = re;
+        } else {
+            return (start, trace);
+        }
+    }
+    let placement = Placement {
+        rest: v,
+        weights: cand.weights(&alpha),
+        cost: e,
+    };
+    (placement, trace)
+}
+
+/// Position step for fixed `alpha`, with `current` among the fallbacks; returns `(v, E(v, α))`.
+fn position_given_weights(
+    problem: &EdgeProblem,
+    cand: &Candidates,
+    alpha: &[f64],
+    current: Point3<f64>,
+    options: &CostOptions,
+) -> (Point3<f64>, f64) {
+    let q = position_quadric(problem.quadrics, cand, alpha);
+    let (v, _) = position_step(
+        &q,
+        &fallbacks(problem, Some(current)),
+        options.max_condition,
+    );
+    (v, energy(problem.quadrics, cand, &v, alpha))
+}
+
+/// Weight reduction (seed "Weight reduction"): keep the `W_max` largest weights, re-solve the
+/// QP on that support at `v`, then re-solve `v`.
+fn reduce(
+    problem: &EdgeProblem,
+    cand: &Candidates,
+    v: Point3<f64>,
+    alpha: &[f64],
+    alpha0: &[f64],
+    options: &CostOptions,
+) -> (Point3<f64>, Vec<f64>, f64) {
+    let keep = largest_support(alpha, options.max_weights);
+    let alpha_kept = reduce_weights(problem.quadrics, cand, &v, alpha, alpha0, &keep, options);
+    let (nv, ne) = position_given_weights(problem, cand, &alpha_kept, v, options);
+    (nv, alpha_kept, ne)
+}
+
+/// The weight QP at `v` restricted to `keep` (others 0), started from `alpha` rescaled onto the
+/// kept support; the result over all candidates.
+pub fn reduce_weights(
+    quadrics: &[Quadric],
+    cand: &Candidates,
+    v: &Point3<f64>,
+    alpha: &[f64],
+    alpha0: &[f64],
+    keep: &[bool],
+    options: &CostOptions,
+) -> Vec<f64> {
+    let k = cand.joints.len();
+    let h = weight_matrix(quadrics, cand, v);
+    let mu = regulariser(&h, k, options.regularisation);
+    let qp = WeightQp::new(&h, k, alpha0, mu);
+    let (sub, index) = restrict(&qp, keep);
+    let kept_sum: f64 = index.iter().map(|&i| alpha[i]).sum();
+    let start: Vec<f64> = index.iter().map(|&i| alpha[i] / kept_sum).collect();
+    let x = match options.solver {
+        WeightSolver::ActiveSet => solve_active_set(&sub, &start),
+        WeightSolver::Enumerate => solve_enumerate(&sub),
+    };
+    let mut out = vec![0.0; k];
+    for (r, &i) in index.iter().enumerate() {
+        out[i] = x[r];
+    }
+    out
+}
+
+/// KKT residual of the weight QP of `h` at `alpha` ([`kkt_residual`]).
+fn kkt_of(h: &[f64], k: usize, alpha0: &[f64], alpha: &[f64], options: &CostOptions) -> f64 {
+    let mu = regulariser(h, k, options.regularisation);
+    kkt_residual(&WeightQp::new(h, k, alpha0, mu), alpha)
+}
+
+/// Frame sequences without weights: in each pose `j`, the minimiser of `v̂ᵀQ^j v̂` (fallbacks
+/// `a^j`, `b^j`, midpoint). `ends[j]` = the endpoints' positions in pose `j`. Returns the
+/// per-pose positions and `Σ_j` of the values.
+pub fn place_frames(
+    quadrics: &[Quadric],
+    ends: &[[Point3<f64>; 2]],
+    max_condition: f64,
+) -> (Vec<Point3<f64>>, f64) {
+    let mut total = 0.0;
+    let positions = quadrics
+        .iter()
+        .zip(ends)
+        .map(|(q, [a, b])| {
+            let mid = Point3::from((a.coords + b.coords) * 0.5);
+            let (p, e) = position_step(&q.matrix(), &[*a, *b, mid], max_condition);
+            total += e;
+            p
+        })
+        .collect();
+    (positions, total)
+}
+
+/// A half-edge collapse onto endpoint `keep` (0 = a, 1 = b), used when the other endpoint
+/// cannot move off a UV seam ([`super::collapse`]): the merged vertex stays at the kept
+/// endpoint's rest position. Weights: the kept endpoint's for the baselines; for
+/// [`Method::Full`](super::Method::Full) one exact weight step at that position from them
+/// (accepted only if `E` drops), then reduction to `W_max` (kept only if still no worse).
+/// For [`Method::Rest`](super::Method::Rest) `E = v̂ᵀ(Σ_j Q^j)v̂` as in [`place_rest`].
+pub fn place_at_endpoint(
+    problem: &EdgeProblem,
+    keep: usize,
+    method: super::Method,
+    options: &CostOptions,
+) -> Placement {
+    let v = problem.ends[keep];
+    let own = problem.weights[keep];
+    if method == super::Method::Rest {
+        let cost = problem.quadrics.iter().map(|q| q.eval(&v)).sum();
+        return Placement {
+            rest: v,
+            weights: own,
+            cost,
+        };
+    }
+    let cand = Candidates::of(problem);
+    let alpha0 = cand.vector(&own);
+    let start = Placement {
+        rest: v,
+        weights: own,
+        cost: energy(problem.quadrics, &cand, &v, &alpha0),
+    };
+    if method == super::Method::Mohr {
+        return start;
+    }
+    let k = cand.joints.len();
+    let h = weight_matrix(problem.quadrics, &cand, &v);
+    let mut alpha = weight_step(&h, k, &alpha0, &alpha0, options);
+    if alpha.iter().filter(|&&a| a > 0.0).count() > options.max_weights {
+        let keep_set = largest_support(&alpha, options.max_weights);
+        alpha = reduce_weights(
+            problem.quadrics,
+            &cand,
+            &v,
+            &alpha,
+            &alpha0,
+            &keep_set,
+            options,
+        );
+    }
+    let cost = energy(problem.quadrics, &cand, &v, &alpha);
+    if cost <= start.cost {
+        Placement {
+            rest: v,
+            weights: cand.weights(&alpha),
+            cost,
+        }
+    } else {
+        start
+    }
+}

@@ -1,0 +1,253 @@
+//! The unwarp pass on the GPU (`unwarp_pass`, f32) against the f64 reference
+//! (`descend_texel`), from identical f32-rounded inputs, then whole runs compared by aggregate
+//! figures. Without an adapter these tests print `skipped: no GPU adapter` and pass; with
+//! REPARAM_REQUIRE_GPU=1 they fail instead.
+#![cfg(feature = "gpu")]
+
+use std::time::Instant;
+
+use reparam::unwarp::energy::{node_energy, node_gradient, triangle_gradient, Fan};
+use reparam::unwarp::fixation::pin_gradient;
+use reparam::unwarp::gpu::{grid_for, round_problem, GpuPass};
+use reparam::unwarp::pass::{descend_texel_traced, line_point, pass};
+use reparam::unwarp::stats::{area_ratios, coefficient_of_variation};
+use reparam::unwarp::{procedural, solve, solve_with, Problem, UnwarpOptions};
+use reparam_gpu::gpu_or_skip;
+use reparam_gpu::unwarp::{UnwarpPassKernel, FLAG_MOVED, STEPS_MASK};
+
+/// f32 unit roundoff (2⁻²⁴ ≈ 6e-8).
+const U32: f64 = f32::EPSILON as f64 / 2.0;
+
+/// Relative error of one f32 evaluation of a node energy F (or of one triangle-gradient term):
+/// each triangle is a chain of ≈ 30 roundings (edges, a, D, Y, Y^5 by 3 multiplications, the
+/// quotient), the six are summed: η ≈ 30 u.
+const ETA: f64 = 30.0 * U32;
+
+fn options() -> UnwarpOptions {
+    UnwarpOptions {
+        scale: 0.08,
+        ..Default::default()
+    }
+}
+
+/// The 32² cones problem rounded to f32 inputs and a state after 2 reference sweeps, rounded.
+fn rounded_state() -> (Problem, Vec<[f64; 2]>) {
+    let problem =
+        round_problem(&Problem::new(&procedural("cones", 32).unwrap(), &options()).unwrap());
+    let mut offsets = vec![[0.0; 2]; problem.mesh.node_count()];
+    for _ in 0..2 {
+        for phase in 0..4 {
+            pass(&problem, &mut offsets, phase);
+        }
+    }
+    let offsets = offsets
+        .iter()
+        .map(|o| [o[0] as f32 as f64, o[1] as f32 as f64])
+        .collect();
+    (problem, offsets)
+}
+
+/// The bound on |Δo| (texels) between the f32 and f64 steps of one texel, from the reference's
+/// quantities at its step t* along −g:
+///
+/// 1. f32 cannot order F(t1), F(t2) once they differ by less than 2ηF, so the search may end
+///    anywhere with ½F''(t − t*)² ≤ 2ηF: |Δt| ≤ 2√(ηF/F''), |Δo| ≤ |Δt|·|g|;
+/// 2. the f32 gradient's direction is off by φ ≤ η Σ|∇E_k|/|g| (the sum of the terms' sizes,
+///    cancellation included), which moves the line's minimiser by ≤ 2φ·s, s = t*|g|;
+/// 3. when the f64 guard's margin F(0) − F(t*) is below 2ηF, f32 may decide the other way:
+///    |Δo| ≤ s.
+///
+/// The final bracket width 1e-6·hi adds ≤ 1e-6 hi|g|.
+fn step_bound(problem: &Problem, offsets: &[[f64; 2]], x: usize, y: usize) -> f64 {
+    let mesh = &problem.mesh;
+    let i = mesh.index(x, y);
+    let (o, w, r, theta) = (
+        offsets[i],
+        problem.pins[i],
+        mesh.resolution(),
+        problem.theta,
+    );
+    let fan = Fan::new(mesh, offsets, x, y);
+    let step = descend_texel_traced(problem, offsets, x, y);
+    let g = node_gradient(&fan, w, r, o, theta);
+    let gn = g[0].hypot(g[1]);
+    let Some([_, hi]) = step.bracket else {
+        return 0.0;
+    };
+    let f = |t: f64| node_energy(&fan, w, r, line_point(o, g, t), theta);
+    let t = step.search.t;
+    let d = 1e-3 * t.max(1e-12);
+    let f2 = ((f(t + d) - 2.0 * f(t) + f(t - d)) / (d * d)).max(1e-300);
+    let ft = f(t);
+    let search = 2.0 * (ETA * ft / f2).sqrt() * gn;
+    let u = fan.uv_edges(o);
+    let terms: f64 = (0..6)
+        .map(|k| {
+            let gk = triangle_gradient(&fan.geometry[k], u[(k + 5) % 6], u[k], theta);
+            gk[0].hypot(gk[1])
+        })
+        .sum::<f64>()
+        + {
+            let p = pin_gradient(w, r, o);
+            p[0].hypot(p[1])
+        };
+    let s = t * gn;
+    let direction = 2.0 * (ETA * terms / gn) * s;
+    let guard = if f(0.0) - ft <= 2.0 * ETA * f(0.0) {
+        s
+    } else {
+        0.0
+    };
+    let texels = r[0].max(r[1]);
+    (search + direction + guard + 1e-6 * hi * gn) * texels
+}
+
+#[test]
+fn one_pass_matches_the_reference_within_the_f32_bound() {
+    let Some(gpu) = gpu_or_skip() else { return };
+    let (problem, start) = rounded_state();
+    let mesh = &problem.mesh;
+    let mut backend = GpuPass::new(gpu);
+    let (mut over, mut total, mut same_path, mut same_moved) = (0, 0, 0, 0);
+    let mut first_divergence = vec![0usize; 33];
+    let mut worst = 0.0f64;
+    for phase in 0..4 {
+        let mut gpu_offsets = start.clone();
+        let results = backend
+            .run(&problem, &mut gpu_offsets, phase)
+            .unwrap()
+            .to_vec();
+        for (&(x, y), r) in mesh.active_texels(phase).iter().zip(&results) {
+            let cpu = descend_texel_traced(&problem, &start, x, y);
+            let i = mesh.index(x, y);
+            let res = mesh.resolution();
+            let diff = ((cpu.offset[0] - gpu_offsets[i][0]) * res[0])
+                .hypot((cpu.offset[1] - gpu_offsets[i][1]) * res[1]);
+            let bound = step_bound(&problem, &start, x, y);
+            worst = worst.max(diff / bound.max(1e-30));
+            total += 1;
+            over += usize::from(diff > bound);
+            same_moved += usize::from(cpu.moved == (r.flags & FLAG_MOVED != 0));
+            let steps = (r.flags & STEPS_MASK).min(cpu.search.steps);
+            let differ = (cpu.search.path ^ r.path) & ((1u64 << steps) - 1) as u32;
+            if differ == 0 {
+                same_path += 1;
+                first_divergence[32] += 1;
+            } else {
+                first_divergence[differ.trailing_zeros() as usize] += 1;
+            }
+        }
+    }
+    println!(
+        "unwarp_pass vs descend_texel, 32² cones, {total} texel updates: {same_path} identical search paths, \
+         {same_moved} identical guard decisions, {over} over the derived bound (worst diff/bound {worst:.3})"
+    );
+    let histogram: Vec<String> = first_divergence
+        .iter()
+        .enumerate()
+        .filter(|(_, &n)| n > 0)
+        .map(|(i, n)| {
+            if i == 32 {
+                format!("never: {n}")
+            } else {
+                format!("iteration {i}: {n}")
+            }
+        })
+        .collect();
+    println!(
+        "first iteration where f32 kept the other sub-bracket: {}",
+        histogram.join(", ")
+    );
+    assert_eq!(
+        over, 0,
+        "{over} of {total} texels beyond the derived f32 bound"
+    );
+    // The first iterations compare energies far apart (bracket thirds of a texel): f32 must
+    // agree there. Before iteration 10 the thirds are ≥ (2/3)^10 ≈ 1.7 % of the bracket apart,
+    // where F differs by ≳ 1e-4 F ≫ 2ηF ≈ 3.6e-6 F unless the minimum sits within that distance
+    // of the middle — a few texels at most.
+    let early: usize = first_divergence[..10].iter().sum();
+    assert!(
+        early * 20 <= total,
+        "{early} of {total} searches diverged before iteration 10"
+    );
+}
+
+#[test]
+fn whole_runs_agree_in_energy_per_sweep_and_area_statistics() {
+    let Some(gpu) = gpu_or_skip() else { return };
+    let map = procedural("cones", 32).unwrap();
+    let opts = UnwarpOptions {
+        sweeps: 10,
+        ..options()
+    };
+    let cpu = solve(&map, &opts, |_| {}).unwrap();
+    let mut backend = GpuPass::new(gpu);
+    let gpu = solve_with(&mut backend, &map, &opts, |_| {}).unwrap();
+    let (ec, eg) = (&cpu.fine().energy_per_pass, &gpu.fine().energy_per_pass);
+    let passes = ec.len() - 1;
+    let mut rows = Vec::new();
+    for p in (0..=passes).step_by(4) {
+        let rel = (eg[p].total() - ec[p].total()).abs() / ec[p].total();
+        rows.push(format!(
+            "sweep {}: {:.6} vs {:.6} ({rel:.1e})",
+            p / 4,
+            ec[p].ratio(5.0),
+            eg[p].ratio(5.0)
+        ));
+        // Each f32 pass can leave every texel at most 2ηF above where f64 leaves it (the
+        // search's resolution, bound 1 of `step_bound`), so after p passes the totals differ by
+        // ≤ 2ηp·E.
+        assert!(
+            rel <= 2.0 * ETA * p as f64,
+            "sweep {}: relative energy difference {rel:e}",
+            p / 4
+        );
+    }
+    println!("energy ratio per sweep, f64 vs f32:\n{}", rows.join("\n"));
+    let res = cpu.problem.mesh.resolution();
+    let rms = (cpu
+        .offsets
+        .iter()
+        .zip(&gpu.offsets)
+        .map(|(a, b)| ((a[0] - b[0]) * res[0]).powi(2) + ((a[1] - b[1]) * res[1]).powi(2))
+        .sum::<f64>()
+        / cpu.offsets.len() as f64)
+        .sqrt();
+    let cv_cpu = coefficient_of_variation(&area_ratios(&cpu.problem, &cpu.offsets));
+    let cv_gpu = coefficient_of_variation(&area_ratios(&cpu.problem, &gpu.offsets));
+    println!(
+        "area-ratio CV f64 {cv_cpu:.5}, f32 {cv_gpu:.5}; rms offset difference {rms:.2e} texels"
+    );
+    // A triangle's area ratio a/A moves by ≤ 2|Δo| (texels) relatively when a corner moves by
+    // |Δo| (edges are ≈ 1 texel); the CV, a normalised rms, then moves by ≤ 2·rms|Δo|·(1 + CV).
+    assert!(
+        (cv_cpu - cv_gpu).abs() <= 2.0 * rms * (1.0 + cv_cpu),
+        "CV {cv_cpu} vs {cv_gpu}"
+    );
+}
+
+#[test]
+fn gpu_throughput_on_256_squared() {
+    let Some(gpu) = gpu_or_skip() else { return };
+    let problem = Problem::new(&procedural("cones", 256).unwrap(), &options()).unwrap();
+    let grid = grid_for(&problem);
+    let active: usize = grid.phases.iter().map(Vec::len).sum();
+    let kernel = UnwarpPassKernel::new(&gpu, grid, &vec![[0.0f32; 2]; 256 * 256]).unwrap();
+    kernel.passes(&gpu, &[0]).unwrap(); // warm-up
+    let start = Instant::now();
+    kernel.passes(&gpu, &[0, 1, 2, 3]).unwrap();
+    let seconds = start.elapsed().as_secs_f64();
+    println!(
+        "unwarp_pass on {}: one sweep of 256² in {:.1} ms, {:.2} M texel updates/s",
+        gpu.adapter_summary(),
+        seconds * 1e3,
+        active as f64 / seconds / 1e6
+    );
+    let offsets = kernel.offsets(&gpu).unwrap();
+    assert!(offsets.iter().all(|o| o[0].is_finite() && o[1].is_finite()));
+    assert!(
+        offsets.iter().any(|o| *o != [0.0, 0.0]),
+        "the sweep moved nothing"
+    );
+}

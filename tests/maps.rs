@@ -1,0 +1,977 @@
+//! Properties of the MAPS reference (notes `maps.md`, "Tests that pin it down", 1–9), the
+//! PLY/OFF loaders and the manifold check.
+
+use std::collections::{BTreeSet, HashSet};
+use std::f64::consts::{PI, TAU};
+use std::path::Path;
+
+use nalgebra::{Point2, Point3};
+use reparam::maps::flatten::{cumulative_angles, flatten_ring, FlattenReject, RingShape};
+use reparam::maps::remesh::{adaptive, uniform, uniform_counts, AdaptiveOptions};
+use reparam::maps::{
+    build, detect_features, parse_features, BasePoint, FeatureOptions, Features, Maps, MapsOptions,
+};
+use reparam::mesh::distance::SurfaceGrid;
+use reparam::mesh::{check_manifold, load_mesh, procedural, TriMesh};
+use reparam::Error;
+
+// ---------------------------------------------------------------- fixtures
+
+/// Icosphere: the icosahedron with every face quadrisected `n` times, vertices on the unit
+/// sphere (closed, genus 0, 20·4ⁿ faces).
+fn icosphere(n: usize) -> TriMesh {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut pos: Vec<Point3<f64>> = [
+        [-1., t, 0.],
+        [1., t, 0.],
+        [-1., -t, 0.],
+        [1., -t, 0.],
+        [0., -1., t],
+        [0., 1., t],
+        [0., -1., -t],
+        [0., 1., -t],
+        [t, 0., -1.],
+        [t, 0., 1.],
+        [-t, 0., -1.],
+        [-t, 0., 1.],
+    ]
+    .iter()
+    .map(|p| Point3::from(nalgebra::Vector3::new(p[0], p[1], p[2]).normalize()))
+    .collect();
+    let mut faces: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..n {
+        let mut mid = std::collections::HashMap::new();
+        let mut next = Vec::new();
+        for f in &faces {
+            let m = [0, 1, 2].map(|e| {
+                let (a, b) = (f[e], f[(e + 1) % 3]);
+                *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    let p = Point3::from(
+                        ((pos[a as usize].coords + pos[b as usize].coords) / 2.0).normalize(),
+                    );
+                    pos.push(p);
+                    pos.len() as u32 - 1
+                })
+            });
+            next.extend([
+                [f[0], m[0], m[2]],
+                [m[0], f[1], m[1]],
+                [m[2], m[1], f[2]],
+                [m[0], m[1], m[2]],
+            ]);
+        }
+        faces = next;
+    }
+    TriMesh::with_shared_indices("test:icosphere", pos, Vec::new(), faces)
+}
+
+/// A flat `n × n` grid on [0, 1]² (z = 0), with boundary; the four corners are its corners.
+fn flat_grid(n: usize) -> TriMesh {
+    let mut m = procedural::wavy_grid(n);
+    for p in &mut m.positions {
+        p.z = 0.0;
+    }
+    m.uvs.clear();
+    m.uv_faces.clear();
+    m.name = "test:flat_grid".into();
+    m
+}
+
+/// The four corner vertices of [`flat_grid`].
+fn grid_corners(m: &TriMesh) -> Features {
+    let mut f = Features::default();
+    for (i, p) in m.positions.iter().enumerate() {
+        if (p.x == 0.0 || p.x == 1.0) && (p.y == 0.0 || p.y == 1.0) {
+            f.corners.insert(i as u32);
+        }
+    }
+    f
+}
+
+/// The surface of the cube [−1, 1]³, each face an `n × n` grid (closed, sharp edges and
+/// corners for the feature tests).
+fn cube(n: usize) -> TriMesh {
+    let mut pos: Vec<Point3<f64>> = Vec::new();
+    let mut index = std::collections::HashMap::new();
+    let mut faces = Vec::new();
+    let mut vid = |p: [i64; 3], pos: &mut Vec<Point3<f64>>| {
+        *index.entry(p).or_insert_with(|| {
+            pos.push(
+                Point3::new(p[0] as f64, p[1] as f64, p[2] as f64) * (2.0 / n as f64)
+                    - nalgebra::Vector3::repeat(1.0),
+            );
+            pos.len() as u32 - 1
+        })
+    };
+    let n = n as i64;
+    // (fixed axis, value, u axis, v axis) with u × v pointing outwards.
+    let sides = [
+        (0, n, 1, 2),
+        (0, 0, 2, 1),
+        (1, n, 2, 0),
+        (1, 0, 0, 2),
+        (2, n, 0, 1),
+        (2, 0, 1, 0),
+    ];
+    for (axis, value, ua, va) in sides {
+        for i in 0..n {
+            for j in 0..n {
+                let at = |a: i64, b: i64| {
+                    let mut p = [0i64; 3];
+                    p[axis] = value;
+                    p[ua] = a;
+                    p[va] = b;
+                    p
+                };
+                let q = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]
+                    .map(|p| vid(p, &mut pos));
+                faces.push([q[0], q[1], q[2]]);
+                faces.push([q[0], q[2], q[3]]);
+            }
+        }
+    }
+    TriMesh::with_shared_indices("test:cube", pos, Vec::new(), faces)
+}
+
+/// A bipyramid: an `n`-gon equator and two apexes of valence `n` at z = ±`h` (closed; high
+/// valence, and sharp cones for large h).
+fn bipyramid(n: usize, h: f64) -> TriMesh {
+    let mut pos = vec![Point3::new(0.0, 0.0, h), Point3::new(0.0, 0.0, -h)];
+    for k in 0..n {
+        let a = TAU * k as f64 / n as f64;
+        pos.push(Point3::new(a.cos(), a.sin(), 0.0));
+    }
+    let mut faces = Vec::new();
+    for k in 0..n as u32 {
+        let (a, b) = (2 + k, 2 + (k + 1) % n as u32);
+        faces.push([0, a, b]);
+        faces.push([1, b, a]);
+    }
+    TriMesh::with_shared_indices("test:bipyramid", pos, Vec::new(), faces)
+}
+
+/// A wavy grid whose middle row of vertices is pushed to within 1e-7 of the row below it:
+/// near-degenerate (sliver) triangles, still valid.
+fn sliver_grid(n: usize) -> TriMesh {
+    let mut m = procedural::wavy_grid(n);
+    m.uvs.clear();
+    m.uv_faces.clear();
+    let row = n / 2;
+    let h = 1.0 / n as f64;
+    for p in &mut m.positions {
+        if (p.y - row as f64 * h).abs() < 1e-12 {
+            p.y = (row as f64 - 1.0) * h + 1e-7;
+        }
+    }
+    m.name = "test:sliver_grid".into();
+    m
+}
+
+fn diagonal(m: &TriMesh) -> f64 {
+    let (lo, hi) = m.bounding_box();
+    (hi - lo).norm()
+}
+
+fn built(m: &TriMesh, f: &Features) -> Maps {
+    build(m, f, &MapsOptions::default()).expect("maps builds")
+}
+
+/// Undirected edges of a face list.
+fn edges_of(faces: &[[u32; 3]]) -> BTreeSet<(u32, u32)> {
+    faces
+        .iter()
+        .flat_map(|f| (0..3).map(move |e| (f[e].min(f[(e + 1) % 3]), f[e].max(f[(e + 1) % 3]))))
+        .collect()
+}
+
+fn euler(faces: &[[u32; 3]]) -> i64 {
+    let v: HashSet<u32> = faces.iter().flatten().copied().collect();
+    v.len() as i64 - edges_of(faces).len() as i64 + faces.len() as i64
+}
+
+/// Deterministic pseudo-random numbers in [0, 1) (64-bit LCG, top 53 bits).
+struct Lcg(u64);
+impl Lcg {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+// ---------------------------------------------------------------- 1. flattening
+
+#[test]
+fn flattening_angles_are_cumulative_and_scaled_to_a_full_turn() {
+    // A non-planar ring with unequal sectors around a centre at the origin.
+    let centre = Point3::origin();
+    let ring: Vec<Point3<f64>> = [
+        (0.0, 1.0, 0.3),
+        (0.7, 1.4, -0.2),
+        (1.9, 0.8, 0.4),
+        (3.0, 1.2, 0.0),
+        (4.4, 0.9, -0.3),
+    ]
+    .iter()
+    .map(|&(a, r, z)| Point3::new(r * f64::cos(a), r * f64::sin(a), z))
+    .collect();
+    let theta = cumulative_angles(&centre, &ring, true);
+    let mu = flatten_ring(&centre, &ring, RingShape::Disk).unwrap();
+    let a = TAU / theta[ring.len()];
+    // a·θ_K = 2π up to rounding of one division and one multiplication (a few ulps of 2π).
+    assert!((a * theta[ring.len()] - TAU).abs() < 1e-14);
+    for k in 0..ring.len() {
+        let arg = mu[k][1].atan2(mu[k][0]).rem_euclid(TAU);
+        // arg μ_k = a θ_k (cumulative, not the total for every vertex): the angles are O(1), so
+        // atan2 and cos/sin round-trip to ~1e-15.
+        assert!(
+            (arg - a * theta[k]).abs() < 1e-12,
+            "k={k}: {arg} vs {}",
+            a * theta[k]
+        );
+        let r = (ring[k] - centre).norm();
+        assert!(((mu[k][0].hypot(mu[k][1])) - r.powf(a)).abs() < 1e-12);
+        if k > 0 {
+            assert!(theta[k] > theta[k - 1], "strictly increasing");
+        }
+    }
+    // The half disk of the open ring: ends on the real axis at angles 0 and π.
+    let half = flatten_ring(&centre, &ring, RingShape::HalfDisk).unwrap();
+    let last = ring.len() - 1;
+    assert_eq!(half[0][1], 0.0);
+    assert_eq!(half[last][1], 0.0);
+    assert!(half[0][0] > 0.0 && half[last][0] < 0.0);
+    let theta_open = cumulative_angles(&centre, &ring, false);
+    let a_half = PI / theta_open[last];
+    for k in 1..last {
+        let arg = half[k][1].atan2(half[k][0]);
+        assert!((arg - a_half * theta_open[k]).abs() < 1e-12);
+        assert!(
+            half[k][1] > 0.0,
+            "interior of the half disk is the upper half plane"
+        );
+    }
+}
+
+#[test]
+fn flattening_guard_keeps_every_fan_counter_clockwise() {
+    // Random closed rings (clustered or spread, non-planar): a·φ_k ≤ π always holds (a sector
+    // is at most the sum of the others), so they flatten, and every fan triangle
+    // (0, μ_k, μ_k+1) is counter-clockwise.
+    let mut rng = Lcg(7);
+    for _ in 0..200 {
+        let k = 3 + (rng.next() * 6.0) as usize;
+        let spread = 0.05 + 0.95 * rng.next();
+        let mut angles: Vec<f64> = (0..k).map(|_| spread * rng.next()).collect();
+        angles.sort_by(f64::total_cmp);
+        let ring: Vec<Point3<f64>> = angles
+            .iter()
+            .map(|&t| {
+                let a = t * TAU;
+                Point3::new(a.cos(), a.sin(), 0.6 * rng.next() - 0.3)
+            })
+            .collect();
+        let theta = cumulative_angles(&Point3::origin(), &ring, true);
+        if theta.windows(2).any(|w| w[1] <= w[0]) {
+            continue; // two coincident directions: degenerate, rejected as such
+        }
+        let mu = flatten_ring(&Point3::origin(), &ring, RingShape::Disk).expect("flattens");
+        for m in 0..k {
+            let (p, q) = (mu[m], mu[(m + 1) % k]);
+            assert!(p[0] * q[1] - p[1] * q[0] > 0.0, "fan triangle {m} of {k}");
+        }
+    }
+    // A side with a single sector would map its triangle onto the chord (a·φ = π): rejected,
+    // for a boundary vertex with one face and for a feature line with one face on a side.
+    let c = Point3::origin();
+    let open = [Point3::new(1.0, 0.0, 0.0), Point3::new(0.0, 1.0, 0.2)];
+    assert_eq!(
+        flatten_ring(&c, &open, RingShape::HalfDisk),
+        Err(FlattenReject::FlippedFan)
+    );
+    let ring: Vec<Point3<f64>> = (0..6)
+        .map(|k| Point3::new((k as f64).cos(), (k as f64).sin(), 0.0))
+        .collect();
+    assert_eq!(
+        flatten_ring(&c, &ring, RingShape::FeatureLine { s: 1, t: 2 }),
+        Err(FlattenReject::FlippedFan)
+    );
+    assert!(flatten_ring(&c, &ring, RingShape::FeatureLine { s: 1, t: 4 }).is_ok());
+    // A zero-length spoke is degenerate, not a NaN.
+    let mut bad = ring.clone();
+    bad[2] = c;
+    assert_eq!(
+        flatten_ring(&c, &bad, RingShape::Disk),
+        Err(FlattenReject::Degenerate)
+    );
+}
+
+// ---------------------------------------------------------------- 2. flat-mesh oracle
+
+#[test]
+fn flat_mesh_oracle_holds_at_every_level() {
+    let m = flat_grid(8);
+    let corners = grid_corners(&m);
+    let full = built(&m, &corners);
+    assert!(full.level_count() >= 3);
+    for levels in 1..=full.level_count() {
+        let options = MapsOptions {
+            max_levels: levels,
+            ..MapsOptions::default()
+        };
+        let maps = build(&m, &corners, &options).unwrap();
+        for v in 0..m.positions.len() {
+            // On a planar mesh every a = 1 and μ is rigid, so Σ b_c P(corner_c) = p_v up to the
+            // rounding of a few levels of affine combinations of O(1) coordinates (≤ 1e-15
+            // each); 1e-12 leaves room for ~1000 such steps and still catches any real error.
+            let p = maps.base_position(v).unwrap();
+            assert!(
+                (p - m.positions[v]).norm() < 1e-12,
+                "level {levels}, vertex {v}: {p} vs {}",
+                m.positions[v]
+            );
+        }
+    }
+}
+
+// ---------------------------------------------------------------- 3. bijectivity, 4. round trip
+
+/// Notes test 3 and 4 on one mesh.
+fn check_bijective(m: &TriMesh, features: &Features) -> Maps {
+    let maps = built(m, features);
+    let diag = diagonal(m);
+    for (v, &(f, b)) in maps.location.iter().enumerate() {
+        assert!((f as usize) < maps.base_faces.len(), "vertex {v}");
+        // Barycentrics from robust orientations, normalised: within [−ε, 1 + ε] with ε a few
+        // ulps; 1e-12 is generous and still rejects a wrong triangle (off by O(1)).
+        assert!(
+            b.iter().all(|&x| (-1e-12..=1.0 + 1e-12).contains(&x)),
+            "vertex {v}: {b:?}"
+        );
+        assert!((b.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+    }
+    // Every level map preserves orientation: old fans and new triangles are all CCW in μ.
+    assert_eq!(maps.param.count_flipped(), 0);
+    // Random probes in every base face have a preimage (Π⁻¹ finds a containing input face at
+    // every step) and map back onto themselves (Π(Π⁻¹(q)) = q): covered, and by exactly one
+    // point, since Π⁻¹ and Π replay the same planar bijections.
+    let mut rng = Lcg(11);
+    for t in 0..maps.base_faces.len() as u32 {
+        for _ in 0..4 {
+            let (mut x, mut y) = (rng.next(), rng.next());
+            if x + y > 1.0 {
+                (x, y) = (1.0 - x, 1.0 - y);
+            }
+            let q = BasePoint {
+                face: t,
+                bary: [1.0 - x - y, x, y],
+            };
+            let found = maps.param.inverse(&q).expect("Π⁻¹ finds a face");
+            assert!(
+                found.min_bary >= 0.0,
+                "base face {t}: probe outside by {}",
+                found.min_bary
+            );
+            let back = maps.param.forward(found.face, found.bary).unwrap();
+            assert_eq!(
+                back.face, t,
+                "probe in base face {t} came back in {}",
+                back.face
+            );
+            // Each level step rounds u = Σ b μ and the robust barycentrics to ~1e-16 of O(1)
+            // numbers; over ≤ 30 levels and two directions the drift stays below 1e-12.
+            for c in 0..3 {
+                assert!(
+                    (back.bary[c] - q.bary[c]).abs() < 1e-12,
+                    "base face {t}: {:?} vs {:?}",
+                    back.bary,
+                    q.bary
+                );
+            }
+        }
+    }
+    // Round trip Π⁻¹(Π(p_v)) = p_v, and for random points of input faces.
+    for v in 0..m.positions.len() as u32 {
+        let q = maps.param.vertex(v).unwrap();
+        let back = maps.param.inverse(&q).unwrap();
+        // The point is recovered as an interpolation in the face whose chart image contains
+        // it: error ≈ rounding of the chart coordinates (1e-16 relative) times the face size.
+        assert!(
+            (back.position - m.positions[v as usize]).norm() < 1e-9 * diag,
+            "vertex {v}"
+        );
+    }
+    for f in (0..m.faces.len() as u32).step_by(7) {
+        let (x, y) = (rng.next() * 0.5, rng.next() * 0.5);
+        let b = [1.0 - x - y, x, y];
+        let q = maps.param.forward(f, b).unwrap();
+        let back = maps.param.inverse(&q).unwrap();
+        let tri = m.faces[f as usize];
+        let p = m.positions[tri[0] as usize].coords * b[0]
+            + m.positions[tri[1] as usize].coords * b[1]
+            + m.positions[tri[2] as usize].coords * b[2];
+        assert!((back.position.coords - p).norm() < 1e-9 * diag, "face {f}");
+    }
+    maps
+}
+
+#[test]
+fn sphere_is_bijective_and_round_trips() {
+    check_bijective(&icosphere(3), &Features::default());
+}
+
+#[test]
+fn torus_genus_one_is_bijective_and_round_trips() {
+    let mut t = procedural::torus(24, 12, 1.0, 0.4);
+    t.uvs.clear();
+    t.uv_faces.clear();
+    let maps = check_bijective(&t, &Features::default());
+    assert_eq!(euler(&maps.base_faces), 0);
+}
+
+#[test]
+fn boundary_mesh_is_bijective_and_round_trips() {
+    let mut m = procedural::wavy_grid(12);
+    m.uvs.clear();
+    m.uv_faces.clear();
+    let corners = grid_corners(&m);
+    check_bijective(&m, &corners);
+}
+
+#[test]
+fn high_valence_sharp_cones_and_slivers_work() {
+    // Apexes of valence 40 (above the degree limit: they stay) on sharp cones (h = 6).
+    let maps = check_bijective(&bipyramid(40, 6.0), &Features::default());
+    assert!(maps.base_faces.iter().flatten().any(|&v| v == 0));
+    let mut m = sliver_grid(10);
+    let corners = grid_corners(&m);
+    m.name = "test:sliver_grid".into();
+    check_bijective(&m, &corners);
+}
+
+// ---------------------------------------------------------------- 5. per level, 6. bound
+
+#[test]
+fn every_level_is_an_independent_maximal_set_and_keeps_the_topology() {
+    for m in [icosphere(2), cube(4)] {
+        let maps = built(&m, &Features::default());
+        let chi = euler(&m.faces);
+        for (l, level) in maps.levels.iter().enumerate() {
+            let edges = edges_of(&level.faces);
+            let adjacent = |a: u32, b: u32| edges.contains(&(a.min(b), a.max(b)));
+            for (i, &a) in level.selected.iter().enumerate() {
+                for &b in &level.selected[i + 1..] {
+                    assert!(!adjacent(a, b), "level {l}: {a} and {b} are neighbours");
+                }
+            }
+            if !level.truncated {
+                let selected: HashSet<u32> = level.selected.iter().copied().collect();
+                for &c in &level.candidates {
+                    let covered =
+                        selected.contains(&c) || level.selected.iter().any(|&s| adjacent(c, s));
+                    assert!(covered, "level {l}: candidate {c} could have been added");
+                }
+                let mut done: Vec<u32> = level
+                    .removed
+                    .iter()
+                    .chain(&level.rejected)
+                    .copied()
+                    .collect();
+                let mut sel = level.selected.clone();
+                done.sort_unstable();
+                sel.sort_unstable();
+                assert_eq!(done, sel);
+            }
+            assert_eq!(euler(&level.faces), chi, "level {l}");
+            let mesh = TriMesh::with_shared_indices(
+                "level",
+                m.positions.clone(),
+                Vec::new(),
+                level.faces.clone(),
+            );
+            check_manifold(&mesh).unwrap_or_else(|e| panic!("level {l}: {e}"));
+        }
+        assert_eq!(euler(&maps.base_faces), chi);
+        check_manifold(&maps.base_mesh()).unwrap();
+    }
+}
+
+#[test]
+fn level_count_is_within_the_dobkin_kirkpatrick_bound() {
+    for m in [icosphere(3), {
+        let mut t = procedural::torus(32, 16, 1.0, 0.4);
+        t.uv_faces.clear();
+        t.uvs.clear();
+        t
+    }] {
+        let maps = built(&m, &Features::default());
+        let v_top = m.positions.len() as f64;
+        let v_base = maps
+            .base_faces
+            .iter()
+            .flatten()
+            .copied()
+            .collect::<HashSet<_>>()
+            .len() as f64;
+        let bound = ((v_top / v_base).ln() / (24.0f64 / 23.0).ln()).ceil() as usize;
+        // The last level removes nothing (that is how the loop stops): not counted.
+        let productive = maps.levels.iter().filter(|l| !l.removed.is_empty()).count();
+        assert!(
+            productive <= bound,
+            "{}: {productive} levels, bound {bound}",
+            m.name
+        );
+        assert!(v_base < v_top / 4.0, "{}: base {v_base} of {v_top}", m.name);
+    }
+}
+
+// ---------------------------------------------------------------- 7. features
+
+#[test]
+fn cube_corners_survive_and_feature_chains_map_onto_base_edges() {
+    let m = cube(4);
+    let features = detect_features(&m, &FeatureOptions::default());
+    // 12 cube edges of 4 segments each are sharp (90° between normals); no face diagonal is.
+    assert_eq!(features.edges.len(), 48);
+    let maps = built(&m, &features);
+    let base_vertices: HashSet<u32> = maps.base_faces.iter().flatten().copied().collect();
+    for (v, p) in m.positions.iter().enumerate() {
+        if p.x.abs() == 1.0 && p.y.abs() == 1.0 && p.z.abs() == 1.0 {
+            assert!(
+                base_vertices.contains(&(v as u32)),
+                "cube corner {v} was removed"
+            );
+        }
+    }
+    let base_edges = edges_of(&maps.base_faces);
+    assert!(maps
+        .base_feature_edges
+        .iter()
+        .all(|e| base_edges.contains(e)));
+    // Every input feature edge lies on one base feature edge: both ends have a zero
+    // barycentric for the third corner (exactly: points on the chord stay on the real axis).
+    for &(a, b) in &features.edges {
+        // The base feature edges a vertex lies on: all those at a base vertex, else the one
+        // whose opposite corner has barycentric exactly 0.
+        let on_feature_edge = |v: u32| -> Vec<(u32, u32)> {
+            let (t, bary) = maps.location[v as usize];
+            let f = maps.base_faces[t as usize];
+            if let Some(c) = (0..3).find(|&c| bary[c] == 1.0) {
+                let at = f[c];
+                return maps
+                    .base_feature_edges
+                    .iter()
+                    .copied()
+                    .filter(|e| e.0 == at || e.1 == at)
+                    .collect();
+            }
+            (0..3)
+                .filter(|&c| bary[c] == 0.0)
+                .map(|c| {
+                    let (x, y) = (f[(c + 1) % 3], f[(c + 2) % 3]);
+                    (x.min(y), x.max(y))
+                })
+                .filter(|e| maps.base_feature_edges.contains(e))
+                .collect()
+        };
+        let (ea, eb) = (on_feature_edge(a), on_feature_edge(b));
+        assert!(
+            ea.iter().any(|e| eb.contains(e)),
+            "input feature edge ({a}, {b}) is not on one base feature edge: {ea:?} {eb:?}"
+        );
+    }
+}
+
+#[test]
+fn tagged_features_from_a_sidecar_survive() {
+    let m = icosphere(2);
+    let [a, b, _] = m.faces[0];
+    let text = format!("# corners and one edge\nv 17\nv 100\ne {a} {b}\n");
+    let features = parse_features(&text, Path::new("tags.txt")).unwrap();
+    assert_eq!(features.corners.len(), 2);
+    let maps = built(&m, &features);
+    let base: HashSet<u32> = maps.base_faces.iter().flatten().copied().collect();
+    assert!(base.contains(&17) && base.contains(&100));
+    // A single tagged edge has free ends: both are corners (feature degree 1) and the edge
+    // itself survives as a base edge.
+    assert!(edges_of(&maps.base_faces).contains(&(a.min(b), a.max(b))));
+    assert!(base.contains(&a) && base.contains(&b));
+    let err = parse_features("v 1\nx 2\n", Path::new("tags.txt")).unwrap_err();
+    assert!(
+        matches!(err, Error::MeshParse { ref message, .. } if message.starts_with("line 2")),
+        "{err}"
+    );
+    let bad = Features {
+        corners: [999_999].into(),
+        ..Features::default()
+    };
+    assert!(matches!(
+        build(&m, &bad, &MapsOptions::default()),
+        Err(Error::InvalidArgument(_))
+    ));
+}
+
+// ---------------------------------------------------------------- 8. remeshing
+
+#[test]
+fn uniform_remesh_counts_and_vertices_on_the_surface() {
+    let m = icosphere(3);
+    let maps = built(&m, &Features::default());
+    let f0 = maps.base_faces.len();
+    let e0 = edges_of(&maps.base_faces).len();
+    let v0 = maps
+        .base_faces
+        .iter()
+        .flatten()
+        .copied()
+        .collect::<HashSet<_>>()
+        .len();
+    let grid = SurfaceGrid::new(&m.positions, &m.faces);
+    let diag = diagonal(&m);
+    let mut previous = f64::INFINITY;
+    for j in 0..=3 {
+        let r = uniform(&maps, j).unwrap();
+        let (v, f) = uniform_counts(v0, e0, f0, j);
+        assert_eq!(r.mesh.faces.len(), f, "j={j}");
+        let used = r
+            .mesh
+            .faces
+            .iter()
+            .flatten()
+            .copied()
+            .collect::<HashSet<_>>()
+            .len();
+        assert_eq!(used, v, "j={j}");
+        assert_eq!(r.unmapped, 0);
+        for p in &r.mesh.positions {
+            // Π⁻¹ interpolates inside an input face: on the surface up to rounding.
+            assert!(grid.distance(p) < 1e-9 * diag);
+        }
+        // Smooth shape: the sampled Hausdorff distance does not grow with j (2% slack for the
+        // sampling, which is itself refined with j).
+        let h = r.hausdorff.max();
+        assert!(h <= previous * 1.02, "j={j}: {h} after {previous}");
+        previous = h;
+        check_manifold(&TriMesh {
+            name: "remesh".into(),
+            ..r.mesh.clone()
+        })
+        .unwrap();
+    }
+}
+
+#[test]
+fn adaptive_remesh_meets_epsilon() {
+    let m = icosphere(3);
+    let maps = built(&m, &Features::default());
+    let (lo, hi) = m.bounding_box();
+    let b = (hi - lo).max();
+    let mut faces = 0;
+    for eps in [0.02, 0.005] {
+        let r = adaptive(
+            &maps,
+            &AdaptiveOptions {
+                epsilon: eps,
+                max_depth: 8,
+            },
+        )
+        .unwrap();
+        check_manifold(&TriMesh {
+            name: "adaptive".into(),
+            ..r.mesh.clone()
+        })
+        .unwrap();
+        let grid = SurfaceGrid::new(&r.mesh.positions, &r.mesh.faces);
+        for p in &m.positions {
+            // The guarantee is per input vertex against its own remesh triangle, so the
+            // distance to the whole remesh is at most that.
+            assert!(grid.distance(p) <= eps * b * (1.0 + 1e-12), "eps {eps}");
+        }
+        assert!(r.mesh.faces.len() > faces, "a smaller epsilon refines more");
+        faces = r.mesh.faces.len();
+    }
+}
+
+// ---------------------------------------------------------------- 9. determinism
+
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    let m = icosphere(3);
+    let run = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let maps = built(&m, &Features::default());
+                let r = uniform(&maps, 2).unwrap();
+                let bits = |p: &Point3<f64>| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+                (
+                    maps.base_faces.clone(),
+                    maps.location
+                        .iter()
+                        .map(|(f, b)| (*f, b.map(f64::to_bits)))
+                        .collect::<Vec<_>>(),
+                    r.mesh.positions.iter().map(bits).collect::<Vec<_>>(),
+                    r.hausdorff.max().to_bits(),
+                )
+            })
+    };
+    assert_eq!(run(1), run(2));
+}
+
+// ---------------------------------------------------------------- loaders and bad input
+
+#[test]
+fn ply_and_off_loaders_read_the_same_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let ply = dir.path().join("quad.ply");
+    std::fs::write(
+        &ply,
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+         element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n",
+    )
+    .unwrap();
+    let off = dir.path().join("quad.off");
+    std::fs::write(
+        &off,
+        "OFF\n# a quad\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n",
+    )
+    .unwrap();
+    let a = load_mesh(&ply).unwrap();
+    let b = load_mesh(&off).unwrap();
+    assert_eq!(a.faces, vec![[0, 1, 2], [0, 2, 3]]);
+    assert_eq!(a.faces, b.faces);
+    assert_eq!(a.positions, b.positions);
+    let bad = dir.path().join("bad.off");
+    std::fs::write(&bad, "OFF\n4 1 0\n0 0 0\n1 0 zero\n1 1 0\n0 1 0\n3 0 1 2\n").unwrap();
+    let err = load_mesh(&bad).unwrap_err();
+    assert!(
+        matches!(err, Error::MeshParse { ref message, .. } if message.starts_with("line 4")),
+        "{err}"
+    );
+    let nan = dir.path().join("nan.off");
+    std::fs::write(&nan, "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n").unwrap();
+    assert!(matches!(
+        load_mesh(&nan),
+        Err(Error::NonFinite { index: 1, .. })
+    ));
+    let missing = dir.path().join("missing.ply");
+    assert!(matches!(load_mesh(&missing), Err(Error::Io { .. })));
+    let garbage = dir.path().join("garbage.ply");
+    std::fs::write(&garbage, "not a ply file\n").unwrap();
+    assert!(matches!(load_mesh(&garbage), Err(Error::MeshParse { .. })));
+}
+
+#[test]
+fn bad_meshes_give_typed_errors() {
+    let p = |x: f64, y: f64, z: f64| Point3::new(x, y, z);
+    // Three triangles on edge (0, 1): non-manifold edge.
+    let fin = TriMesh::with_shared_indices(
+        "fin",
+        vec![
+            p(0., 0., 0.),
+            p(1., 0., 0.),
+            p(0., 1., 0.),
+            p(0., -1., 0.),
+            p(0., 0., 1.),
+        ],
+        Vec::new(),
+        vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]],
+    );
+    match build(&fin, &Features::default(), &MapsOptions::default()) {
+        Err(Error::NonManifoldMesh { edges, .. }) => assert!(edges.contains(&(0, 1))),
+        other => panic!("expected a non-manifold error, got {other:?}"),
+    }
+    // Two triangles touching at vertex 0 only: a non-manifold vertex.
+    let bowtie = TriMesh::with_shared_indices(
+        "bowtie",
+        vec![
+            p(0., 0., 0.),
+            p(1., 0., 0.),
+            p(1., 1., 0.),
+            p(-1., 0., 0.),
+            p(-1., -1., 0.),
+        ],
+        Vec::new(),
+        vec![[0, 1, 2], [0, 3, 4]],
+    );
+    match check_manifold(&bowtie) {
+        Err(Error::NonManifoldMesh { vertices, .. }) => assert_eq!(vertices, vec![0]),
+        other => panic!("expected a non-manifold vertex, got {other:?}"),
+    }
+    let empty = TriMesh::with_shared_indices("empty", Vec::new(), Vec::new(), Vec::new());
+    assert!(matches!(
+        build(&empty, &Features::default(), &MapsOptions::default()),
+        Err(Error::EmptyMesh { .. })
+    ));
+    let mut nan = icosphere(0);
+    nan.positions[3].y = f64::NAN;
+    assert!(matches!(
+        build(&nan, &Features::default(), &MapsOptions::default()),
+        Err(Error::NonFinite { index: 3, .. })
+    ));
+    let mut repeated = icosphere(0);
+    repeated.faces[5] = [1, 1, 2];
+    assert!(matches!(
+        check_manifold(&repeated),
+        Err(Error::DegenerateFace { face: 5, .. })
+    ));
+    let flat = TriMesh::with_shared_indices(
+        "flat",
+        vec![p(0., 0., 0.), p(1., 0., 0.), p(2., 0., 0.)],
+        Vec::new(),
+        vec![[0, 1, 2]],
+    );
+    assert!(matches!(
+        check_manifold(&flat),
+        Err(Error::DegenerateFace { face: 0, .. })
+    ));
+    let m = icosphere(1);
+    let bad_lambda = MapsOptions {
+        lambda: 2.0,
+        ..MapsOptions::default()
+    };
+    assert!(matches!(
+        build(&m, &Features::default(), &bad_lambda),
+        Err(Error::InvalidArgument(_))
+    ));
+    let maps = built(&m, &Features::default());
+    assert!(matches!(uniform(&maps, 11), Err(Error::InvalidArgument(_))));
+    assert!(matches!(
+        adaptive(
+            &maps,
+            &AdaptiveOptions {
+                epsilon: 0.0,
+                max_depth: 4
+            }
+        ),
+        Err(Error::InvalidArgument(_))
+    ));
+    assert!(matches!(
+        adaptive(
+            &maps,
+            &AdaptiveOptions {
+                epsilon: f64::NAN,
+                max_depth: 4
+            }
+        ),
+        Err(Error::InvalidArgument(_))
+    ));
+    let _ = Point2::new(0.0, 0.0);
+}
+
+// ---------------------------------------------------------------- command line
+
+#[test]
+fn cli_writes_the_base_domain_remeshes_pictures_and_a_json_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_reparam"))
+        .args([
+            "maps",
+            "procedural:torus",
+            "--remesh",
+            "uniform:1",
+            "--remesh",
+            "adaptive:0.02",
+        ])
+        .args(["--picture-size", "64", "--json", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["input_faces"], 2304);
+    let base = json["base_faces"].as_u64().unwrap();
+    assert!(base > 0 && base < 2304);
+    assert_eq!(
+        json["per_level"].as_array().unwrap().len() as u64,
+        json["levels"].as_u64().unwrap()
+    );
+    let remeshes = json["remeshes"].as_array().unwrap();
+    assert_eq!(remeshes[0]["faces"].as_u64().unwrap(), 4 * base);
+    for r in remeshes {
+        assert!(Path::new(r["file"].as_str().unwrap()).exists());
+        assert!(r["hausdorff_relative"].as_f64().unwrap() > 0.0);
+    }
+    for p in json["pictures"].as_array().unwrap() {
+        assert!(dir.path().join(p.as_str().unwrap()).exists());
+    }
+    assert!(dir.path().join("torus_base.obj").exists());
+    // Bad input: a non-manifold OFF file is refused with the offending edge named.
+    let fin = dir.path().join("fin.off");
+    std::fs::write(
+        &fin,
+        "OFF\n5 3 0\n0 0 0\n1 0 0\n0 1 0\n0 -1 0\n0 0 1\n3 0 1 2\n3 1 0 3\n3 0 1 4\n",
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_reparam"))
+        .args(["maps"])
+        .arg(&fin)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("not a 2-manifold") && err.contains("(0, 1)"),
+        "{err}"
+    );
+}
+
+#[test]
+fn surface_grid_distance_equals_brute_force() {
+    use reparam::mesh::distance::point_triangle_distance;
+    let m = icosphere(2);
+    let grid = SurfaceGrid::new(&m.positions, &m.faces);
+    let mut rng = Lcg(5);
+    for _ in 0..300 {
+        // Points inside, near and far outside the sphere's bounding box.
+        let s = 3.0 * rng.next();
+        let p = Point3::new(
+            s * (2.0 * rng.next() - 1.0),
+            s * (2.0 * rng.next() - 1.0),
+            s * (2.0 * rng.next() - 1.0),
+        );
+        let brute = m
+            .faces
+            .iter()
+            .map(|f| {
+                point_triangle_distance(
+                    &p,
+                    &m.positions[f[0] as usize],
+                    &m.positions[f[1] as usize],
+                    &m.positions[f[2] as usize],
+                )
+            })
+            .fold(f64::INFINITY, f64::min);
+        // The same function on the same triangles: the grid must find the minimiser exactly.
+        assert_eq!(grid.distance(&p), brute, "{p}");
+    }
+}
