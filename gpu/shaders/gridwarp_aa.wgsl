@@ -3,7 +3,9 @@
 //
 // Twin of the f64 reference src/gridwarp/energy.rs (`AaEnergy::for_each_residual`) and
 // src/gridwarp/field.rs (`Field::bilinear`, here `field_bilinear`), name for name and in the
-// same order of operations.
+// same order of operations. One difference of place, not of value: the reference finds a sample's
+// texel position (`Axis`, here `axis`) once per column and once per row of samples, since an
+// axis-aligned grid's samples share them; the kernel recomputes it per sample.
 //
 // One invocation per cell, looping over the cell's K×L samples in the reference's order
 // (a outer, b inner): the simplest correct choice. It needs no workgroup memory or barriers,

@@ -15,15 +15,14 @@ use reparam_gpu::gridwarp::{
 };
 use reparam_gpu::Gpu;
 
-use super::bounds::frame_bounds;
 #[allow(unused_imports)]
 use super::energy::AaEnergy;
 use super::energy::{DeformedFields, RestFields};
 use super::field::Field;
 use super::grid::Grid;
-use super::solve::{solve_frames, FrameSolution, SolveOptions};
+use super::solve::{minimize_frame, solve_frames, FrameSolution, SolveOptions};
 use crate::error::{Error, Result};
-use crate::lm::{minimize, LocalNormalEquations, NormalEquations, Residuals};
+use crate::lm::{LocalNormalEquations, NormalEquations, Residuals};
 
 fn gpu_error(e: reparam_gpu::GpuError) -> Error {
     Error::Gpu(e.to_string())
@@ -247,16 +246,16 @@ pub fn solve_frame_gpu(
 ) -> Result<FrameSolution> {
     let start = Instant::now();
     let (k, l) = options.samples_per_cell();
-    let mut energy = GpuAaEnergy::with_kernel(gpu, kernel, rest, rest_grid, deformed, k, l)?;
-    let bounds = frame_bounds(previous, first, &options.bound_options(frame, frames));
-    let rest_energy = energy.energy(&rest_grid.to_unknowns());
-    let report = minimize(&mut energy, &previous.to_unknowns(), &bounds, &options.lm)?;
-    Ok(FrameSolution {
-        grid: rest_grid.with_unknowns(&report.x),
-        lm: report,
-        rest_energy,
-        seconds: start.elapsed().as_secs_f64(),
-    })
+    let energy = GpuAaEnergy::with_kernel(gpu, kernel, rest, rest_grid, deformed, k, l)?;
+    minimize_frame(
+        energy,
+        rest_grid,
+        previous,
+        first,
+        (frame, frames),
+        options,
+        start,
+    )
 }
 
 /// [`super::solve_sequence`] with the objective on the GPU: the kernel compiled once, every

@@ -9,7 +9,7 @@ use super::energy::{AaEnergy, DeformedFields, RestFields};
 use super::energy_naa::{solve_naa_frame, DeformedJacobian, NaaFrameSolution, VertexGrid};
 use super::grid::Grid;
 use crate::error::Result;
-use crate::lm::{minimize, LmOptions, LmReport};
+use crate::lm::{minimize, LmOptions, LmReport, Residuals};
 
 /// Options of a gridwarp solve. Defaults: 8×8 midpoint samples per cell, the practical LM
 /// preset ([`LmOptions::default`]), no smoothness bound, no looping.
@@ -65,9 +65,32 @@ pub fn solve_frame(
 ) -> Result<FrameSolution> {
     let start = Instant::now();
     let (k, l) = options.samples_per_cell();
-    let mut energy = AaEnergy::new(rest, rest_grid, deformed, k, l);
+    let energy = AaEnergy::new(rest, rest_grid, deformed, k, l);
+    minimize_frame(
+        energy,
+        rest_grid,
+        previous,
+        first,
+        (frame, frames),
+        options,
+        start,
+    )
+}
+
+/// The solve of one frame given its energy (CPU or GPU objective alike): bounds around
+/// `previous` (seed §5.2), the rest grid's energy for the report, LM from `previous` (seed
+/// §5.3); `seconds` counts from `start` (so it includes building the energy).
+pub fn minimize_frame(
+    mut energy: impl Residuals,
+    rest_grid: &Grid,
+    previous: &Grid,
+    first: &Grid,
+    (frame, frames): (usize, usize),
+    options: &SolveOptions,
+    start: Instant,
+) -> Result<FrameSolution> {
     let bounds = frame_bounds(previous, first, &options.bound_options(frame, frames));
-    let rest_energy = crate::lm::Residuals::energy(&mut energy, &rest_grid.to_unknowns());
+    let rest_energy = energy.energy(&rest_grid.to_unknowns());
     let report = minimize(&mut energy, &previous.to_unknowns(), &bounds, &options.lm)?;
     Ok(FrameSolution {
         grid: rest_grid.with_unknowns(&report.x),
