@@ -11,24 +11,7 @@ use reparam::Error;
 /// An `nu`×`nv`-quad grid over UV [0, 1]² (UV = (u, v) at each vertex), positions `x(u, v)`,
 /// each quad split along its (i, j)–(i+1, j+1) diagonal.
 fn grid(name: &str, nu: usize, nv: usize, x: impl Fn(f64, f64) -> Point3<f64>) -> TriMesh {
-    let mut positions = Vec::new();
-    let mut uvs = Vec::new();
-    for j in 0..=nv {
-        for i in 0..=nu {
-            let (u, v) = (i as f64 / nu as f64, j as f64 / nv as f64);
-            positions.push(x(u, v));
-            uvs.push(Point2::new(u, v));
-        }
-    }
-    let id = |i: usize, j: usize| (j * (nu + 1) + i) as u32;
-    let mut faces = Vec::new();
-    for j in 0..nv {
-        for i in 0..nu {
-            faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    TriMesh::with_shared_indices(name, positions, uvs, faces)
+    reparam::mesh::procedural::param_grid(name, nu, nv, x)
 }
 
 fn flat(scale_x: f64, scale_y: f64) -> TriMesh {

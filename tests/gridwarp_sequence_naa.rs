@@ -1,6 +1,6 @@
 //! NAA sequences, NAA fields rasterised from meshes, NAA figure of merit, automatic rigidity.
 
-use nalgebra::{Point2, Point3, Vector3};
+use nalgebra::{Point3, Vector3};
 use reparam::gridwarp::energy_naa::{naa_frame_bounds, VectorField};
 use reparam::gridwarp::merit::{rigid_stretch, rigid_stretch_naa};
 use reparam::gridwarp::rasterize::{frames_fields, rigidity_from_image_of_size, Roi};
@@ -99,24 +99,7 @@ fn a_start_of_the_wrong_shape_is_a_typed_error() {
 
 /// An `n`×`n` quad grid over UV [0, 1]², positions x(u, v).
 fn grid_mesh(n: usize, x: impl Fn(f64, f64) -> Point3<f64>) -> TriMesh {
-    let mut positions = Vec::new();
-    let mut uvs = Vec::new();
-    for j in 0..=n {
-        for i in 0..=n {
-            let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
-            positions.push(x(u, v));
-            uvs.push(Point2::new(u, v));
-        }
-    }
-    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-    let mut faces = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    TriMesh::with_shared_indices("grid", positions, uvs, faces)
+    reparam::mesh::procedural::param_grid("grid", n, n, x)
 }
 
 #[test]

@@ -88,24 +88,7 @@ fn draw_segment(img: &mut Image<[u8; 4]>, p: [f64; 2], q: [f64; 2], colour: [u8;
 /// The surface tessellated as an n×n grid with UV = (s, t) (the original parameterisation);
 /// the warped parameterisation is applied per pixel by [`render_remapped`].
 pub fn surface_mesh(surface: &SurfaceFn, n: usize) -> TriMesh {
-    let mut positions = Vec::new();
-    let mut uvs = Vec::new();
-    for y in 0..=n {
-        for x in 0..=n {
-            let (s, t) = (x as f64 / n as f64, y as f64 / n as f64);
-            positions.push(surface(s, t));
-            uvs.push(Point2::new(s, t));
-        }
-    }
-    let idx = |x: usize, y: usize| (y * (n + 1) + x) as u32;
-    let mut faces = Vec::new();
-    for y in 0..n {
-        for x in 0..n {
-            faces.push([idx(x, y), idx(x + 1, y), idx(x + 1, y + 1)]);
-            faces.push([idx(x, y), idx(x + 1, y + 1), idx(x, y + 1)]);
-        }
-    }
-    TriMesh::with_shared_indices("gridwarp surface", positions, uvs, faces)
+    crate::mesh::procedural::param_grid("gridwarp surface", n, n, surface)
 }
 
 /// Render a UV-textured mesh (linear UV interpolation, no lighting) from `view_dir`.

@@ -251,6 +251,33 @@ pub fn wavy_grid(n: usize) -> TriMesh {
     )
 }
 
+/// A parametric surface as an `nu`×`nv`-cell grid over [0, 1]²: vertex (i, j) at
+/// x(u, v) with UV (u, v) = (i/nu, j/nv), each cell split along its (i, j)–(i+1, j+1)
+/// diagonal (the layout of [`wavy_grid`]); `mesh_name` is used as given.
+pub fn param_grid(
+    mesh_name: &str,
+    nu: usize,
+    nv: usize,
+    x: impl Fn(f64, f64) -> Point3<f64>,
+) -> TriMesh {
+    let (nu, nv) = (nu.max(1), nv.max(1));
+    let uv = |i: usize, j: usize| (i as f64 / nu as f64, j as f64 / nv as f64);
+    let positions = grid_points(nu, nv, |i, j| {
+        let (u, v) = uv(i, j);
+        x(u, v)
+    });
+    let uvs = grid_points(nu, nv, |i, j| {
+        let (u, v) = uv(i, j);
+        Point2::new(u, v)
+    });
+    TriMesh::with_shared_indices(
+        mesh_name,
+        positions,
+        uvs,
+        grid_faces(nu, nv, grid_index(nu)),
+    )
+}
+
 /// The small built-in meshes (each under a few thousand triangles), for cross-check loops.
 pub fn all_small() -> Vec<TriMesh> {
     vec![
