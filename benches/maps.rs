@@ -120,5 +120,107 @@ fn bench_hierarchy(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_hierarchy);
+/// The GPU kernels (issue #5, "GPU"): priority terms and flattening of every ring of the
+/// 100k-triangle torus's input level, Π⁻¹ of its uniform:3 remesh points (base size 200), each
+/// beside the f64 reference doing the same work on the CPU (rayon over the rings / points).
+/// GPU figures include the upload of the batch, the dispatch and the readback (each kernel is
+/// compiled once, before timing; Π⁻¹ uploads its tables once). Skipped without an adapter.
+#[cfg(feature = "gpu")]
+fn bench_gpu(c: &mut Criterion) {
+    use rayon::prelude::*;
+    use reparam::maps::flatten::{flatten_ring, RingShape};
+    use reparam::maps::gpu::{base_queries, inverse_tables, level_rings, normalise, rings_batch};
+    use reparam::maps::priority::{curvature, ring_area, star_normal};
+    use reparam_gpu::maps::{FlattenKernel, InverseKernel, PriorityKernel};
+
+    let Ok(gpu) = reparam_gpu::Gpu::new() else {
+        println!("maps_gpu: skipped: no GPU adapter");
+        return;
+    };
+    println!("maps_gpu on {}", gpu.adapter_summary());
+    let mesh = torus(320, 160);
+    let norm = normalise(&mesh.positions).expect("positions");
+    let rings = level_rings(
+        &mesh.positions,
+        &mesh.faces,
+        &Features::default(),
+        MapsOptions::default().corner_turn,
+    );
+    let batch = rings_batch(&norm.gpu, &rings);
+    let opts = MapsOptions {
+        base_size: 200,
+        ..options()
+    };
+    let maps = build(&mesh, &Features::default(), &opts).expect("builds");
+    let points = uniform(&maps, 3).expect("uniform").params;
+    let tables = inverse_tables(&maps, &norm);
+    let kernel = InverseKernel::new(&gpu, &tables).expect("tables");
+    let priority = PriorityKernel::new(&gpu).expect("compiles");
+    let flatten = FlattenKernel::new(&gpu).expect("compiles");
+    let queries = base_queries(&points);
+    println!(
+        "maps_gpu: {} triangles, {} rings ({} slots), {} levels, {} remesh points",
+        mesh.faces.len(),
+        rings.vertices.len(),
+        rings.slot_count(),
+        maps.level_count(),
+        points.len()
+    );
+    let pos = &norm.cpu;
+    let ring_points = |r: usize| -> Vec<nalgebra::Point3<f64>> {
+        rings.rings[r].iter().map(|&w| pos[w as usize]).collect()
+    };
+    let mut group = c.benchmark_group("maps_gpu");
+    group.sample_size(10);
+    group.bench_function("priority terms 100k, gpu f32", |b| {
+        b.iter(|| black_box(priority.run(&gpu, &batch).expect("gpu")))
+    });
+    group.bench_function("priority terms 100k, cpu f64", |b| {
+        b.iter(|| {
+            let terms: Vec<[f64; 2]> = (0..rings.vertices.len())
+                .into_par_iter()
+                .map(|r| {
+                    let star = &rings.stars[r];
+                    let centre = pos[rings.vertices[r] as usize];
+                    [
+                        ring_area(pos, star),
+                        curvature(&centre, &ring_points(r), &star_normal(pos, star)),
+                    ]
+                })
+                .collect();
+            black_box(terms)
+        })
+    });
+    group.bench_function("flatten all rings 100k, gpu f32", |b| {
+        b.iter(|| black_box(flatten.run(&gpu, &batch).expect("gpu")))
+    });
+    group.bench_function("flatten all rings 100k, cpu f64", |b| {
+        b.iter(|| {
+            let flat: Vec<_> = (0..rings.vertices.len())
+                .into_par_iter()
+                .map(|r| {
+                    let shape: RingShape = rings.shapes[r];
+                    let centre = pos[rings.vertices[r] as usize];
+                    flatten_ring(&centre, &ring_points(r), shape)
+                })
+                .collect();
+            black_box(flat)
+        })
+    });
+    group.bench_function("inverse uniform:3 points, gpu f32", |b| {
+        b.iter(|| black_box(kernel.run(&gpu, &queries).expect("gpu")))
+    });
+    group.bench_function("inverse uniform:3 points, cpu f64", |b| {
+        b.iter(|| {
+            let out: Vec<_> = points.par_iter().map(|p| maps.param.inverse(p)).collect();
+            black_box(out)
+        })
+    });
+    group.finish();
+}
+
+#[cfg(not(feature = "gpu"))]
+fn bench_gpu(_: &mut Criterion) {}
+
+criterion_group!(benches, bench_hierarchy, bench_gpu);
 criterion_main!(benches);

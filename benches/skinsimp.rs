@@ -91,5 +91,84 @@ fn single_runs(_: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench_poses, single_runs);
+/// GPU group (issue #6, GPU section): on the ≈ 100k-triangle tube with 8 training poses,
+/// normalised to the unit box and rounded to f32, the three kernel steps against the f64 CPU
+/// reference (rayon) of the same work: LBS of V × P positions; the per-pose source quadrics and
+/// their per-vertex sums; the position step and cost of every candidate (each edge with each
+/// endpoint's weights). GPU figures include the host-side conversion to the kernels' f32
+/// layout, upload, dispatch and readback.
+#[cfg(feature = "gpu")]
+fn bench_gpu(c: &mut Criterion) {
+    use rayon::prelude::*;
+    use reparam::skinsimp::gpu::{
+        endpoint_candidates, normalise, plane_quadrics_f64, position_given_weights_f64,
+        quadric_input, round_input, skin_f64, vertex_quadrics_f64, CostData, SkinsimpKernels,
+    };
+    let Ok(gpu) = reparam_gpu::Gpu::new() else {
+        println!("skinsimp GPU group skipped: no GPU adapter");
+        return;
+    };
+    println!("skinsimp GPU group on {}", gpu.adapter_summary());
+    let poses = 8;
+    let input = round_input(&normalise(&input(SIZES[1], poses)).0);
+    let kernels = SkinsimpKernels::new(gpu).expect("kernels");
+    let (weight, max_condition) = (10.0, 1e10);
+    let sources = quadric_input(&input.mesh, poses, weight).expect("sources");
+    let posed = skin_f64(&input).expect("skin");
+    let plane = plane_quadrics_f64(&posed, &sources, weight);
+    let vertex = vertex_quadrics_f64(&plane, &sources);
+    let data = CostData::new(&input, vertex)
+        .expect("cost data")
+        .rounded_quadrics();
+    let candidates = endpoint_candidates(&input.mesh);
+    println!(
+        "skinsimp GPU group: {} triangles, {} vertices × {poses} poses, {} quadric sources, {} candidates",
+        input.mesh.faces.len(),
+        input.mesh.positions.len(),
+        sources.sources.len(),
+        candidates.len()
+    );
+    let mut group = c.benchmark_group("skinsimp_gpu_100k_triangles_8_poses");
+    group.sample_size(10);
+    group.bench_function("lbs_cpu_f64", |b| {
+        b.iter(|| black_box(skin_f64(&input).expect("skin")))
+    });
+    group.bench_function("lbs_gpu_f32", |b| {
+        b.iter(|| black_box(kernels.skin(&input).expect("skin")))
+    });
+    group.bench_function("quadrics_cpu_f64", |b| {
+        b.iter(|| {
+            let plane = plane_quadrics_f64(&posed, &sources, weight);
+            black_box(vertex_quadrics_f64(&plane, &sources))
+        })
+    });
+    group.bench_function("quadrics_gpu_f32", |b| {
+        b.iter(|| black_box(kernels.quadrics(&sources, &posed).expect("quadrics")))
+    });
+    group.bench_function("costs_cpu_f64", |b| {
+        b.iter(|| {
+            black_box(
+                candidates
+                    .par_iter()
+                    .map(|c| position_given_weights_f64(&data, c, max_condition))
+                    .collect::<Vec<_>>(),
+            )
+        })
+    });
+    group.bench_function("costs_gpu_f32", |b| {
+        b.iter(|| {
+            black_box(
+                kernels
+                    .costs(&data, &candidates, max_condition)
+                    .expect("costs"),
+            )
+        })
+    });
+    group.finish();
+}
+
+#[cfg(not(feature = "gpu"))]
+fn bench_gpu(_: &mut Criterion) {}
+
+criterion_group!(benches, bench_poses, single_runs, bench_gpu);
 criterion_main!(benches);

@@ -5,6 +5,7 @@ use nalgebra::{Matrix4, Point3, Rotation3, Vector3};
 use reparam::mesh::{load_gltf, Adjacency, SkinnedMesh};
 use reparam::skinsimp::cost::{
     place_endpoint_weights, place_full, place_rest, solve_position, CostOptions, EdgeProblem,
+    PoseGram,
 };
 use reparam::skinsimp::evaluate::compare;
 use reparam::skinsimp::glb::{glb_bytes, level_model, write_glb};
@@ -270,6 +271,68 @@ fn alternation_is_monotone_and_weight_steps_meet_kkt() {
         improved > 0,
         "the weight optimisation never lowered a cost by 10%"
     );
+}
+
+/// The pose Gram matrices give the per-pose definitions back: `Σ_kl α_k α_l G_kl = Q̃(α)`,
+/// `v̂ᵀ G_kl v̂ = H_kl(v)`, `αᵀHα = E(v, α)` ([`PoseGram`]), on every edge of the tube with
+/// random simplex weights and random points near the edge.
+///
+/// Tolerance: both sides sum the same products in another order, each product of magnitude at
+/// most `s = Σ_j ‖Q^j‖_F (Σ_k α_k ‖M_k^j‖_F)²` (times ‖v̂‖² for `E`), through ≲ 100 roundings
+/// (4×4 products, K² ≤ 64 terms): |difference| ≤ 100 ε s ≈ 2e-14 s; asserted 1e-13 s.
+#[test]
+fn pose_gram_equals_the_per_pose_sums() {
+    use reparam::skinsimp::cost::{energy, position_quadric, weight_matrix, Candidates};
+    let d = edge_data(Matrix4::identity());
+    let mut rng = Lcg(7);
+    for (a, b) in edges(&d.model.mesh.faces) {
+        let sums: Vec<Quadric> = d.quadrics.iter().map(|q| q[a].add(&q[b])).collect();
+        let problem = EdgeProblem {
+            quadrics: &sums,
+            mats: &d.mats,
+            ends: [d.model.mesh.positions[a], d.model.mesh.positions[b]],
+            weights: [weights_of(&d.model, a), weights_of(&d.model, b)],
+        };
+        let cand = Candidates::of(&problem);
+        let gram = PoseGram::new(&sums, &cand);
+        let k = cand.joints.len();
+        let raw: Vec<f64> = (0..k).map(|_| rng.next()).collect();
+        let total: f64 = raw.iter().sum();
+        let alpha: Vec<f64> = raw.iter().map(|x| x / total).collect();
+        let t = rng.next();
+        let v = Point3::from(
+            problem.ends[0].coords * (1.0 - t)
+                + problem.ends[1].coords * t
+                + Vector3::new(rng.next(), rng.next(), rng.next()) * 0.05,
+        );
+        let vh = v.to_homogeneous().norm();
+        // Σ_j ‖Q^j‖_F (Σ_k c_k ‖M_k^j‖_F)² for coefficients c.
+        let scale = |c: &dyn Fn(usize) -> f64| -> f64 {
+            sums.iter()
+                .enumerate()
+                .map(|(j, q)| {
+                    let m: f64 = (0..k).map(|i| c(i) * cand.mats[j][i].norm()).sum();
+                    q.matrix().norm() * m * m
+                })
+                .sum()
+        };
+        let s_q = scale(&|i| alpha[i]);
+        let e = energy(&sums, &cand, &v, &alpha);
+        let eg = gram.energy(&v, &alpha);
+        assert!(
+            (eg - e).abs() <= 1e-13 * s_q * vh * vh,
+            "edge {a}-{b}: E {eg} vs {e}"
+        );
+        let q = position_quadric(&sums, &cand, &alpha);
+        let qg = gram.position_quadric(&alpha);
+        assert!((qg - q).amax() <= 1e-13 * s_q, "edge {a}-{b}: Q̃");
+        // H_kl carries no α: the same bound with every α_k replaced by 1.
+        let s_h = scale(&|_| 1.0) * vh * vh;
+        let h = weight_matrix(&sums, &cand, &v);
+        for (x, y) in gram.weight_matrix(&v).iter().zip(&h) {
+            assert!((x - y).abs() <= 1e-13 * s_h, "edge {a}-{b}: H {x} vs {y}");
+        }
+    }
 }
 
 /// Notes test 3: the two exact QP solvers agree on random PSD `H = LLᵀ` (some rank-deficient),
@@ -627,41 +690,47 @@ fn simplified_tube_is_manifold_flip_free_and_keeps_seams() {
     }
 }
 
-/// Notes test 8: quality on held-out poses at equal vertex counts (10 % of the tube's
-/// vertices). Measured (see the report): full < mohr < rest in mean held-out RMS. The full
-/// method must not be worse than either baseline beyond 5 % (the equal-count levels come from
-/// different greedy sequences, so a small reversal would not be a bug; 5 % is far below the
-/// gaps measured).
+/// Notes test 8: quality on held-out poses at equal vertex counts.
+///
+/// One model at one size is not a fair judge: the three methods' equal-count levels come from
+/// different greedy sequences, and on a single small tube a rounding-level change (summing the
+/// poses per edge instead of per evaluation, [`PoseGram`]) moved full/mohr from 0.88 to 1.13.
+/// So the methods are compared by the geometric mean of the held-out RMS ratio over 15 cases
+/// (five tube shapes × three targets, 1/10, 1/5, 1/3 of the vertices). Measured: full/mohr
+/// 0.969 (per-pose sums: 0.947), rest/mohr 4.57. The full method must not be worse than
+/// either baseline on that mean (ratio ≤ 1): the margin, 3 %, is larger than the 2 % by which
+/// the rounding change moved the mean.
 #[test]
 fn full_method_is_not_worse_than_the_baselines_on_held_out_poses() {
-    let model = skinned_tube(16, 16);
-    let sets = keyframes(&model);
-    let options = Options {
-        target_vertices: model.mesh.positions.len() / 10,
-        ..Options::default()
-    };
-    let q = compare(&model, &sets, &Method::ALL, &options).unwrap();
-    let rms = |m: &str| q.iter().find(|x| x.method == m).unwrap().held_out.rms_mean;
-    let v: Vec<usize> = q.iter().map(|x| x.vertices).collect();
-    assert!(v.iter().all(|&x| x == v[0]), "unequal vertex counts {v:?}");
-    println!(
-        "held-out RMS: rest {} mohr {} full {}",
-        rms("rest"),
-        rms("mohr"),
-        rms("full")
-    );
-    assert!(
-        rms("full") <= 1.05 * rms("mohr"),
-        "full {} mohr {}",
-        rms("full"),
-        rms("mohr")
-    );
-    assert!(
-        rms("full") <= 1.05 * rms("rest"),
-        "full {} rest {}",
-        rms("full"),
-        rms("rest")
-    );
+    let mut log_ratio = [0.0f64; 3];
+    let mut cases = 0.0;
+    for (segments, rings) in [(16, 16), (20, 24), (24, 20), (12, 30), (28, 28)] {
+        let model = skinned_tube(segments, rings);
+        let sets = keyframes(&model);
+        for fraction in [10usize, 5, 3] {
+            let options = Options {
+                target_vertices: model.mesh.positions.len() / fraction,
+                ..Options::default()
+            };
+            let q = compare(&model, &sets, &Method::ALL, &options).unwrap();
+            let v: Vec<usize> = q.iter().map(|x| x.vertices).collect();
+            assert!(v.iter().all(|&x| x == v[0]), "unequal vertex counts {v:?}");
+            let rms = ["rest", "mohr", "full"]
+                .map(|m| q.iter().find(|x| x.method == m).unwrap().held_out.rms_mean);
+            println!(
+                "{segments}×{rings} to 1/{fraction}: held-out RMS rest {:.4} mohr {:.4} full {:.4}",
+                rms[0], rms[1], rms[2]
+            );
+            for (l, r) in log_ratio.iter_mut().zip(rms) {
+                *l += (r / rms[1]).ln();
+            }
+            cases += 1.0;
+        }
+    }
+    let [rest, _, full] = log_ratio.map(|l| (l / cases).exp());
+    println!("geometric mean of the ratio to mohr: rest {rest:.3} full {full:.3}");
+    assert!(full <= 1.0, "full/mohr {full}");
+    assert!(full <= rest, "full/mohr {full} rest/mohr {rest}");
 }
 
 /// (kept, removed, rest bits, weight bits, cost bits) of one record.
@@ -1009,4 +1078,253 @@ fn cli_simplifies_a_written_tube_and_prints_json() {
         .unwrap();
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--target-ratio"));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Pictures (issue #6): pose strip and error-vs-vertex-count plot.
+
+/// Whether each pixel of the `w × h` cell at column `c`, row `r` of a pose strip shows a mesh.
+fn strip_cell_mask(
+    strip: &reparam::texture::Image<[u8; 4]>,
+    c: usize,
+    r: usize,
+    w: usize,
+    h: usize,
+) -> Vec<bool> {
+    use reparam::skinsimp::picture::{BACKGROUND, GAP};
+    let (left, top) = (c * (w + GAP), r * (h + GAP));
+    let mut mask = Vec::with_capacity(w * h);
+    for y in top..top + h {
+        for x in left..left + w {
+            mask.push(strip.get(x, y) != BACKGROUND);
+        }
+    }
+    mask
+}
+
+#[test]
+fn pose_strip_shows_original_and_level_in_every_pose() {
+    use reparam::skinsimp::picture::{pose_strip, spread_poses, PoseStripOptions, GAP};
+    let model = small_tube();
+    let sets = keyframes(&model);
+    let input = skinned_input(&model, &sets.training).unwrap();
+    let h = simplify(&input, &Options::default()).unwrap();
+    let n = model.mesh.positions.len();
+    let coarse = h.level(h.collapses_for(n * 3 / 10));
+    let full = h.level(0);
+    assert!(coarse.mesh.positions.len() < n / 2);
+    let poses = spread_poses(&model, &[], 4).unwrap();
+    assert_eq!(poses.len(), 4);
+    let times: Vec<f64> = poses.iter().map(|p| p.time).collect();
+    assert_eq!(times, vec![0.25, 0.75, 1.25, 1.75]);
+    let options = PoseStripOptions {
+        cell_width: 96,
+        cell_height: 64,
+        view: None,
+    };
+    let (w, hh) = (options.cell_width, options.cell_height);
+    let strip = pose_strip(&model, &coarse, &poses, &options).unwrap();
+    let same = pose_strip(&model, &full, &poses, &options).unwrap();
+    for s in [&strip, &same] {
+        assert_eq!((s.width, s.height), (4 * w + 3 * GAP, 2 * hh + GAP));
+    }
+    let mut changed = 0;
+    for c in 0..4 {
+        let top = strip_cell_mask(&strip, c, 0, w, hh);
+        let bottom = strip_cell_mask(&strip, c, 1, w, hh);
+        let count = |m: &[bool]| m.iter().filter(|&&b| b).count();
+        assert!(
+            count(&top) > 100,
+            "pose {c}: {} original pixels",
+            count(&top)
+        );
+        assert!(
+            count(&bottom) > 100,
+            "pose {c}: {} level pixels",
+            count(&bottom)
+        );
+        // The unsimplified level covers exactly the original's pixels in every pose …
+        let unsimplified = strip_cell_mask(&same, c, 1, w, hh);
+        assert_eq!(
+            unsimplified,
+            strip_cell_mask(&same, c, 0, w, hh),
+            "pose {c}"
+        );
+        // … the simplified one does not draw the same picture.
+        let left = c * (w + GAP);
+        for y in hh + GAP..2 * hh + GAP {
+            for x in left..left + w {
+                changed += usize::from(strip.get(x, y) != same.get(x, y));
+            }
+        }
+    }
+    assert!(changed > 200, "{changed} pixels differ");
+    // Pose cells differ from each other (the clip bends the tube).
+    assert_ne!(
+        strip_cell_mask(&strip, 0, 0, w, hh),
+        strip_cell_mask(&strip, 2, 0, w, hh)
+    );
+
+    // Bad input: typed errors, no panic.
+    assert!(pose_strip(&model, &coarse, &[], &options).is_err());
+    assert!(spread_poses(&model, &[], 0).is_err());
+    assert!(spread_poses(&model, &[7], 2).is_err());
+    let mut empty = coarse.clone();
+    empty.mesh.faces.clear();
+    empty.mesh.uv_faces.clear();
+    assert!(matches!(
+        pose_strip(&model, &empty, &poses, &options),
+        Err(reparam::Error::EmptyMesh { .. })
+    ));
+    let zero = PoseStripOptions {
+        cell_width: 0,
+        ..options.clone()
+    };
+    assert!(pose_strip(&model, &coarse, &poses, &zero).is_err());
+    let mut bad_weights = coarse.clone();
+    bad_weights.weights[0] = Weights::single(99);
+    assert!(pose_strip(&model, &bad_weights, &poses, &options).is_err());
+    bad_weights.weights.pop();
+    assert!(pose_strip(&model, &bad_weights, &poses, &options).is_err());
+}
+
+#[test]
+fn error_plot_has_one_point_per_level_and_method() {
+    use reparam::skinsimp::picture::{
+        draw_error_plot, error_plot, error_series, level_counts, METHOD_COLOURS,
+    };
+    let model = small_tube();
+    let sets = keyframes(&model);
+    let input = skinned_input(&model, &sets.training).unwrap();
+    let n = model.mesh.positions.len();
+    let hierarchies: Vec<Hierarchy> = Method::ALL
+        .iter()
+        .map(|&method| {
+            simplify(
+                &input,
+                &Options {
+                    method,
+                    ..Options::default()
+                },
+            )
+            .unwrap()
+        })
+        .collect();
+    let reached = hierarchies
+        .iter()
+        .map(|h| h.input_vertices() - h.records.len())
+        .max()
+        .unwrap();
+    let counts = level_counts(n, reached.max(n / 5), 5).unwrap();
+    assert_eq!(counts.len(), 5);
+    assert_eq!(counts[0], n);
+    assert!(counts.windows(2).all(|p| p[0] > p[1]), "{counts:?}");
+    let refs: Vec<&Hierarchy> = hierarchies.iter().collect();
+    let plot = error_plot(&model, &refs, &sets.held_out, &counts, 320, 200).unwrap();
+    assert_eq!(plot.series.len(), 3);
+    for (s, method) in plot.series.iter().zip(Method::ALL) {
+        assert_eq!(s.method, method.name());
+        assert_eq!(s.points.len(), counts.len());
+        let v: Vec<usize> = s.points.iter().map(|p| p.vertices).collect();
+        assert_eq!(v[0], n);
+        assert!(v.windows(2).all(|p| p[0] > p[1]), "{}: {v:?}", s.method);
+        for p in &s.points {
+            assert!(p.vertices <= p.target, "{p:?}");
+            for x in [p.rms_mean, p.rms_max, p.hausdorff_max] {
+                assert!(x.is_finite() && x >= 0.0, "{p:?}");
+            }
+        }
+        // The unsimplified level: zero error up to rounding (the tube is 3 long).
+        assert!(s.points[0].rms_mean <= 3e-12, "{:?}", s.points[0]);
+        assert!(s.points.last().unwrap().rms_mean > 1e-4, "{:?}", s.points);
+        println!(
+            "{}: {:?}",
+            s.method,
+            s.points
+                .iter()
+                .map(|p| (p.vertices, p.rms_mean))
+                .collect::<Vec<_>>()
+        );
+    }
+    assert!(plot.axes.y_min > 0.0 && plot.axes.y_min < plot.axes.y_max);
+    assert!(plot.axes.x_min < n as f64 && plot.axes.x_max > n as f64);
+    let (header, rows) = plot.table();
+    assert_eq!(header.len(), 1 + 2 * 3);
+    assert_eq!(rows.len(), counts.len());
+    assert!(rows.iter().all(|r| r.len() == header.len()));
+    // The picture: its size, each method's colour drawn.
+    assert_eq!((plot.image.width, plot.image.height), (320, 200));
+    for (_, colour) in METHOD_COLOURS {
+        let drawn = plot.image.pixels.iter().filter(|&&p| p == colour).count();
+        assert!(drawn > 20, "{colour:?}: {drawn}");
+    }
+    // Bad input: typed errors.
+    assert!(level_counts(n, 0, 5).is_err());
+    assert!(level_counts(n, n, 5).is_err());
+    assert!(level_counts(n, 10, 1).is_err());
+    assert!(error_series(&model, &[], &sets.held_out, &counts).is_err());
+    assert!(error_series(&model, &refs, &[], &counts).is_err());
+    assert!(error_series(&model, &refs, &sets.held_out, &[]).is_err());
+    assert!(draw_error_plot(&[], 320, 200).is_err());
+    assert!(draw_error_plot(&plot.series, 10, 10).is_err());
+    let mut nan = plot.series.clone();
+    nan[0].points[1].rms_mean = f64::NAN;
+    assert!(draw_error_plot(&nan, 320, 200).is_err());
+}
+
+#[test]
+fn cli_writes_the_pose_strip_and_the_error_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("tube.glb");
+    write_glb(&input, &small_tube()).unwrap();
+    let out = dir.path().join("tube_lod.glb");
+    let plot = dir.path().join("plot.png");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_reparam"))
+        .args([
+            "skinsimp",
+            input.to_str().unwrap(),
+            "--poses",
+            "2",
+            "--target-ratio",
+            "0.3",
+            "--json",
+            "--plot",
+            plot.to_str().unwrap(),
+            "-o",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    let strip_path = dir.path().join("tube_lod_poses.png");
+    assert_eq!(json["pictures"][0], strip_path.display().to_string());
+    assert_eq!(json["pictures"][1], plot.display().to_string());
+    let strip = reparam::texture::load_rgba8(&strip_path).unwrap();
+    let gap = reparam::skinsimp::picture::GAP;
+    assert_eq!(
+        (strip.width, strip.height),
+        (4 * 320 + 3 * gap, 2 * 240 + gap)
+    );
+    let image = reparam::texture::load_rgba8(&plot).unwrap();
+    assert_eq!((image.width, image.height), (640, 400));
+    let series = json["error_plot"]["series"].as_array().unwrap();
+    assert_eq!(series.len(), 3);
+    for s in series {
+        assert_eq!(s["points"].as_array().unwrap().len(), 8, "{s}");
+    }
+
+    // --plot with --frames is refused.
+    let bad = std::process::Command::new(env!("CARGO_BIN_EXE_reparam"))
+        .args([
+            "skinsimp", "--frames", "a.obj", "--plot", "p.png", "-o", "x",
+        ])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--plot"));
 }

@@ -613,22 +613,52 @@ fn progress_is_reported_after_every_sweep() {
     assert_eq!(early.fine().passes, 4);
 }
 
-/// The notes' reference figures (NumPy re-statement, "six clipped cones", 64², s = 0.08,
-/// θ = 5): energy ratio per pass and area-ratio CV per sweep. Our "cones" map is our own
-/// definition of six clipped cones (the notes do not define theirs), so the figures are not
-/// expected to match; this test prints both and pins ours (3 significant digits) as a
+/// The notes' reference figures (NumPy re-statement, "six clipped cones", 64² periodic,
+/// s = 0.08, θ = 5), reproduced on our reconstruction of their map (`procedural("cones")`,
+/// see its doc: two parameters fitted to the two figures that depend on the map alone, the
+/// pass-0 energy ratio and the sweep-0 CV).
+///
+/// The notes do not say whether their run pins texels; their figures match an unpinned run
+/// (Δ = 0) and not a pinned one (with the default Δ = 0.04 the energy stalls at 1.092 after
+/// 240 passes, notes 1.077, and the largest offset stays at 1.32 texels, notes 1.6), so the
+/// run here is unpinned.
+///
+/// Tolerances: the reconstructed map reproduces the pass-0 figure to 1.2 % (the resolution of
+/// the fit), so no later figure can be expected closer than that; 2 % on the energy ratios and
+/// the early CVs allows that offset plus the notes' rounding to 3 digits. The notes give the
+/// largest offset to 2 digits (1.6): ours must round to it. Two figures are NOT reproduced and
+/// only printed: the CV after 30 and 120 sweeps (notes 0.101 and 0.070, ours ≈ 0.083 and
+/// 0.059: a more uniform result than theirs at the same energy; the notes do not define
+/// their CV's population precisely enough to say why). Ours are also pinned to 3 digits as a
 /// regression check.
 #[test]
 fn reference_figures_on_the_six_clipped_cones() {
     let map = procedural("cones", 64).unwrap();
-    let opts = UnwarpOptions {
-        scale: 0.08,
-        sweeps: 60,
-        ..Default::default()
+    let mut opts = options(0.08);
+    opts.fixation.delta = 0.0;
+    let problem = Problem::new(&map, &opts).unwrap();
+    let mut offsets = vec![[0.0; 2]; 64 * 64];
+    let ratio = |o: &[[f64; 2]]| total_energy(&problem, o).ratio(THETA);
+    let cv = |o: &[[f64; 2]]| {
+        reparam::unwarp::stats::coefficient_of_variation(&area_ratios(&problem, o))
     };
-    let solution = solve(&map, &opts, |_| {}).unwrap();
-    let e = &solution.fine().energy_per_pass;
-    let notes = [
+    let mut energy = vec![ratio(&offsets)];
+    let (mut cvs, mut max_at_60) = (vec![(0, cv(&offsets))], 0.0);
+    for sweep in 1..=120 {
+        for phase in 0..4 {
+            pass(&problem, &mut offsets, phase);
+            if energy.len() <= 240 {
+                energy.push(ratio(&offsets));
+            }
+        }
+        if [5, 30, 120].contains(&sweep) {
+            cvs.push((sweep, cv(&offsets)));
+        }
+        if sweep == 60 {
+            max_at_60 = max_offset_texels(&problem.mesh, &offsets);
+        }
+    }
+    let notes_energy = [
         (0, 2.577),
         (4, 1.336),
         (8, 1.219),
@@ -638,30 +668,35 @@ fn reference_figures_on_the_six_clipped_cones() {
         (160, 1.082),
         (240, 1.077),
     ];
+    let notes_cv = [0.178, 0.137, 0.101, 0.070];
     println!("pass | notes | ours");
-    let ours: Vec<f64> = notes
+    for &(p, n) in &notes_energy {
+        println!("{p} | {n} | {:.4}", energy[p]);
+    }
+    for (&(sweep, ours), n) in cvs.iter().zip(notes_cv) {
+        println!("CV sweep {sweep}: notes {n}, ours {ours:.4}");
+    }
+    println!("max |o| after 60 sweeps: notes 1.6, ours {max_at_60:.3} texels");
+    for &(p, n) in &notes_energy {
+        let rel = (energy[p] - n).abs() / n;
+        assert!(rel < 0.02, "pass {p}: ours {} notes {n}", energy[p]);
+    }
+    for (&(sweep, ours), n) in cvs.iter().zip(notes_cv).take(2) {
+        assert!(
+            (ours - n).abs() / n < 0.02,
+            "CV sweep {sweep}: ours {ours} notes {n}"
+        );
+    }
+    assert!((1.55..1.65).contains(&max_at_60), "max offset {max_at_60}");
+    let pinned: Vec<f64> = notes_energy
         .iter()
-        .map(|&(p, n)| {
-            let r = e[p].ratio(THETA);
-            println!("{p} | {n} | {r:.4}");
-            (r * 1000.0).round() / 1000.0
-        })
+        .map(|&(p, _)| (energy[p] * 1000.0).round() / 1000.0)
+        .chain(cvs.iter().map(|&(_, c)| (c * 1000.0).round() / 1000.0))
         .collect();
-    let cv0 = reparam::unwarp::stats::coefficient_of_variation(&area_ratios(
-        &solution.problem,
-        &vec![[0.0; 2]; 64 * 64],
-    ));
-    let cv = reparam::unwarp::stats::coefficient_of_variation(&area_ratios(
-        &solution.problem,
-        &solution.offsets,
-    ));
-    let max = max_offset_texels(&solution.problem.mesh, &solution.offsets);
-    println!("CV sweep 0: notes 0.178, ours {cv0:.3}; CV sweep 60: ours {cv:.3}; max |o| notes 1.6, ours {max:.2}");
     assert_eq!(
-        ours,
-        vec![1.382, 1.245, 1.191, 1.141, 1.119, 1.109, 1.106, 1.105]
+        pinned,
+        vec![2.607, 1.347, 1.224, 1.146, 1.117, 1.095, 1.084, 1.081, 0.177, 0.138, 0.083, 0.059]
     );
-    assert!(cv < 0.5 * cv0, "CV {cv0} → {cv}");
 }
 
 // ---------------------------------------------------------------------------------------------

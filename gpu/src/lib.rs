@@ -10,6 +10,10 @@
 //!   [`bpm::bpm_render`], one WGSL file each in `shaders/`, plus `shaders/bpm_common.wgsl`.
 //! - [`unwarp`]: distortion-free displacement mapping, one descent pass:
 //!   [`unwarp::UnwarpPassKernel`], `shaders/unwarp_pass.wgsl`.
+//! - [`maps`]: MAPS priority terms, batched z^a flattening of 1-rings and Π⁻¹:
+//!   [`maps::PriorityKernel`], [`maps::FlattenKernel`], [`maps::InverseKernel`].
+//! - [`skinsimp`]: skinned-mesh simplification: LBS, per-pose quadrics, batched collapse costs
+//!   ([`skinsimp::LbsKernel`], [`skinsimp::QuadricKernel`], [`skinsimp::CollapseCostKernel`]).
 //! - [`gpu_or_skip`]: what tests call to get a context or skip.
 //!
 //! WGSL has no includes: shared WGSL lives in its own file and the host concatenates sources.
@@ -19,6 +23,8 @@ pub mod compute;
 mod context;
 mod error;
 pub mod gridwarp;
+pub mod maps;
+pub mod skinsimp;
 pub mod unwarp;
 
 use std::sync::OnceLock;

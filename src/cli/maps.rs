@@ -7,6 +7,7 @@ use std::time::Instant;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use reparam::maps::remesh::{adaptive, uniform, AdaptiveOptions, Remesh};
+use reparam::maps::smooth::{uniform_smoothed_with, SmoothOptions, SmoothStats};
 use reparam::maps::{
     build_with_progress, detect_features, load_features, picture, FeatureOptions, Features,
     LevelReport, Maps, MapsOptions, RejectCounts, Timings,
@@ -33,6 +34,16 @@ pub struct MapsArgs {
     /// `v I` (corner vertex, 0-based) and `e I J` (feature edge). None by default.
     #[arg(long)]
     pub features: Option<String>,
+    /// Corner vertices to keep, as a list of 0-based indices: `3,17,42` (added to --features).
+    #[arg(long, value_name = "I,J,…")]
+    pub feature_vertices: Option<String>,
+    /// Feature edges, as a list of 0-based index pairs: `3-17,17-42` (added to --features).
+    #[arg(long, value_name = "I-J,…")]
+    pub feature_edges: Option<String>,
+    /// Also make the Loop-smoothed version of every `uniform:J` remesh (parameters smoothed in
+    /// the parameter domain, same connectivity), with its own OBJ and Hausdorff distance.
+    #[arg(long)]
+    pub smooth: bool,
     /// Remeshes to make: `uniform:J` (quadrisect J times) or `adaptive:EPS` (EPS relative to
     /// the longest bounding-box side). May be repeated.
     #[arg(long)]
@@ -81,6 +92,9 @@ pub struct RemeshSummary {
     pub seconds: f64,
     pub hausdorff_seconds: f64,
     pub file: String,
+    /// For a smoothed remesh: its stencil counts.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub smoothing: Option<SmoothStats>,
 }
 
 /// The `--json` summary.
@@ -125,13 +139,68 @@ fn load(spec: &str) -> Result<TriMesh> {
     }
 }
 
-/// The features asked for: none, detected, or read from a sidecar file.
-fn features_of(mesh: &TriMesh, spec: Option<&str>) -> Result<Features> {
-    match spec {
-        None => Ok(Features::default()),
-        Some("auto") => Ok(detect_features(mesh, &FeatureOptions::default())),
-        Some(path) => load_features(Path::new(path)),
+/// The features asked for: none, detected, or read from a sidecar file (`--features`), plus the
+/// command-line lists (`--feature-vertices`, `--feature-edges`).
+fn features_of(mesh: &TriMesh, args: &MapsArgs) -> Result<Features> {
+    let mut features = match args.features.as_deref() {
+        None => Features::default(),
+        Some("auto") => detect_features(mesh, &FeatureOptions::default()),
+        Some(path) => load_features(Path::new(path))?,
+    };
+    let listed = parse_feature_list(
+        args.feature_vertices.as_deref(),
+        args.feature_edges.as_deref(),
+    )?;
+    features.corners.extend(listed.corners);
+    features.edges.extend(listed.edges);
+    Ok(features)
+}
+
+/// Parse `--feature-vertices I,J,…` and `--feature-edges I-J,…` (0-based vertex indices,
+/// commas between items, spaces allowed). Errors: [`Error::InvalidArgument`] naming the option
+/// and the item for anything else (an edge with equal ends too). Whether the indices are
+/// vertices and edges of the mesh is checked by [`Features::validate`] when the hierarchy is
+/// built.
+pub fn parse_feature_list(vertices: Option<&str>, edges: Option<&str>) -> Result<Features> {
+    let items = |list: Option<&str>| -> Vec<String> {
+        list.unwrap_or("")
+            .split(',')
+            .map(|w| w.trim().to_string())
+            .filter(|w| !w.is_empty())
+            .collect()
+    };
+    let index = |option: &str, item: &str, w: &str| -> Result<u32> {
+        w.trim().parse::<u32>().map_err(|_| {
+            Error::InvalidArgument(format!(
+                "{option} `{item}`: `{}` is not a vertex index (0-based)",
+                w.trim()
+            ))
+        })
+    };
+    let mut features = Features::default();
+    for item in items(vertices) {
+        features
+            .corners
+            .insert(index("--feature-vertices", &item, &item)?);
     }
+    for item in items(edges) {
+        let Some((a, b)) = item.split_once('-') else {
+            return Err(Error::InvalidArgument(format!(
+                "--feature-edges `{item}`: expected I-J"
+            )));
+        };
+        let (a, b) = (
+            index("--feature-edges", &item, a)?,
+            index("--feature-edges", &item, b)?,
+        );
+        if a == b {
+            return Err(Error::InvalidArgument(format!(
+                "--feature-edges `{item}`: an edge needs two different vertices"
+            )));
+        }
+        features.edges.insert((a.min(b), a.max(b)));
+    }
+    Ok(features)
 }
 
 /// Run the whole command; `progress` shows a bar per level on stderr.
@@ -142,7 +211,7 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         .iter()
         .map(|s| parse_remesh(s))
         .collect::<Result<_>>()?;
-    let features = features_of(&mesh, args.features.as_deref())?;
+    let features = features_of(&mesh, args)?;
     let options = MapsOptions {
         lambda: args.lambda,
         base_size: args.base_size,
@@ -175,6 +244,26 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
     )?;
     let mut remeshes = Vec::new();
     let mut made: Vec<Remesh> = Vec::new();
+    let mut record = |r: Remesh, kind: String, seconds: f64, smoothing| -> Result<()> {
+        let file = args
+            .out
+            .join(format!("{stem}_{}.obj", kind.replace([':', ' '], "_")));
+        write_obj(&r.mesh, &file)?;
+        remeshes.push(RemeshSummary {
+            kind,
+            faces: r.mesh.faces.len(),
+            vertices: r.mesh.positions.len(),
+            hausdorff_remesh_to_input: r.hausdorff.a_to_b,
+            hausdorff_input_to_remesh: r.hausdorff.b_to_a,
+            hausdorff_relative: r.hausdorff.max() / r.diagonal,
+            seconds,
+            hausdorff_seconds: r.hausdorff_seconds,
+            file: file.display().to_string(),
+            smoothing,
+        });
+        made.push(r);
+        Ok(())
+    };
     for spec in specs {
         let t = Instant::now();
         let (r, kind) = match spec {
@@ -190,23 +279,13 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
                 format!("adaptive:{eps}"),
             ),
         };
-        let seconds = t.elapsed().as_secs_f64();
-        let file = args
-            .out
-            .join(format!("{stem}_{}.obj", kind.replace(':', "_")));
-        write_obj(&r.mesh, &file)?;
-        remeshes.push(RemeshSummary {
-            kind,
-            faces: r.mesh.faces.len(),
-            vertices: r.mesh.positions.len(),
-            hausdorff_remesh_to_input: r.hausdorff.a_to_b,
-            hausdorff_input_to_remesh: r.hausdorff.b_to_a,
-            hausdorff_relative: r.hausdorff.max() / r.diagonal,
-            seconds,
-            hausdorff_seconds: r.hausdorff_seconds,
-            file: file.display().to_string(),
-        });
-        made.push(r);
+        record(r, kind, t.elapsed().as_secs_f64(), None)?;
+        if let (RemeshSpec::Uniform(j), true) = (spec, args.smooth) {
+            let t = Instant::now();
+            let s = uniform_smoothed_with(&maps, j, &SmoothOptions::default())?;
+            let kind = format!("uniform:{j} smoothed");
+            record(s.remesh, kind, t.elapsed().as_secs_f64(), Some(s.stats))?;
+        }
     }
     let pictures = if args.picture_size > 0 {
         write_pictures(&maps, &made, &args.out, &stem, args.picture_size)?
@@ -248,8 +327,9 @@ fn stem_of(spec: &str) -> String {
     }
 }
 
-/// Levels side by side, the base domain with the input's points, iso-parameter lines, and one
-/// picture per remesh. Returns the file names.
+/// Levels side by side, the base domain with the input's points, iso-parameter lines of Π,
+/// iso-parameter lines of the unsmoothed and the smoothed parameterisation side by side, and
+/// one picture per remesh. Returns the file names.
 pub fn write_pictures(
     maps: &Maps,
     remeshes: &[Remesh],
@@ -274,6 +354,10 @@ pub fn write_pictures(
     save(
         format!("{stem}_iso_lines.png"),
         &picture::iso_lines(maps, 8, size),
+    )?;
+    save(
+        format!("{stem}_iso_lines_smoothed.png"),
+        &picture::iso_lines_smoothed(maps, 3, size)?,
     )?;
     for r in remeshes {
         let name = r

@@ -3,7 +3,10 @@
 //! skin weights, write the result as a skinned GLB, print the error on training and held-out
 //! poses. `--frames f0.obj f1.obj …` simplifies a frame sequence with shared connectivity
 //! instead (writes `<out>_<k>.obj` per frame). `--compare` runs all three methods at equal
-//! vertex counts.
+//! vertex counts. Next to the GLB it writes `<out stem>_poses.png` (original vs simplified in 4
+//! poses, [`reparam::skinsimp::picture::pose_strip`]); `--plot <png>` adds the held-out error
+//! against vertex count of the three methods
+//! ([`reparam::skinsimp::picture::error_plot`]).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -14,8 +17,14 @@ use reparam::mesh::{load_gltf, load_obj, write_obj, SkinnedMesh};
 use reparam::report::sig;
 use reparam::skinsimp::evaluate::{compare, pose_set_error, MethodQuality};
 use reparam::skinsimp::glb::{level_model, write_glb};
-use reparam::skinsimp::poses::{frames_input, select_poses, skinned_input, PoseSelection};
-use reparam::skinsimp::{simplify_with_progress, Method, Options};
+use reparam::skinsimp::picture::{
+    error_plot, level_counts, pose_strip, spread_poses, ErrorSeries, PlotAxes, PoseStripOptions,
+};
+use reparam::skinsimp::poses::{
+    frames_input, select_poses, skinned_input, PoseSelection, PoseSets,
+};
+use reparam::skinsimp::{simplify, simplify_with_progress, Hierarchy, Level, Method, Options};
+use reparam::texture::save_png;
 use reparam::{Error, Result};
 use serde::Serialize;
 
@@ -43,9 +52,15 @@ pub struct SkinsimpArgs {
     /// Also run the other two methods and report all three at equal vertex counts.
     #[arg(long)]
     pub compare: bool,
-    /// Output GLB (or, with --frames, the prefix of the OBJ files).
+    /// Output GLB (or, with --frames, the prefix of the OBJ files). A glTF model's run also
+    /// writes `<out stem>_poses.png` beside it: original (top) vs simplified (bottom) in 4 poses.
     #[arg(short, long)]
     pub out: PathBuf,
+    /// Also write a PNG plot of the held-out mean RMS against vertex count (log–log) for the
+    /// three methods (rest red, mohr orange, full blue), each simplified to the target and cut
+    /// at 8 vertex counts; the numbers are printed (and in the --json summary). glTF input only.
+    #[arg(long, value_name = "PNG")]
+    pub plot: Option<PathBuf>,
     /// Print a JSON summary instead of text.
     #[arg(long)]
     pub json: bool,
@@ -61,8 +76,19 @@ struct Summary {
     input_vertices: usize,
     input_faces: usize,
     results: Vec<MethodQuality>,
+    /// Pictures written: the pose strip, and the error plot with --plot.
+    pictures: Vec<String>,
+    /// With --plot: the plotted points per method and the axes' ranges.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    error_plot: Option<PlotSummary>,
     /// What the glTF loader repaired or ignored (renormalised weights, welded soups, …).
     loader_report: Vec<String>,
+}
+
+#[derive(Serialize)]
+struct PlotSummary {
+    axes: PlotAxes,
+    series: Vec<ErrorSeries>,
 }
 
 pub fn run(args: SkinsimpArgs) -> Result<()> {
@@ -79,6 +105,9 @@ pub fn run(args: SkinsimpArgs) -> Result<()> {
     };
     match (&args.input, args.frames.is_empty()) {
         (Some(path), true) => run_gltf(&args, path, method),
+        (None, false) if args.plot.is_some() => Err(Error::InvalidArgument(
+            "--plot needs a skinned glTF model (not --frames)".into(),
+        )),
         (None, false) => run_frames(&args, method),
         _ => Err(Error::InvalidArgument(
             "give either a glTF model or --frames f0.obj f1.obj …".into(),
@@ -141,6 +170,15 @@ fn run_gltf(args: &SkinsimpArgs, path: &Path, method: Method) -> Result<()> {
     let seconds = start.elapsed().as_secs_f64();
     let level = hierarchy.level(hierarchy.records.len());
     write_glb(&args.out, &level_model(&model, &level))?;
+    let mut pictures = vec![write_pose_strip(args, &model, &sets, &level)?];
+    let error_plot = match &args.plot {
+        Some(path) => {
+            let plot = write_error_plot(&model, &sets, &options, hierarchy, path)?;
+            pictures.push(path.display().to_string());
+            Some(plot)
+        }
+        None => None,
+    };
     let results = if args.compare {
         compare(&model, &sets, &Method::ALL, &options)?
     } else {
@@ -162,6 +200,8 @@ fn run_gltf(args: &SkinsimpArgs, path: &Path, method: Method) -> Result<()> {
         input_vertices: model.mesh.positions.len(),
         input_faces: model.mesh.faces.len(),
         results,
+        pictures,
+        error_plot,
         loader_report: model
             .report
             .to_string()
@@ -170,6 +210,84 @@ fn run_gltf(args: &SkinsimpArgs, path: &Path, method: Method) -> Result<()> {
             .collect(),
     };
     print_summary(&summary, args.json, &model)
+}
+
+/// `<out stem>_poses.png` beside the output: the original and `level` in 4 poses spread over
+/// the clips of the training poses.
+fn write_pose_strip(
+    args: &SkinsimpArgs,
+    model: &SkinnedMesh,
+    sets: &PoseSets,
+    level: &Level,
+) -> Result<String> {
+    let mut clips: Vec<usize> = Vec::new();
+    for p in sets.training.iter().chain(&sets.held_out) {
+        if !clips.contains(&p.animation) {
+            clips.push(p.animation);
+        }
+    }
+    let poses = spread_poses(model, &clips, 4)?;
+    let strip = pose_strip(model, level, &poses, &PoseStripOptions::default())?;
+    let stem = args
+        .out
+        .file_stem()
+        .map_or_else(|| "skinsimp".into(), |s| s.to_string_lossy().into_owned());
+    let path = args.out.with_file_name(format!("{stem}_poses.png"));
+    save_png(&strip, &path)?;
+    Ok(path.display().to_string())
+}
+
+/// The three methods simplified to the same target (`hierarchy` is the chosen one's), cut at 8
+/// counts from the input down to the coarsest count all reach, evaluated on the held-out poses
+/// (the training poses when none is held out), plotted to `path`.
+fn write_error_plot(
+    model: &SkinnedMesh,
+    sets: &PoseSets,
+    options: &Options,
+    hierarchy: Hierarchy,
+    path: &Path,
+) -> Result<PlotSummary> {
+    let input = skinned_input(model, &sets.training)?;
+    let mut chosen = Some(hierarchy);
+    let mut hierarchies = Vec::new();
+    for m in Method::ALL {
+        if let Some(h) = chosen.take_if(|h| h.method == m) {
+            hierarchies.push(h);
+        } else {
+            hierarchies.push(simplify(
+                &input,
+                &Options {
+                    method: m,
+                    ..*options
+                },
+            )?);
+        }
+    }
+    let n = model.mesh.positions.len();
+    let reached = hierarchies
+        .iter()
+        .map(|h| h.input_vertices() - h.records.len())
+        .max()
+        .unwrap_or(n);
+    if reached >= n {
+        return Err(Error::InvalidArgument(format!(
+            "--plot: {}: some method made no collapse, nothing to plot",
+            model.mesh.name
+        )));
+    }
+    let counts = level_counts(n, reached, 8)?;
+    let poses = if sets.held_out.is_empty() {
+        &sets.training
+    } else {
+        &sets.held_out
+    };
+    let refs: Vec<&Hierarchy> = hierarchies.iter().collect();
+    let plot = error_plot(model, &refs, poses, &counts, 640, 400)?;
+    save_png(&plot.image, path)?;
+    Ok(PlotSummary {
+        axes: plot.axes,
+        series: plot.series,
+    })
 }
 
 fn print_summary(summary: &Summary, json: bool, model: &SkinnedMesh) -> Result<()> {
@@ -187,6 +305,12 @@ fn print_summary(summary: &Summary, json: bool, model: &SkinnedMesh) -> Result<(
         summary.output
     );
     println!("{}", quality_table(&summary.results));
+    if let Some(plot) = &summary.error_plot {
+        let (header, rows) = reparam::skinsimp::picture::table_of(&plot.series);
+        println!("error plot ({}):", plot.axes.caption());
+        println!("{}", super::text_table(&header, &rows));
+    }
+    println!("pictures: {}", summary.pictures.join(", "));
     Ok(())
 }
 

@@ -238,7 +238,7 @@ impl<'a> Work<'a> {
 
     /// The shape of the flattening of `i` with ring `ring`, or `None` if `i` is a corner
     /// (tagged, or by [`vertex_role`]).
-    fn shape(&self, i: u32, ring: &Ring) -> Option<RingShape> {
+    pub(crate) fn shape(&self, i: u32, ring: &Ring) -> Option<RingShape> {
         let k = ring.verts.len();
         let mut feature_pos: Vec<usize> = (0..k)
             .filter(|&m| self.feature_edges.contains(&key(i, ring.verts[m])))

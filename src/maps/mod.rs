@@ -18,18 +18,22 @@
 //! | point–triangle distance, sampled two-sided Hausdorff distance | issue #5 "Remeshing" | [`crate::mesh::distance`] |
 //! | pictures: levels, base domain, iso-parameter lines, remeshes | issue #5 "Pictures" | [`picture`] |
 //! | uniform and adaptive remeshing | notes "Smoothing and remeshing"; seed "Remeshing" | [`remesh`] |
+//! | Loop smoothing of the parameterisation in the parameter domain (charts, crease rules), smoothed uniform remesh | notes "Smoothing and remeshing"; seed "Remeshing (2/5), (3/5)" | [`smooth`] |
 //!
 //! Entry point: [`build`] (or [`build_with_progress`]), then [`Maps::param`] for Π / Π⁻¹ and
 //! [`remesh::uniform`] / [`remesh::adaptive`].
 
 pub mod features;
 pub mod flatten;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod hierarchy;
 pub mod param;
 pub mod picture;
 pub mod priority;
 pub mod remesh;
 pub mod retriangulate;
+pub mod smooth;
 
 use std::collections::BTreeSet;
 use std::time::Instant;

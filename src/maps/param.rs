@@ -223,7 +223,7 @@ fn ring_index(r: &Removal, v: u32) -> Option<usize> {
 
 /// Barycentrics clamped to ≥ 0 and renormalised (removes the ~1e-17 excursions of points that
 /// rounding put a hair outside their triangle).
-fn clamp(l: [f64; 3]) -> [f64; 3] {
+pub(crate) fn clamp(l: [f64; 3]) -> [f64; 3] {
     let c = l.map(|x| x.max(0.0));
     let s = c[0] + c[1] + c[2];
     c.map(|x| x / s)

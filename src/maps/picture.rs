@@ -4,10 +4,14 @@
 
 use nalgebra::{Matrix4, Vector3};
 
+use nalgebra::Point3;
+
+use super::smooth::{dyadic_net, smoothed_net, ParamNet, SmoothOptions};
 use super::Maps;
+use crate::error::Result;
 use crate::mesh::TriMesh;
-use crate::raster::{ndc_to_pixel, rasterize, shade, Camera};
-use crate::texture::{Image, Rgba8};
+use crate::raster::{ndc_to_pixel, rasterize, shade, Camera, FrameBuffer};
+use crate::texture::{side_by_side, Image, Rgba8};
 
 /// The view direction of every picture (from upper front left).
 pub const VIEW: [f64; 3] = [-0.45, -0.55, -0.7];
@@ -198,6 +202,117 @@ pub fn iso_lines(maps: &Maps, lines: u32, size: usize) -> Image<Rgba8> {
             None => [255, 0, 255, 255],
         }
     })
+}
+
+/// Iso-parameter lines of a parameter net drawn on the input surface: the input shaded plain,
+/// and every net edge that lies on a line β_c = k/2^`lines_level` of its base triangle (both
+/// ends with the same integer β_c, a multiple of 2^(depth − `lines_level`)) drawn as the 3D
+/// segment between its vertices `positions` (Π⁻¹ of the net's parameters), dark, and red where
+/// β_c = 0 (a base edge). A segment pixel is drawn where it is not behind the input surface
+/// (its depth within 2·10⁻³ of the z-buffer's: a chord of the surface dips below it by its
+/// sagitta). Nets coarser than `lines_level` draw their edges only.
+pub fn net_iso_lines(
+    maps: &Maps,
+    net: &ParamNet,
+    positions: &[Point3<f64>],
+    lines_level: u32,
+    size: usize,
+) -> Image<Rgba8> {
+    let input = input_mesh(maps);
+    let view_proj = camera(&input);
+    let light = -Vector3::from(VIEW).normalize();
+    let fb = rasterize(&input, &view_proj, size, size);
+    let mut img = shade(&fb, BACKGROUND, |f, _| {
+        scale([235, 228, 210, 255], lambert(&input, f as usize, &light))
+    });
+    for (tri, face) in net.leaves.iter().zip(&net.faces) {
+        let step = 1u32 << tri.depth.saturating_sub(lines_level);
+        for e in 0..3 {
+            let (p, q) = (tri.corners[e], tri.corners[(e + 1) % 3]);
+            let Some(c) = (0..3).find(|&c| p[c] == q[c] && p[c] % step == 0) else {
+                continue;
+            };
+            let colour = if p[c] == 0 {
+                [200, 30, 30, 255]
+            } else {
+                [30, 30, 30, 255]
+            };
+            let (a, b) = (
+                positions[face[e] as usize],
+                positions[face[(e + 1) % 3] as usize],
+            );
+            draw_segment(&mut img, &fb, &view_proj, &a, &b, colour);
+        }
+    }
+    img
+}
+
+/// Draw the 3D segment a–b with the depth test of [`net_iso_lines`], sampled every half pixel.
+fn draw_segment(
+    img: &mut Image<Rgba8>,
+    fb: &FrameBuffer,
+    view_proj: &Matrix4<f64>,
+    a: &Point3<f64>,
+    b: &Point3<f64>,
+    colour: Rgba8,
+) {
+    let size = img.width;
+    let project = |p: &Point3<f64>| {
+        let clip = view_proj * p.to_homogeneous();
+        (clip.w > 0.0).then(|| {
+            let [x, y] = ndc_to_pixel(clip.x / clip.w, clip.y / clip.w, size, size);
+            (x, y, clip.z / clip.w)
+        })
+    };
+    let (Some(pa), Some(pb)) = (project(a), project(b)) else {
+        return;
+    };
+    let steps = (2.0 * (pb.0 - pa.0).hypot(pb.1 - pa.1))
+        .ceil()
+        .clamp(1.0, 4.0 * size as f64);
+    for k in 0..=steps as usize {
+        let t = k as f64 / steps;
+        let (x, y, z) = (
+            pa.0 + t * (pb.0 - pa.0),
+            pa.1 + t * (pb.1 - pa.1),
+            pa.2 + t * (pb.2 - pa.2),
+        );
+        if x < 0.0 || y < 0.0 || x >= size as f64 || y >= img.height as f64 {
+            continue;
+        }
+        let idx = y as usize * size + x as usize;
+        if z <= fb.depth[idx] + 2e-3 {
+            img.pixels[idx] = colour;
+        }
+    }
+}
+
+/// Iso-parameter lines of the unsmoothed (left) and the Loop-smoothed (right) parameterisation
+/// on the input ([`net_iso_lines`] of [`dyadic_net`] and [`smoothed_net`] at level
+/// `lines_level` + 2, so each drawn line is a polyline of 4 segments per base-triangle cell).
+/// Errors: those of [`smoothed_net`].
+pub fn iso_lines_smoothed(maps: &Maps, lines_level: u32, size: usize) -> Result<Image<Rgba8>> {
+    let level = lines_level + 2;
+    let plain = dyadic_net(maps, level)?;
+    let (smooth, _) = smoothed_net(maps, level, &SmoothOptions::default())?;
+    let images: Vec<Image<Rgba8>> = [plain, smooth]
+        .iter()
+        .map(|net| {
+            let (positions, _) = net.positions(maps);
+            net_iso_lines(maps, net, &positions, lines_level, size)
+        })
+        .collect();
+    Ok(side_by_side(&[&images[0], &images[1]], 4))
+}
+
+/// The input as a mesh (shared indices, no UVs).
+fn input_mesh(maps: &Maps) -> TriMesh {
+    TriMesh::with_shared_indices(
+        "input",
+        maps.positions.clone(),
+        Vec::new(),
+        maps.input_faces.clone(),
+    )
 }
 
 /// A remesh drawn with its edges, with the input's camera.

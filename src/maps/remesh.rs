@@ -79,7 +79,7 @@ impl DyadicTri {
     }
 
     /// The midpoint of edge e (corner e → corner e+1) at depth + 1.
-    fn edge_midpoint(&self, e: usize) -> [u32; 3] {
+    pub(crate) fn edge_midpoint(&self, e: usize) -> [u32; 3] {
         let p = self.corners[e];
         let q = self.corners[(e + 1) % 3];
         [p[0] + q[0], p[1] + q[1], p[2] + q[2]]
@@ -164,22 +164,36 @@ pub const MAX_UNIFORM_LEVEL: u32 = 10;
 /// Uniform remesh of level `j`: every base triangle quadrisected j times, vertices Π⁻¹ of the
 /// dyadic points (notes; seed "Remeshing (1/5)"). Error: `j` above [`MAX_UNIFORM_LEVEL`].
 pub fn uniform(maps: &Maps, j: u32) -> Result<Remesh> {
-    if j > MAX_UNIFORM_LEVEL {
-        return Err(Error::InvalidArgument(format!(
-            "uniform remesh level {j} is above {MAX_UNIFORM_LEVEL}"
-        )));
-    }
+    let leaves = uniform_leaves(maps, j)?;
+    Ok(assemble(
+        maps,
+        &leaves,
+        format!("{} (uniform remesh j={j})", maps.name),
+    ))
+}
+
+/// The dyadic triangles of the uniform remesh of level `j`: every base face quadrisected j
+/// times, in base-face order, children in [`DyadicTri::children`] order (face i of
+/// [`uniform`]'s mesh is leaf i). Error: `j` above [`MAX_UNIFORM_LEVEL`].
+pub fn uniform_leaves(maps: &Maps, j: u32) -> Result<Vec<DyadicTri>> {
+    check_level(j)?;
     let mut leaves: Vec<DyadicTri> = (0..maps.base_faces.len() as u32)
         .map(DyadicTri::base)
         .collect();
     for _ in 0..j {
         leaves = leaves.iter().flat_map(|t| t.children()).collect();
     }
-    Ok(assemble(
-        maps,
-        &leaves,
-        format!("{} (uniform remesh j={j})", maps.name),
-    ))
+    Ok(leaves)
+}
+
+/// Error unless `j` ≤ [`MAX_UNIFORM_LEVEL`].
+pub(crate) fn check_level(j: u32) -> Result<()> {
+    if j > MAX_UNIFORM_LEVEL {
+        return Err(Error::InvalidArgument(format!(
+            "uniform remesh level {j} is above {MAX_UNIFORM_LEVEL}"
+        )));
+    }
+    Ok(())
 }
 
 /// Options of the adaptive remesh.
@@ -437,24 +451,30 @@ fn vertex_position(maps: &Maps, t: u32, p: [u32; 3], depth: u32) -> (Point3<f64>
     if let VKey::Vertex(v) = vkey(&maps.base_faces, t, p, depth) {
         return (maps.positions[v as usize], true);
     }
-    let s = (1u64 << depth) as f64;
-    let bary = p.map(|x| x as f64 / s);
-    let point = BasePoint { face: t, bary };
-    match maps.param.inverse(&point) {
+    place(maps, &dyadic_point(t, p, depth))
+}
+
+/// Π⁻¹ of a base point, `(position, found)`, falling back to the flat base triangle
+/// Σ b_c P(corner_c) when no input face covers it.
+pub(crate) fn place(maps: &Maps, point: &BasePoint) -> (Point3<f64>, bool) {
+    match maps.param.inverse(point) {
         Some(sp) => (sp.position, true),
         None => {
-            let corners = maps.base_faces[t as usize].map(|v| maps.positions[v as usize]);
-            let flat = corners[0].coords * bary[0]
-                + corners[1].coords * bary[1]
-                + corners[2].coords * bary[2];
+            let corners = maps.base_faces[point.face as usize].map(|v| maps.positions[v as usize]);
+            let b = point.bary;
+            let flat =
+                corners[0].coords * b[0] + corners[1].coords * b[1] + corners[2].coords * b[2];
             (Point3::from(flat), false)
         }
     }
 }
 
-/// Build the remesh from its triangles: one vertex per distinct [`VKey`] (in order of first
-/// use), positions by Π⁻¹ in parallel, then the Hausdorff distance to the input.
-fn assemble(maps: &Maps, tris: &[DyadicTri], name: String) -> Remesh {
+/// One vertex per distinct [`VKey`] of `tris`, in order of first use: for each its (base face,
+/// integer barycentrics, depth) as first met, and the faces as vertex indices.
+pub(crate) type Indexed = (Vec<(u32, [u32; 3], u32)>, Vec<[u32; 3]>);
+
+/// Number the corners of `tris` by their [`VKey`] ([`Indexed`]).
+pub(crate) fn index_vertices(maps: &Maps, tris: &[DyadicTri]) -> Indexed {
     let mut index: HashMap<VKey, u32> = HashMap::new();
     let mut verts: Vec<(u32, [u32; 3], u32)> = Vec::new();
     let mut faces = Vec::with_capacity(tris.len());
@@ -468,22 +488,44 @@ fn assemble(maps: &Maps, tris: &[DyadicTri], name: String) -> Remesh {
         });
         faces.push(f);
     }
+    (verts, faces)
+}
+
+/// The base point of integer barycentrics `p` / 2^`depth` in base face `t`.
+pub(crate) fn dyadic_point(t: u32, p: [u32; 3], depth: u32) -> BasePoint {
+    let s = (1u64 << depth) as f64;
+    BasePoint {
+        face: t,
+        bary: p.map(|x| x as f64 / s),
+    }
+}
+
+/// Build the remesh from its triangles: vertices numbered by [`index_vertices`], positions by
+/// Π⁻¹ of the dyadic points in parallel, then [`finish`].
+fn assemble(maps: &Maps, tris: &[DyadicTri], name: String) -> Remesh {
+    let (verts, faces) = index_vertices(maps, tris);
     let placed: Vec<(Point3<f64>, bool)> = verts
         .par_iter()
         .map(|&(t, p, d)| vertex_position(maps, t, p, d))
         .collect();
     let params = verts
         .iter()
-        .map(|&(t, p, d)| {
-            let s = (1u64 << d) as f64;
-            BasePoint {
-                face: t,
-                bary: p.map(|x| x as f64 / s),
-            }
-        })
+        .map(|&(t, p, d)| dyadic_point(t, p, d))
         .collect();
     let unmapped = placed.iter().filter(|p| !p.1).count();
     let positions: Vec<Point3<f64>> = placed.into_iter().map(|p| p.0).collect();
+    finish(maps, name, positions, faces, params, unmapped)
+}
+
+/// The remesh of placed vertices: the mesh, and its sampled Hausdorff distance to the input.
+pub(crate) fn finish(
+    maps: &Maps,
+    name: String,
+    positions: Vec<Point3<f64>>,
+    faces: Vec<[u32; 3]>,
+    params: Vec<BasePoint>,
+    unmapped: usize,
+) -> Remesh {
     let (lo, hi) = bbox(&maps.positions);
     let t = std::time::Instant::now();
     let hausdorff = hausdorff(&positions, &faces, &maps.positions, &maps.input_faces);

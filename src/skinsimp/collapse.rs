@@ -30,7 +30,7 @@ use nalgebra::{Matrix4, Point2, Point3};
 use rayon::prelude::*;
 
 use super::cost::{
-    place_at_endpoint, place_endpoint_weights, place_frames, place_full, place_rest,
+    place_at_endpoint, place_endpoint_weights, place_frames, place_full_cost, place_rest,
     reduce_weights, Candidates, EdgeProblem,
 };
 use super::hierarchy::{CollapseRecord, Hierarchy};
@@ -47,16 +47,35 @@ pub fn simplify(input: &Input, options: &Options) -> Result<Hierarchy> {
 }
 
 /// [`simplify`], calling `progress(collapses done, collapses wanted)` after each collapse.
+///
+/// The loop runs on a rayon worker ([`rayon::scope`]) so that the re-evaluation of the edges
+/// around each collapse can fork cheaply; results do not depend on the thread count (entries
+/// are computed in parallel but pushed in neighbour order).
 pub fn simplify_with_progress(
     input: &Input,
     options: &Options,
-    progress: &mut dyn FnMut(usize, usize),
+    progress: &mut (dyn FnMut(usize, usize) + Send),
 ) -> Result<Hierarchy> {
     input.validate()?;
     options.validate()?;
+    let mut result = None;
+    rayon::scope(|_| result = Some(collapse_loop(input, options, progress)));
+    Ok(result.expect("the scope ran"))
+}
+
+/// The greedy loop of [`simplify`]: pop the cheapest edge, skip stale or invalid entries,
+/// collapse, re-queue the edges around the kept vertex.
+fn collapse_loop(
+    input: &Input,
+    options: &Options,
+    progress: &mut (dyn FnMut(usize, usize) + Send),
+) -> Hierarchy {
     let mut state = State::new(input, options);
     let wanted = state.alive_count.saturating_sub(options.target_vertices);
     let mut queue = state.initial_queue();
+    // A skinned Full/Mohr cost is an alternating minimisation (tens of µs): worth forking.
+    // The rest-pose and frame costs are a 3×3 solve: cheaper than the fork.
+    let parallel = state.skinned && state.method != Method::Rest;
     while state.alive_count > options.target_vertices {
         let Some(Reverse(entry)) = queue.pop() else {
             break;
@@ -68,18 +87,24 @@ pub fn simplify_with_progress(
         let Some(mode) = state.uv_mode(a, b) else {
             continue;
         };
-        let candidate = state.evaluate(a, b, mode);
+        let mut candidate = state.evaluate(a, b, mode);
+        state.pose(&mut candidate);
         let Some(uv_plan) = state.valid(a, b, mode, &candidate) else {
             continue;
         };
         state.collapse(a, b, candidate, uv_plan);
-        for n in state.neighbours(a) {
-            let (x, y) = (a.min(n), a.max(n));
-            queue.push(Reverse(state.entry(x, y)));
-        }
+        // The edges around `a` changed cost: re-evaluate them, push them in neighbour order.
+        let neighbours = state.neighbours(a);
+        let requeue = |&n: &usize| state.entry(a.min(n), a.max(n));
+        let around: Vec<Entry> = if parallel {
+            neighbours.par_iter().map(requeue).collect()
+        } else {
+            neighbours.iter().map(requeue).collect()
+        };
+        queue.extend(around.into_iter().map(Reverse));
         progress(state.records.len(), wanted);
     }
-    Ok(state.into_hierarchy())
+    state.into_hierarchy()
 }
 
 /// Joint matrices per pose, `[pose][joint]`.
@@ -125,7 +150,8 @@ impl Ord for Entry {
 struct Candidate {
     rest: Point3<f64>,
     weights: Weights,
-    /// Positions in the check poses (skinned: rest, then training poses; frames: the frames).
+    /// Positions in the check poses (skinned: rest, then training poses, filled by
+    /// [`State::pose`]; frames: the frames).
     posed: Vec<Point3<f64>>,
     cost: f64,
 }
@@ -165,6 +191,10 @@ struct State<'a> {
     uv_faces: Vec<[u32; 3]>,
     face_alive: Vec<bool>,
     vertex_faces: Vec<Vec<u32>>,
+    /// The distinct UV indices (wedges) of each vertex over its alive faces, sorted; kept up to
+    /// date by [`State::collapse`] so that [`State::wedges_covered`] costs O(wedges), not
+    /// O(valence) (empty without UVs).
+    wedges: Vec<Vec<u32>>,
     alive: Vec<bool>,
     version: Vec<u32>,
     locked: Vec<bool>,
@@ -261,7 +291,7 @@ impl<'a> State<'a> {
             records: Vec::new(),
             texture: mesh.texture.clone(),
         };
-        State {
+        let mut state = State {
             options,
             method: options.method,
             skinned,
@@ -276,6 +306,7 @@ impl<'a> State<'a> {
             face_alive: vec![true; faces.len()],
             faces,
             uv_faces,
+            wedges: Vec::new(),
             vertex_faces,
             alive: vec![true; n],
             version: vec![0; n],
@@ -284,7 +315,9 @@ impl<'a> State<'a> {
             alive_count: n,
             records: Vec::new(),
             start,
-        }
+        };
+        state.wedges = (0..n).map(|v| state.distinct_wedges(v)).collect();
+        state
     }
 
     /// Every edge of the mesh with its cost, computed in parallel.
@@ -359,26 +392,35 @@ impl<'a> State<'a> {
             (Mode::Keep(k), method) => place_at_endpoint(&problem, k, method, options),
             (Mode::Free, Method::Rest) => place_rest(&problem, options),
             (Mode::Free, Method::Mohr) => place_endpoint_weights(&problem, options),
-            (Mode::Free, Method::Full) => place_full(&problem, options).0,
+            (Mode::Free, Method::Full) => place_full_cost(&problem, options),
         };
-        let posed = self
+        Candidate {
+            rest: placement.rest,
+            weights: placement.weights,
+            posed: Vec::new(),
+            cost: placement.cost,
+        }
+    }
+
+    /// Fill a skinned candidate's positions in the check poses, v_c = Σ_k w_k M_k^c v̂ (linear
+    /// blend skinning), needed only by the flip check of an edge popped from the queue, not by
+    /// every queued cost. Frame inputs already have them.
+    fn pose(&self, candidate: &mut Candidate) {
+        if !self.skinned {
+            return;
+        }
+        let h = candidate.rest.to_homogeneous();
+        candidate.posed = self
             .check_mats
             .iter()
             .map(|mats| {
-                let h = placement.rest.to_homogeneous();
                 let mut sum = nalgebra::Vector4::zeros();
-                for (k, w) in placement.weights.pairs() {
+                for (k, w) in candidate.weights.pairs() {
                     sum += (mats[k as usize] * h) * w;
                 }
                 Point3::new(sum.x, sum.y, sum.z)
             })
             .collect();
-        Candidate {
-            rest: placement.rest,
-            weights: placement.weights,
-            posed,
-            cost: placement.cost,
-        }
     }
 
     /// The sorted distinct neighbours of vertex `v` over its alive faces.
@@ -394,12 +436,18 @@ impl<'a> State<'a> {
         out
     }
 
-    /// Alive faces containing both `a` and `b`.
+    /// Alive faces containing both `a` and `b`, in face order (found in the shorter of the
+    /// two face lists).
     fn faces_on_edge(&self, a: usize, b: usize) -> Vec<u32> {
-        self.vertex_faces[a]
+        let (short, other) = if self.vertex_faces[a].len() <= self.vertex_faces[b].len() {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        self.vertex_faces[short]
             .iter()
             .copied()
-            .filter(|&f| self.faces[f as usize].contains(&(b as u32)))
+            .filter(|&f| self.faces[f as usize].contains(&(other as u32)))
             .collect()
     }
 
@@ -498,12 +546,25 @@ impl<'a> State<'a> {
 
     /// Whether every UV wedge of `v` appears at `v` on a face of the edge (`end` 0: `v = a`).
     fn wedges_covered(&self, v: usize, sides: &[(u32, u32)], end: usize) -> bool {
-        self.vertex_faces[v].iter().all(|&f| {
-            let u = self.corner_uv(f, v);
+        self.wedges[v].iter().all(|&u| {
             sides
                 .iter()
                 .any(|s| if end == 0 { s.0 == u } else { s.1 == u })
         })
+    }
+
+    /// The sorted distinct UV indices of `v` over its alive faces (empty without UVs).
+    fn distinct_wedges(&self, v: usize) -> Vec<u32> {
+        if self.uv_faces.is_empty() {
+            return Vec::new();
+        }
+        let mut out: Vec<u32> = self.vertex_faces[v]
+            .iter()
+            .map(|&f| self.corner_uv(f, v))
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
     }
 
     /// Condition 4 of the module docs: how the edge may collapse for the UVs. `Free` when both
@@ -644,10 +705,14 @@ impl<'a> State<'a> {
         }
         self.vertex_faces[a] = merged;
         // The faces on the edge also leave their opposite vertices' lists.
-        for x in opposite {
+        for &x in &opposite {
             let alive = &self.face_alive;
             self.vertex_faces[x].retain(|&f| alive[f as usize]);
         }
+        for x in std::iter::once(a).chain(opposite) {
+            self.wedges[x] = self.distinct_wedges(x);
+        }
+        self.wedges[b].clear();
         self.uvs.extend_from_slice(&plan.new_uvs);
         self.alive[b] = false;
         self.version[a] += 1;

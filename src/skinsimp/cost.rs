@@ -21,6 +21,13 @@
 //!   of the endpoint nearer to the new position).
 //! - Shared-connectivity frame sequences without weights: [`place_frames`], each pose's
 //!   position optimal for its own quadric.
+//!
+//! **Pose Gram matrices.** `E`, `Q̃` and `H` are quadratic forms in `α`, so summing over the
+//! poses can be done once per edge: with `G_kl = Σ_j M_k^{jT} Q^j M_l^j` ([`PoseGram`]),
+//! `Q̃(α) = Σ_kl α_k α_l G_kl`, `H_kl(v) = v̂ᵀ G_kl v̂` and `E(v, α) = αᵀ H(v) α`. The solvers
+//! below use these (each half-step then costs O(K²), not O(P K)); [`energy`],
+//! [`position_quadric`] and [`weight_matrix`] are the per-pose definitions, which the tests
+//! and the GPU cross-check compare them with.
 
 use nalgebra::{Matrix3, Matrix4, Point3, Vector3, Vector4};
 
@@ -97,6 +104,7 @@ pub struct Placement {
 /// per-pose matrices `cand[j][k] = M_{C_k}^j`.
 pub struct Candidates {
     pub joints: Vec<u32>,
+    /// `mats[j]`: the candidates' matrices in pose `j`.
     pub mats: Vec<Vec<Matrix4<f64>>>,
 }
 
@@ -232,6 +240,91 @@ pub fn weight_matrix(quadrics: &[Quadric], cand: &Candidates, v: &Point3<f64>) -
     out
 }
 
+/// The pose Gram matrices of an edge, `G_kl = Σ_j M_k^{jT} Q^j M_l^j` for the candidate bones
+/// `k, l` (module docs), summed over the poses in order. `G_lk = G_klᵀ`.
+pub struct PoseGram {
+    k: usize,
+    /// `g[k * K + l] = G_kl`.
+    g: Vec<Matrix4<f64>>,
+}
+
+impl PoseGram {
+    /// `G_kl` from the summed per-pose quadrics and the candidates' per-pose matrices.
+    pub fn new(quadrics: &[Quadric], cand: &Candidates) -> PoseGram {
+        let k = cand.joints.len();
+        let mut g = vec![Matrix4::zeros(); k * k];
+        let mut q_m = Vec::with_capacity(k);
+        for (j, q) in quadrics.iter().enumerate() {
+            let qm = q.matrix();
+            q_m.clear();
+            q_m.extend(cand.mats[j].iter().map(|m| qm * m));
+            for r in 0..k {
+                let mt = cand.mats[j][r].transpose();
+                for c in r..k {
+                    g[r * k + c] += mt * q_m[c];
+                }
+            }
+        }
+        for r in 0..k {
+            for c in 0..r {
+                g[r * k + c] = g[c * k + r].transpose();
+            }
+        }
+        PoseGram { k, g }
+    }
+
+    /// `Q̃(α) = Σ_kl α_k α_l G_kl` (= [`position_quadric`]).
+    pub fn position_quadric(&self, alpha: &[f64]) -> Matrix4<f64> {
+        let mut total = Matrix4::zeros();
+        for r in 0..self.k {
+            if alpha[r] == 0.0 {
+                continue;
+            }
+            for c in 0..self.k {
+                if alpha[c] != 0.0 {
+                    total += self.g[r * self.k + c] * (alpha[r] * alpha[c]);
+                }
+            }
+        }
+        total
+    }
+
+    /// `H_kl(v) = v̂ᵀ G_kl v̂` (K×K row-major; = [`weight_matrix`]).
+    pub fn weight_matrix(&self, v: &Point3<f64>) -> Vec<f64> {
+        let h = v.to_homogeneous();
+        let k = self.k;
+        let mut out = vec![0.0; k * k];
+        for r in 0..k {
+            for c in r..k {
+                let x = h.dot(&(self.g[r * k + c] * h));
+                out[r * k + c] = x;
+                out[c * k + r] = x;
+            }
+        }
+        out
+    }
+
+    /// `E(v, α) = αᵀ H(v) α` (= [`energy`]).
+    pub fn energy(&self, v: &Point3<f64>, alpha: &[f64]) -> f64 {
+        let h = v.to_homogeneous();
+        let k = self.k;
+        let mut total = 0.0;
+        for r in 0..k {
+            if alpha[r] == 0.0 {
+                continue;
+            }
+            let mut row = 0.0;
+            for (c, &a) in alpha.iter().enumerate().take(k) {
+                if a != 0.0 {
+                    row += a * h.dot(&(self.g[r * k + c] * h));
+                }
+            }
+            total += alpha[r] * row;
+        }
+        total
+    }
+}
+
 /// Solve the weight QP of `h` with anchor `alpha0`, starting (active set) from `start`.
 pub fn weight_step(
     h: &[f64],
@@ -259,21 +352,23 @@ fn fallbacks(problem: &EdgeProblem, current: Option<Point3<f64>>) -> Vec<Point3<
 /// `α_e`; the one of lower `E` (ties: `a`). Also the start of [`place_full`].
 pub fn place_endpoint_weights(problem: &EdgeProblem, options: &CostOptions) -> Placement {
     let cand = Candidates::of(problem);
-    endpoint_start(problem, &cand, options).0
+    let gram = PoseGram::new(problem.quadrics, &cand);
+    endpoint_start(problem, &cand, &gram, options).0
 }
 
 /// [`place_endpoint_weights`] with the winning weight vector over `cand`.
 fn endpoint_start(
     problem: &EdgeProblem,
     cand: &Candidates,
+    gram: &PoseGram,
     options: &CostOptions,
 ) -> (Placement, Vec<f64>) {
     let mut best: Option<(Placement, Vec<f64>)> = None;
     for e in 0..2 {
         let alpha = cand.vector(&problem.weights[e]);
-        let q = position_quadric(problem.quadrics, cand, &alpha);
+        let q = gram.position_quadric(&alpha);
         let (v, _) = position_step(&q, &fallbacks(problem, None), options.max_condition);
-        let cost = energy(problem.quadrics, cand, &v, &alpha);
+        let cost = gram.energy(&v, &alpha);
         if best.as_ref().is_none_or(|(b, _)| cost < b.cost) {
             let placement = Placement {
                 rest: v,
@@ -314,85 +409,107 @@ pub struct Alternation {
 /// `max_weights` influences (largest kept, QP re-solved on that support, `v` re-solved). If the
 /// reduced result is worse than the start, the start is returned (it already has ≤ W_max).
 pub fn place_full(problem: &EdgeProblem, options: &CostOptions) -> (Placement, Alternation) {
+    let mut trace = Alternation::default();
+    let placement = place_full_traced(problem, options, Some(&mut trace));
+    (placement, trace)
+}
+
+/// [`place_full`] without the record (what the simplifier calls for every queued edge: the
+/// KKT residuals are diagnostics).
+pub fn place_full_cost(problem: &EdgeProblem, options: &CostOptions) -> Placement {
+    place_full_traced(problem, options, None)
+}
+
+/// [`place_full`], recording into `trace` when given.
+fn place_full_traced(
+    problem: &EdgeProblem,
+    options: &CostOptions,
+    mut trace: Option<&mut Alternation>,
+) -> Placement {
     let cand = Candidates::of(problem);
-    let (start, alpha0) = endpoint_start(problem, &cand, options);
-    let mut trace = Alternation {
-        energies: vec![start.cost],
-        kkt: Vec::new(),
-    };
+    let gram = PoseGram::new(problem.quadrics, &cand);
+    let (start, alpha0) = endpoint_start(problem, &cand, &gram, options);
+    if let Some(t) = trace.as_deref_mut() {
+        t.energies.push(start.cost);
+    }
     let k = cand.joints.len();
     let (mut v, mut alpha, mut e) = (start.rest, alpha0.clone(), start.cost);
     for _ in 0..options.max_alternations {
         let before = e;
         // Weight step.
-        let h = weight_matrix(problem.quadrics, &cand, &v);
+        let h = gram.weight_matrix(&v);
         let new_alpha = weight_step(&h, k, &alpha0, &alpha, options);
-        trace.kkt.push(kkt_of(&h, k, &alpha0, &new_alpha, options));
-        let e_w = energy(problem.quadrics, &cand, &v, &new_alpha);
+        if let Some(t) = trace.as_deref_mut() {
+            t.kkt.push(kkt_of(&h, k, &alpha0, &new_alpha, options));
+        }
+        let e_w = gram.energy(&v, &new_alpha);
         if e_w <= e {
             alpha = new_alpha;
             e = e_w;
         }
-        trace.energies.push(e);
+        if let Some(t) = trace.as_deref_mut() {
+            t.energies.push(e);
+        }
         // Position step.
-        let (nv, ne) = position_given_weights(problem, &cand, &alpha, v, options);
+        let (nv, ne) = position_given_weights(problem, &gram, &alpha, v, options);
         if ne <= e {
             v = nv;
             e = ne;
         }
-        trace.energies.push(e);
+        if let Some(t) = trace.as_deref_mut() {
+            t.energies.push(e);
+        }
         if before - e <= options.relative_tolerance * before {
             break;
         }
     }
     if alpha.iter().filter(|&&a| a > 0.0).count() > options.max_weights {
-        let (rv, ralpha, re) = reduce(problem, &cand, v, &alpha, &alpha0, options);
+        let (rv, ralpha, re) = reduce(problem, &gram, v, &alpha, &alpha0, options);
         if re <= start.cost {
             v = rv;
             alpha = ralpha;
             e = re;
         } else {
-            return (start, trace);
+            return start;
         }
     }
-    let placement = Placement {
+    Placement {
         rest: v,
         weights: cand.weights(&alpha),
         cost: e,
-    };
-    (placement, trace)
+    }
 }
 
 /// Position step for fixed `alpha`, with `current` among the fallbacks; returns `(v, E(v, α))`.
 fn position_given_weights(
     problem: &EdgeProblem,
-    cand: &Candidates,
+    gram: &PoseGram,
     alpha: &[f64],
     current: Point3<f64>,
     options: &CostOptions,
 ) -> (Point3<f64>, f64) {
-    let q = position_quadric(problem.quadrics, cand, alpha);
+    let q = gram.position_quadric(alpha);
     let (v, _) = position_step(
         &q,
         &fallbacks(problem, Some(current)),
         options.max_condition,
     );
-    (v, energy(problem.quadrics, cand, &v, alpha))
+    (v, gram.energy(&v, alpha))
 }
 
 /// Weight reduction (seed "Weight reduction"): keep the `W_max` largest weights, re-solve the
 /// QP on that support at `v`, then re-solve `v`.
 fn reduce(
     problem: &EdgeProblem,
-    cand: &Candidates,
+    gram: &PoseGram,
     v: Point3<f64>,
     alpha: &[f64],
     alpha0: &[f64],
     options: &CostOptions,
 ) -> (Point3<f64>, Vec<f64>, f64) {
     let keep = largest_support(alpha, options.max_weights);
-    let alpha_kept = reduce_weights(problem.quadrics, cand, &v, alpha, alpha0, &keep, options);
-    let (nv, ne) = position_given_weights(problem, cand, &alpha_kept, v, options);
+    let alpha_kept = reduce_weights_with(gram, &v, alpha, alpha0, &keep, options);
+    let (nv, ne) = position_given_weights(problem, gram, &alpha_kept, v, options);
     (nv, alpha_kept, ne)
 }
 
@@ -407,8 +524,21 @@ pub fn reduce_weights(
     keep: &[bool],
     options: &CostOptions,
 ) -> Vec<f64> {
-    let k = cand.joints.len();
-    let h = weight_matrix(quadrics, cand, v);
+    let gram = PoseGram::new(quadrics, cand);
+    reduce_weights_with(&gram, v, alpha, alpha0, keep, options)
+}
+
+/// [`reduce_weights`] with the edge's [`PoseGram`] already built.
+fn reduce_weights_with(
+    gram: &PoseGram,
+    v: &Point3<f64>,
+    alpha: &[f64],
+    alpha0: &[f64],
+    keep: &[bool],
+    options: &CostOptions,
+) -> Vec<f64> {
+    let k = gram.k;
+    let h = gram.weight_matrix(v);
     let mu = regulariser(&h, k, options.regularisation);
     let qp = WeightQp::new(&h, k, alpha0, mu);
     let (sub, index) = restrict(&qp, keep);
@@ -476,31 +606,24 @@ pub fn place_at_endpoint(
         };
     }
     let cand = Candidates::of(problem);
+    let gram = PoseGram::new(problem.quadrics, &cand);
     let alpha0 = cand.vector(&own);
     let start = Placement {
         rest: v,
         weights: own,
-        cost: energy(problem.quadrics, &cand, &v, &alpha0),
+        cost: gram.energy(&v, &alpha0),
     };
     if method == super::Method::Mohr {
         return start;
     }
     let k = cand.joints.len();
-    let h = weight_matrix(problem.quadrics, &cand, &v);
+    let h = gram.weight_matrix(&v);
     let mut alpha = weight_step(&h, k, &alpha0, &alpha0, options);
     if alpha.iter().filter(|&&a| a > 0.0).count() > options.max_weights {
         let keep_set = largest_support(&alpha, options.max_weights);
-        alpha = reduce_weights(
-            problem.quadrics,
-            &cand,
-            &v,
-            &alpha,
-            &alpha0,
-            &keep_set,
-            options,
-        );
+        alpha = reduce_weights_with(&gram, &v, &alpha, &alpha0, &keep_set, options);
     }
-    let cost = energy(problem.quadrics, &cand, &v, &alpha);
+    let cost = gram.energy(&v, &alpha);
     if cost <= start.cost {
         Placement {
             rest: v,

@@ -15,6 +15,8 @@
 //! | evaluation on training and held-out poses | notes "Tests" 8 | [`evaluate`] |
 //! | a bending tube with three bones | issue #6 (demo, tests) | [`tube`] |
 //! | skinned GLB output | issue #6 "Output" | [`glb`] |
+//! | pictures: original vs simplified in several poses, error vs vertex count plot | issue #6 "Output", "Evaluation" | [`picture`] |
+//! | f32 GPU kernels (LBS, per-pose quadrics, batched collapse costs) and their cross-check | notes "GPU f32 kernels worth cross-checking" | `gpu` (feature `gpu`) |
 //!
 //! Entry points: [`simplify`] → [`Hierarchy`] → [`Hierarchy::level`] → [`Level`];
 //! [`evaluate::compare`] for the quality table; [`glb::write_glb`].
@@ -24,7 +26,10 @@ pub mod cost;
 pub mod distance;
 pub mod evaluate;
 pub mod glb;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod hierarchy;
+pub mod picture;
 pub mod poses;
 pub mod quadric;
 pub mod tube;
