@@ -272,13 +272,7 @@ pub fn kappa_bound(
     let dn = (k + 4.0) * U32 * spread / len;
     let eps = 3.0 * dn + 6.0 * U32;
     let n = normal / len;
-    let helper = if n.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let e1 = n.cross(&helper).normalize();
-    let e2 = n.cross(&e1);
+    let [e1, e2] = crate::maps::priority::tangent_frame(&n);
     let scale = ring
         .iter()
         .map(|&w| (positions[w as usize] - p).norm())

@@ -29,6 +29,19 @@ pub fn star_normal(positions: &[Point3<f64>], star: &[[u32; 3]]) -> Vector3<f64>
     })
 }
 
+/// Two unit tangents `e1 = n × h / |n × h|`, `e2 = n × e1` completing the unit normal `n` to a
+/// right-handed frame (`h` = x, or y when `n` is within 26° of x): the frame of the local fit
+/// in [`curvature`].
+pub fn tangent_frame(n: &Vector3<f64>) -> [Vector3<f64>; 2] {
+    let helper = if n.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let e1 = n.cross(&helper).normalize();
+    [e1, n.cross(&e1)]
+}
+
 /// Curvature magnitude κ(i) = |κ₁| + |κ₂| from a local fit (seed "Notation (4/4)"): in the frame
 /// (e₁, e₂, n) at p_i, n the area-weighted star normal, fit the height z = A x² + B xy + C y² of
 /// the ring vertices by least squares; the shape operator is [[2A, B], [B, 2C]] with eigenvalues
@@ -40,13 +53,7 @@ pub fn curvature(centre: &Point3<f64>, ring: &[Point3<f64>], normal: &Vector3<f6
         return 0.0;
     }
     let n = normal / len;
-    let helper = if n.x.abs() < 0.9 {
-        Vector3::x()
-    } else {
-        Vector3::y()
-    };
-    let e1 = n.cross(&helper).normalize();
-    let e2 = n.cross(&e1);
+    let [e1, e2] = tangent_frame(&n);
     let mut m = Matrix3::zeros();
     let mut rhs = Vector3::zeros();
     for q in ring {
