@@ -311,7 +311,7 @@ fn pose_gram_equals_the_per_pose_sums() {
             sums.iter()
                 .enumerate()
                 .map(|(j, q)| {
-                    let m: f64 = (0..k).map(|i| c(i) * cand.mats[j][i].norm()).sum();
+                    let m: f64 = (0..k).map(|i| c(i) * cand.pose(j)[i].norm()).sum();
                     q.matrix().norm() * m * m
                 })
                 .sum()

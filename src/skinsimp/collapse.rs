@@ -895,7 +895,7 @@ fn start_weights(
                 joints: sorted.iter().map(|p| p.0).collect(),
                 mats: joints
                     .iter()
-                    .map(|pose| sorted.iter().map(|p| pose[p.0 as usize]).collect())
+                    .flat_map(|pose| sorted.iter().map(|p| pose[p.0 as usize]))
                     .collect(),
             };
             let alpha: Vec<f64> = sorted.iter().map(|p| p.1 / total).collect();

@@ -104,8 +104,9 @@ pub struct Placement {
 /// per-pose matrices `cand[j][k] = M_{C_k}^j`.
 pub struct Candidates {
     pub joints: Vec<u32>,
-    /// `mats[j]`: the candidates' matrices in pose `j`.
-    pub mats: Vec<Vec<Matrix4<f64>>>,
+    /// The candidates' matrices pose by pose: `mats[j·K + k] = M_{C_k}^j` (one allocation per
+    /// edge; see [`Candidates::pose`]).
+    pub mats: Vec<Matrix4<f64>>,
 }
 
 impl Candidates {
@@ -122,9 +123,15 @@ impl Candidates {
         let mats = problem
             .mats
             .iter()
-            .map(|pose| joints.iter().map(|&j| pose[j as usize]).collect())
+            .flat_map(|pose| joints.iter().map(|&j| pose[j as usize]))
             .collect();
         Candidates { joints, mats }
+    }
+
+    /// The candidates' matrices in pose `j`, `[M_{C_0}^j, …, M_{C_{K−1}}^j]`.
+    pub fn pose(&self, j: usize) -> &[Matrix4<f64>] {
+        let k = self.joints.len();
+        &self.mats[j * k..(j + 1) * k]
     }
 
     /// `weights` as a vector over the candidates.
@@ -146,7 +153,7 @@ impl Candidates {
     /// `A^j = Σ_k α_k M_k^j`.
     fn blend(&self, pose: usize, alpha: &[f64]) -> Matrix4<f64> {
         let mut a = Matrix4::zeros();
-        for (m, &w) in self.mats[pose].iter().zip(alpha) {
+        for (m, &w) in self.pose(pose).iter().zip(alpha) {
             if w != 0.0 {
                 a += m * w;
             }
@@ -225,7 +232,7 @@ pub fn weight_matrix(quadrics: &[Quadric], cand: &Candidates, v: &Point3<f64>) -
     for (j, q) in quadrics.iter().enumerate() {
         let qm = q.matrix();
         columns.clear();
-        columns.extend(cand.mats[j].iter().map(|m| m * h));
+        columns.extend(cand.pose(j).iter().map(|m| m * h));
         for r in 0..k {
             let qr = qm * columns[r];
             for c in r..k {
@@ -257,9 +264,9 @@ impl PoseGram {
         for (j, q) in quadrics.iter().enumerate() {
             let qm = q.matrix();
             q_m.clear();
-            q_m.extend(cand.mats[j].iter().map(|m| qm * m));
+            q_m.extend(cand.pose(j).iter().map(|m| qm * m));
             for r in 0..k {
-                let mt = cand.mats[j][r].transpose();
+                let mt = cand.pose(j)[r].transpose();
                 for c in r..k {
                     g[r * k + c] += mt * q_m[c];
                 }

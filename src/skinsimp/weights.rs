@@ -122,20 +122,25 @@ impl WeightQp {
 
     /// The gradient `Gα + c`.
     pub fn gradient(&self, alpha: &[f64]) -> Vec<f64> {
+        (0..self.k).map(|i| self.gradient_entry(alpha, i)).collect()
+    }
+
+    /// Entry `i` of the gradient, `(Gα + c)_i`.
+    fn gradient_entry(&self, alpha: &[f64], i: usize) -> f64 {
         let k = self.k;
-        (0..k)
-            .map(|i| (0..k).map(|j| self.g[i * k + j] * alpha[j]).sum::<f64>() + self.c[i])
-            .collect()
+        (0..k).map(|j| self.g[i * k + j] * alpha[j]).sum::<f64>() + self.c[i]
     }
 
     /// The minimiser on the support `free` (the others fixed at 0) under `1ᵀα = 1`: solve
     /// `[G_SS 1; 1ᵀ 0][α_S; λ] = [−c_S; 1]`. Returns `(α, λ)`, `None` if the system is
     /// singular.
-    fn solve_on_support(&self, free: &[usize]) -> Option<(Vec<f64>, f64)> {
+    /// The system is at most 17×17 and lives on the stack (this runs for every queued edge).
+    fn solve_on_support(&self, free: &[usize]) -> Option<([f64; MAX_CANDIDATES], f64)> {
+        const N: usize = MAX_CANDIDATES + 1;
         let s = free.len();
         let n = s + 1;
-        let mut a = vec![0.0; n * n];
-        let mut b = vec![0.0; n];
+        let mut a = [0.0; N * N];
+        let mut b = [0.0; N];
         for (r, &i) in free.iter().enumerate() {
             for (c, &j) in free.iter().enumerate() {
                 a[r * n + c] = self.g[i * self.k + j];
@@ -145,8 +150,11 @@ impl WeightQp {
             b[r] = -self.c[i];
         }
         b[s] = 1.0;
-        let x = solve_dense(n, &mut a, &mut b)?;
-        let mut alpha = vec![0.0; self.k];
+        let mut x = [0.0; N];
+        if !solve_dense_into(n, &mut a[..n * n], &mut b[..n], &mut x[..n]) {
+            return None;
+        }
+        let mut alpha = [0.0; MAX_CANDIDATES];
         for (r, &i) in free.iter().enumerate() {
             alpha[i] = x[r];
         }
@@ -166,6 +174,7 @@ pub fn solve_enumerate(qp: &WeightQp) -> Vec<f64> {
         let Some((alpha, _)) = qp.solve_on_support(&free) else {
             continue;
         };
+        let alpha = alpha[..k].to_vec();
         if alpha.iter().any(|&a| a < 0.0) {
             continue;
         }
@@ -187,21 +196,29 @@ pub fn solve_enumerate(qp: &WeightQp) -> Vec<f64> {
 pub fn solve_active_set(qp: &WeightQp, start: &[f64]) -> Vec<f64> {
     let k = qp.k;
     let mut alpha = start.to_vec();
-    let mut held: Vec<bool> = alpha.iter().map(|&a| a <= 0.0).collect();
+    let mut held = [false; MAX_CANDIDATES];
+    for (h, &a) in held.iter_mut().zip(&alpha) {
+        *h = a <= 0.0;
+    }
     for a in alpha.iter_mut() {
         *a = a.max(0.0);
     }
+    let mut free_buffer = [0usize; MAX_CANDIDATES];
     for _ in 0..10 * (k + 1) {
-        let free: Vec<usize> = (0..k).filter(|&i| !held[i]).collect();
-        let Some((target, lambda)) = qp.solve_on_support(&free) else {
+        let mut count = 0;
+        for i in (0..k).filter(|&i| !held[i]) {
+            free_buffer[count] = i;
+            count += 1;
+        }
+        let free = &free_buffer[..count];
+        let Some((target, lambda)) = qp.solve_on_support(free) else {
             break;
         };
         if free.iter().all(|&i| target[i] >= 0.0) {
-            alpha = target;
-            let g = qp.gradient(&alpha);
+            alpha.copy_from_slice(&target[..k]);
             let leave = (0..k)
                 .filter(|&i| held[i])
-                .map(|i| (i, g[i] + lambda))
+                .map(|i| (i, qp.gradient_entry(&alpha, i) + lambda))
                 .filter(|&(_, m)| m < 0.0)
                 .min_by(|x, y| x.1.total_cmp(&y.1));
             match leave {
@@ -211,7 +228,7 @@ pub fn solve_active_set(qp: &WeightQp, start: &[f64]) -> Vec<f64> {
         } else {
             let mut step = 1.0;
             let mut blocking = None;
-            for &i in &free {
+            for &i in free {
                 if target[i] < alpha[i] {
                     let t = alpha[i] / (alpha[i] - target[i]);
                     if t < step {
@@ -292,12 +309,21 @@ fn uniform(k: usize) -> Vec<f64> {
 /// Solve the dense `n×n` system `A x = b` (row-major, overwritten) by Gaussian elimination with
 /// partial pivoting; `None` when a pivot is zero or not finite.
 pub fn solve_dense(n: usize, a: &mut [f64], b: &mut [f64]) -> Option<Vec<f64>> {
+    let mut x = vec![0.0; n];
+    solve_dense_into(n, a, b, &mut x).then_some(x)
+}
+
+/// [`solve_dense`] writing the solution into `x` (length `n`); `false` when it fails.
+fn solve_dense_into(n: usize, a: &mut [f64], b: &mut [f64], x: &mut [f64]) -> bool {
     for col in 0..n {
-        let pivot =
-            (col..n).max_by(|&r, &s| a[r * n + col].abs().total_cmp(&a[s * n + col].abs()))?;
+        let Some(pivot) =
+            (col..n).max_by(|&r, &s| a[r * n + col].abs().total_cmp(&a[s * n + col].abs()))
+        else {
+            return false;
+        };
         let p = a[pivot * n + col];
         if p == 0.0 || !p.is_finite() {
-            return None;
+            return false;
         }
         if pivot != col {
             for c in 0..n {
@@ -315,10 +341,9 @@ pub fn solve_dense(n: usize, a: &mut [f64], b: &mut [f64]) -> Option<Vec<f64>> {
             }
         }
     }
-    let mut x = vec![0.0; n];
     for r in (0..n).rev() {
         let s: f64 = (r + 1..n).map(|c| a[r * n + c] * x[c]).sum();
         x[r] = (b[r] - s) / a[r * n + r];
     }
-    x.iter().all(|v| v.is_finite()).then_some(x)
+    x.iter().all(|v| v.is_finite())
 }
