@@ -1028,11 +1028,12 @@ fn one_frame_sequence_equals_rest_pose_simplification() {
     assert!(level.mesh.positions.len() <= 35);
 }
 
-/// The command line on a file made here: `reparam skinsimp tube.glb --poses 3 --json -o out`
-/// writes a GLB the loader reads back and prints the JSON summary with training and held-out
-/// errors; a model without skin is refused with the typed message.
-#[test]
-fn cli_simplifies_a_written_tube_and_prints_json() {
+/// `reparam skinsimp tube.glb --target-ratio 0.3 --json <extra> -o tube_lod.glb` on the small
+/// tube written to a temporary folder; asserts success. Returns the folder, the output path
+/// and the printed JSON.
+fn run_cli_on_small_tube(
+    extra: &[&str],
+) -> (tempfile::TempDir, std::path::PathBuf, serde_json::Value) {
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("tube.glb");
     write_glb(&input, &small_tube()).unwrap();
@@ -1041,13 +1042,12 @@ fn cli_simplifies_a_written_tube_and_prints_json() {
         .args([
             "skinsimp",
             input.to_str().unwrap(),
-            "--poses",
-            "3",
             "--target-ratio",
             "0.3",
             "--json",
-            "-o",
         ])
+        .args(extra)
+        .arg("-o")
         .arg(&out)
         .output()
         .unwrap();
@@ -1056,7 +1056,16 @@ fn cli_simplifies_a_written_tube_and_prints_json() {
         "{}",
         String::from_utf8_lossy(&run.stderr)
     );
-    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    let json = serde_json::from_slice(&run.stdout).unwrap();
+    (dir, out, json)
+}
+
+/// The command line on a file made here: `reparam skinsimp tube.glb --poses 3 --json -o out`
+/// writes a GLB the loader reads back and prints the JSON summary with training and held-out
+/// errors; a model without skin is refused with the typed message.
+#[test]
+fn cli_simplifies_a_written_tube_and_prints_json() {
+    let (dir, out, json) = run_cli_on_small_tube(&["--poses", "3"]);
     assert_eq!(json["training_poses"], 3);
     assert_eq!(json["held_out_poses"], 3);
     let result = &json["results"][0];
@@ -1073,7 +1082,7 @@ fn cli_simplifies_a_written_tube_and_prints_json() {
     let bad = std::process::Command::new(env!("CARGO_BIN_EXE_reparam"))
         .args(["skinsimp", "--target-ratio", "0", "-o"])
         .arg(&out)
-        .arg(&input)
+        .arg(dir.path().join("tube.glb"))
         .output()
         .unwrap();
     assert!(!bad.status.success());
@@ -1274,33 +1283,9 @@ fn error_plot_has_one_point_per_level_and_method() {
 
 #[test]
 fn cli_writes_the_pose_strip_and_the_error_plot() {
-    let dir = tempfile::tempdir().unwrap();
-    let input = dir.path().join("tube.glb");
-    write_glb(&input, &small_tube()).unwrap();
-    let out = dir.path().join("tube_lod.glb");
-    let plot = dir.path().join("plot.png");
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_reparam"))
-        .args([
-            "skinsimp",
-            input.to_str().unwrap(),
-            "--poses",
-            "2",
-            "--target-ratio",
-            "0.3",
-            "--json",
-            "--plot",
-            plot.to_str().unwrap(),
-            "-o",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    let plot_dir = tempfile::tempdir().unwrap();
+    let plot = plot_dir.path().join("plot.png");
+    let (dir, _, json) = run_cli_on_small_tube(&["--poses", "2", "--plot", plot.to_str().unwrap()]);
     let strip_path = dir.path().join("tube_lod_poses.png");
     assert_eq!(json["pictures"][0], strip_path.display().to_string());
     assert_eq!(json["pictures"][1], plot.display().to_string());
