@@ -23,7 +23,9 @@ use reparam::skinsimp::picture::{
 use reparam::skinsimp::poses::{
     frames_input, select_poses, skinned_input, PoseSelection, PoseSets,
 };
-use reparam::skinsimp::{simplify, simplify_with_progress, Hierarchy, Level, Method, Options};
+use reparam::skinsimp::{
+    simplify, simplify_with_progress, Hierarchy, Input, Level, Method, Options,
+};
 use reparam::texture::save_png;
 use reparam::{Error, Result};
 use serde::Serialize;
@@ -155,19 +157,25 @@ fn options(args: &SkinsimpArgs, method: Method, vertices: usize) -> Options {
     options
 }
 
+/// [`simplify_with_progress`] behind a progress bar (hidden with `--json`); returns the
+/// hierarchy and the seconds it took.
+fn simplify_timed(input: &Input, options: &Options, json: bool) -> Result<(Hierarchy, f64)> {
+    let bar = progress_bar(json);
+    let start = Instant::now();
+    let hierarchy = simplify_with_progress(input, options, &mut |done, wanted| {
+        bar.set_length(wanted as u64);
+        bar.set_position(done as u64);
+    })?;
+    bar.finish_and_clear();
+    Ok((hierarchy, start.elapsed().as_secs_f64()))
+}
+
 fn run_gltf(args: &SkinsimpArgs, path: &Path, method: Method) -> Result<()> {
     let model = load_gltf(path)?;
     let sets = select_poses(&model, &parse_poses(&args.poses)?)?;
     let input = skinned_input(&model, &sets.training)?;
     let options = options(args, method, model.mesh.positions.len());
-    let bar = progress_bar(args.json);
-    let start = Instant::now();
-    let hierarchy = simplify_with_progress(&input, &options, &mut |done, wanted| {
-        bar.set_length(wanted as u64);
-        bar.set_position(done as u64);
-    })?;
-    bar.finish_and_clear();
-    let seconds = start.elapsed().as_secs_f64();
+    let (hierarchy, seconds) = simplify_timed(&input, &options, args.json)?;
     let level = hierarchy.level(hierarchy.records.len());
     write_glb(&args.out, &level_model(&model, &level))?;
     let mut pictures = vec![write_pose_strip(args, &model, &sets, &level)?];
@@ -367,14 +375,7 @@ fn run_frames(args: &SkinsimpArgs, method: Method) -> Result<()> {
         .collect::<Result<Vec<_>>>()?;
     let input = frames_input(&meshes)?;
     let options = options(args, method, meshes[0].positions.len());
-    let bar = progress_bar(args.json);
-    let start = Instant::now();
-    let hierarchy = simplify_with_progress(&input, &options, &mut |done, wanted| {
-        bar.set_length(wanted as u64);
-        bar.set_position(done as u64);
-    })?;
-    bar.finish_and_clear();
-    let seconds = start.elapsed().as_secs_f64();
+    let (hierarchy, seconds) = simplify_timed(&input, &options, args.json)?;
     let level = hierarchy.level(hierarchy.records.len());
     let mut written = Vec::new();
     for (k, frame) in level.frames.iter().enumerate() {
