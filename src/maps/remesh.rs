@@ -362,34 +362,34 @@ fn points_in(maps: &Maps, tri: &DyadicTri, points: &[u32]) -> Vec<u32> {
         .collect()
 }
 
-/// E(t) = max over `points` of the distance from the input vertex to the 3D triangle of t
-/// (corners Π⁻¹ of t's corners); 0 without points.
+/// E(t) = max of two one-sided distances to the 3D triangle of t (corners Π⁻¹ of t's corners):
+/// from the input vertices `points` whose Π lies in t (the paper's criterion, seed "Remeshing
+/// (4/5)"), and from the surface points Π⁻¹ of t's three edge midpoints. The second term sees
+/// what the first cannot: a triangle with few or no input vertices that cuts across the surface
+/// (a sliver of a strongly distorted base face), whose midpoints lie far from it. Both are
+/// vertices of the remesh once t is split, so refining until E(t) ≤ ε B bounds the distance
+/// both ways at those samples.
 fn leaf_error(
     maps: &Maps,
     tri: &DyadicTri,
     points: &[u32],
     cache: &mut HashMap<VKey, Point3<f64>>,
 ) -> f64 {
-    if points.is_empty() {
-        return 0.0;
-    }
-    let corners = [0, 1, 2].map(|k| {
-        let key = vkey(&maps.base_faces, tri.t, tri.corners[k], tri.depth);
+    let mut position = |corner: [u32; 3], depth: u32| {
+        let key = vkey(&maps.base_faces, tri.t, corner, depth);
         *cache
             .entry(key)
-            .or_insert_with(|| vertex_position(maps, tri.t, tri.corners[k], tri.depth).0)
-    });
-    points
+            .or_insert_with(|| vertex_position(maps, tri.t, corner, depth).0)
+    };
+    let corners = [0, 1, 2].map(|k| position(tri.corners[k], tri.depth));
+    let midpoints = [0, 1, 2].map(|e| position(tri.edge_midpoint(e), tri.depth + 1));
+    let distance =
+        |p: &Point3<f64>| point_triangle_distance(p, &corners[0], &corners[1], &corners[2]);
+    let from_vertices = points
         .iter()
-        .map(|&p| {
-            point_triangle_distance(
-                &maps.positions[p as usize],
-                &corners[0],
-                &corners[1],
-                &corners[2],
-            )
-        })
-        .fold(0.0, f64::max)
+        .map(|&p| distance(&maps.positions[p as usize]))
+        .fold(0.0, f64::max);
+    midpoints.iter().map(distance).fold(from_vertices, f64::max)
 }
 
 /// The keys of all leaf corners.
