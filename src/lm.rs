@@ -170,8 +170,8 @@ impl NormalEquations {
 /// F, JᵀJ and Jᵀr of a group of residuals (a grid cell's) that depend on N unknowns only, in
 /// the group's own slot order: fixed-size, so the per-residual update JᵀJ += d dᵀ, Jᵀr += d r
 /// stays in registers, and the group is scattered once ([`NormalEquations::add_local`]).
-/// Only the upper triangle a ≤ b of `jtj` is accumulated and read (JᵀJ is symmetric, and
-/// d_a d_b = d_b d_a exactly, so nothing is lost); the lower triangle stays as set.
+/// Only the upper triangle a ≤ b of `jtj` is read when scattered (JᵀJ is symmetric, and
+/// d_a d_b = d_b d_a exactly, so nothing is lost).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LocalNormalEquations<const N: usize> {
     pub energy: f64,
@@ -191,13 +191,15 @@ impl<const N: usize> Default for LocalNormalEquations<N> {
 
 impl<const N: usize> LocalNormalEquations<N> {
     /// Add one residual r with partial derivatives d (slot order): F += r², Jᵀr += d r,
-    /// JᵀJ += d dᵀ (upper triangle).
-    #[inline]
+    /// JᵀJ += d dᵀ. The whole N×N block is updated, row a by d_a·d: one vector operation
+    /// per row on wide registers, and the lower triangle equals the upper one bit for bit
+    /// (d_a d_b = d_b d_a).
+    #[inline(always)]
     pub fn accumulate(&mut self, r: f64, d: &[f64; N]) {
         self.energy += r * r;
         for a in 0..N {
             self.jtr[a] += d[a] * r;
-            for b in a..N {
+            for b in 0..N {
                 self.jtj[a][b] += d[a] * d[b];
             }
         }
@@ -538,7 +540,8 @@ fn check_normal_equations(ne: &NormalEquations, n: usize, at: &str) -> Result<()
             ne.jtr.len()
         )));
     }
-    if ne.jtj.iter().chain(ne.jtr.iter()).any(|v| !v.is_finite()) {
+    let finite = |values: &[f64]| values.iter().fold(true, |ok, v| ok & v.is_finite());
+    if !(finite(ne.jtj.as_slice()) && finite(ne.jtr.as_slice())) {
         return Err(Error::InvalidArgument(format!(
             "lm: normal equations at {at} have non-finite entries"
         )));
@@ -620,18 +623,23 @@ fn accepted_step(
     // The box of the step h: l − x ≤ h ≤ u − x (ordered because l ≤ u and rounding is monotone).
     let step_lower = lower - &x;
     let step_upper = upper - &x;
+    let spans = RowSpans::of(&ne.jtj);
     loop {
-        let damped = damped_matrix(&ne.jtj, damping.lambda);
         // A QP failure means A + λI is not numerically positive definite at this λ (JᵀJ
         // singular and λ tiny): treat it like a rejected trial and damp more.
-        if let Ok(h) = try_solve_box_qp(&damped, &ne.jtr, &step_lower, &step_upper) {
+        let damped = Damped {
+            a: &ne.jtj,
+            lambda: damping.lambda,
+            spans: &spans,
+        };
+        if let Ok(h) = box_qp(&damped, &ne.jtr, &step_lower, &step_upper) {
             if h.iter().all(|&v| v == 0.0) {
                 return Trial::NoProgress;
             }
             if options.epsx > 0.0 && h.amax() <= options.epsx {
                 return Trial::SmallStep;
             }
-            let pred = predicted_decrease(&ne.jtj, &ne.jtr, &h);
+            let pred = damped.undamped_predicted_decrease(&ne.jtr, &h);
             if pred > 0.0 {
                 let x_trial = trial_point(&run.x, &h, &step_lower, &step_upper, lower, upper);
                 let energy = problem.energy(&x_trial);
@@ -650,15 +658,6 @@ fn accepted_step(
             return Trial::NoProgress;
         }
     }
-}
-
-/// A + λI.
-fn damped_matrix(a: &DMatrix<f64>, lambda: f64) -> DMatrix<f64> {
-    let mut damped = a.clone();
-    for i in 0..damped.nrows().min(damped.ncols()) {
-        damped[(i, i)] += lambda;
-    }
-    damped
 }
 
 /// Decrease of the Gauss–Newton model m(h) = F + 2gᵀh + hᵀAh from h = 0:
@@ -752,7 +751,9 @@ fn relative_energy_change(energy: f64, energy_new: f64) -> f64 {
 /// ends the method (cycle guard), as does a cap of 50 + 10n working-set changes. Multiplier
 /// signs are tested with a rounding allowance of 8(n+1)ε(|g_i| + Σ_j|A_ij h_j|). The cost is
 /// one Cholesky factorisation of A_FF per working-set change, done on A_FF's envelope
-/// ([`EnvelopeCholesky`]): cheap when A is banded, as the grid energies' JᵀJ are.
+/// ([`EnvelopeCholesky`]), and products with A taken over its rows' non-zero spans only:
+/// cheap when A is banded, as the grid energies' JᵀJ are. (Inside [`minimize`] the damped
+/// matrix A + λI of each trial is never formed.)
 ///
 /// # Panics
 /// If the inputs break the preconditions (sizes, NaN, lower > upper, A not numerically
@@ -780,6 +781,22 @@ pub fn try_solve_box_qp(
     upper: &DVector<f64>,
 ) -> Result<DVector<f64>> {
     check_box_qp(a, g, lower, upper)?;
+    let spans = RowSpans::of(a);
+    let matrix = Damped {
+        a,
+        lambda: 0.0,
+        spans: &spans,
+    };
+    box_qp(&matrix, g, lower, upper)
+}
+
+/// The active-set method of [`solve_box_qp`] on A + λI (checked inputs).
+fn box_qp(
+    a: &Damped,
+    g: &DVector<f64>,
+    lower: &DVector<f64>,
+    upper: &DVector<f64>,
+) -> Result<DVector<f64>> {
     let n = g.len();
     let mut h = DVector::from_fn(n, |i, _| clamp_to(0.0, lower[i], upper[i]));
     let mut status: Vec<Status> = (0..n)
@@ -816,6 +833,136 @@ pub fn try_solve_box_qp(
         }
     }
     Ok(h)
+}
+
+/// Where each row of a square matrix has its non-zeros: row i's entries outside
+/// lo_i ..= hi_i are exactly 0, and the span contains the diagonal. A grid energy's JᵀJ is
+/// banded (a line or vertex couples only with its neighbours), so products over the spans
+/// cost O(n·band) instead of O(n²) and, taken in ascending column order, give exactly the
+/// dense products' values (adding an exact 0 changes nothing).
+struct RowSpans {
+    lo: Vec<usize>,
+    hi: Vec<usize>,
+}
+
+impl RowSpans {
+    /// The spans of `a`'s rows, through its columns (contiguous in memory): column j has its
+    /// non-zeros in rows top_j ..= bottom_j, so row i's non-zeros lie in the columns j with
+    /// top_j ≤ i ≤ bottom_j. Exact spans for a symmetric matrix, wider ones (still holding
+    /// every non-zero) otherwise. Cost: the scans down to top_j and up to bottom_j, plus
+    /// O(n·band).
+    fn of(a: &DMatrix<f64>) -> RowSpans {
+        let n = a.nrows();
+        let mut lo: Vec<usize> = (0..n).collect();
+        let mut hi: Vec<usize> = (0..n).collect();
+        for (j, column) in a.column_iter().enumerate() {
+            let column = column.as_slice();
+            let Some(top) = first_non_zero(column) else {
+                continue;
+            };
+            let bottom = last_non_zero(column).unwrap_or(top);
+            for i in top..=bottom {
+                lo[i] = lo[i].min(j);
+                hi[i] = hi[i].max(j);
+            }
+        }
+        RowSpans { lo, hi }
+    }
+}
+
+/// Values per block of the zero scans below: a block is tested as a whole (a comparison the
+/// compiler vectorises), then searched.
+const SCAN_BLOCK: usize = 16;
+
+/// Index of the first non-zero of `values`.
+fn first_non_zero(values: &[f64]) -> Option<usize> {
+    let non_zero = |block: &[f64]| block.iter().fold(false, |any, &v| any | (v != 0.0));
+    let (index, block) = values
+        .chunks(SCAN_BLOCK)
+        .enumerate()
+        .find(|(_, block)| non_zero(block))?;
+    block
+        .iter()
+        .position(|&v| v != 0.0)
+        .map(|k| index * SCAN_BLOCK + k)
+}
+
+/// Index of the last non-zero of `values`.
+fn last_non_zero(values: &[f64]) -> Option<usize> {
+    let non_zero = |block: &[f64]| block.iter().fold(false, |any, &v| any | (v != 0.0));
+    let mut end = values.len();
+    for block in values.rchunks(SCAN_BLOCK) {
+        let start = end - block.len();
+        if non_zero(block) {
+            return block.iter().rposition(|&v| v != 0.0).map(|k| start + k);
+        }
+        end = start;
+    }
+    None
+}
+
+/// The matrix A + λI of one damped step (λ = 0: A itself), with A's [`RowSpans`]; never
+/// formed, so a λ trial costs no n×n copy.
+struct Damped<'a> {
+    a: &'a DMatrix<f64>,
+    lambda: f64,
+    spans: &'a RowSpans,
+}
+
+impl Damped<'_> {
+    /// Entry (i, j) of A + λI.
+    #[inline]
+    fn at(&self, i: usize, j: usize) -> f64 {
+        if i == j {
+            self.a[(i, j)] + self.lambda
+        } else {
+            self.a[(i, j)]
+        }
+    }
+
+    /// Σ_j f(i, j, x_j) over row i's span in ascending j, f given the entry (A + λI)_ij.
+    #[inline]
+    fn row_sum(&self, i: usize, x: &DVector<f64>, f: impl Fn(f64, f64) -> f64) -> f64 {
+        (self.spans.lo[i]..=self.spans.hi[i])
+            .map(|j| f(self.at(i, j), x[j]))
+            .sum()
+    }
+
+    /// ((A + λI) x)_i, summed as nalgebra's dense product sums it (ascending j).
+    #[inline]
+    fn row_times(&self, i: usize, x: &DVector<f64>) -> f64 {
+        let (lo, hi) = (self.spans.lo[i], self.spans.hi[i]);
+        let mut sum = self.at(i, lo) * x[lo];
+        for j in lo + 1..=hi {
+            sum += self.at(i, j) * x[j];
+        }
+        sum
+    }
+
+    /// ((A + λI) x)_i when x is 0 outside the ascending `columns`: the same sum as
+    /// [`Damped::row_times`] without its exact-zero terms (which change nothing).
+    fn row_times_at(&self, i: usize, x: &DVector<f64>, columns: &[usize]) -> f64 {
+        let (lo, hi) = (self.spans.lo[i], self.spans.hi[i]);
+        let from = columns.partition_point(|&j| j < lo);
+        let mut terms = columns[from..]
+            .iter()
+            .take_while(|&&j| j <= hi)
+            .map(|&j| self.at(i, j) * x[j]);
+        match terms.next() {
+            Some(first) => terms.fold(first, |sum, term| sum + term),
+            None => 0.0,
+        }
+    }
+
+    /// [`predicted_decrease`] with the undamped A: −hᵀ(2g + A h).
+    fn undamped_predicted_decrease(&self, jtr: &DVector<f64>, h: &DVector<f64>) -> f64 {
+        let undamped = Damped {
+            lambda: 0.0,
+            ..*self
+        };
+        let ah = DVector::from_fn(h.len(), |i, _| undamped.row_times(i, h));
+        -h.dot(&(jtr * 2.0 + ah))
+    }
 }
 
 /// Where a variable of the box QP stands in the working set.
@@ -872,7 +1019,7 @@ fn check_box_qp(
 /// Minimiser of q over the free variables F with the others held at their current values:
 /// A_FF h_F = −(g + A h_W)_F, where h_W is h with the free entries set to 0.
 fn subspace_minimiser(
-    a: &DMatrix<f64>,
+    a: &Damped,
     g: &DVector<f64>,
     h: &DVector<f64>,
     free: &[usize],
@@ -881,9 +1028,16 @@ fn subspace_minimiser(
     for &i in free {
         held[i] = 0.0;
     }
-    let gradient_held = g + a * held;
-    let rhs = DVector::from_iterator(free.len(), free.iter().map(|&i| -gradient_held[i]));
-    EnvelopeCholesky::factor(free.len(), |p, q| a[(free[p], free[q])])
+    // Only the held variables away from 0 contribute to A h_W.
+    let moved: Vec<usize> = (0..held.len()).filter(|&j| held[j] != 0.0).collect();
+    let rhs = DVector::from_iterator(
+        free.len(),
+        free.iter()
+            .map(|&i| -(g[i] + a.row_times_at(i, &held, &moved))),
+    );
+    // Row p of A_FF starts no earlier than the first free column in row free[p]'s span.
+    let start = |p: usize| free.partition_point(|&f| f < a.spans.lo[free[p]]);
+    EnvelopeCholesky::factor_from(free.len(), start, |p, q| a.at(free[p], free[q]))
         .map(|c| c.solve(&rhs))
         .filter(|t| t.iter().all(|v| v.is_finite()))
         .ok_or_else(|| {
@@ -905,53 +1059,85 @@ fn subspace_minimiser(
 ///   L_ii = √(M_ii − Σ_{k = first_i}^{i−1} L_ik²).
 pub struct EnvelopeCholesky {
     first: Vec<usize>,
-    /// rows[i][k] = L_{i, first_i + k}, k = 0..=i − first_i.
-    rows: Vec<Vec<f64>>,
+    /// Row i of L, L_{i, first_i ..= i}, at `values[offset_i ..= offset_i + i − first_i]`.
+    offset: Vec<usize>,
+    values: Vec<f64>,
 }
 
 impl EnvelopeCholesky {
     /// Factor M given by its entries m(i, j) (only j ≤ i is read); None if a pivot is not
     /// positive and finite (M not numerically positive definite).
     pub fn factor(n: usize, m: impl Fn(usize, usize) -> f64) -> Option<EnvelopeCholesky> {
+        Self::factor_from(n, |_| 0, m)
+    }
+
+    /// [`EnvelopeCholesky::factor`] knowing that row i of M has no non-zero left of column
+    /// start(i) (so the search for first_i starts there).
+    pub fn factor_from(
+        n: usize,
+        start: impl Fn(usize) -> usize,
+        m: impl Fn(usize, usize) -> f64,
+    ) -> Option<EnvelopeCholesky> {
         let first: Vec<usize> = (0..n)
-            .map(|i| (0..i).find(|&j| m(i, j) != 0.0).unwrap_or(i))
+            .map(|i| (start(i).min(i)..i).find(|&j| m(i, j) != 0.0).unwrap_or(i))
             .collect();
-        let mut rows: Vec<Vec<f64>> = Vec::with_capacity(n);
+        let mut offset = Vec::with_capacity(n + 1);
+        offset.push(0);
         for i in 0..n {
-            let mut row = vec![0.0; i - first[i] + 1];
-            for j in first[i]..i {
-                let start = first[i].max(first[j]);
-                let dot: f64 = (start..j)
-                    .map(|k| row[k - first[i]] * rows[j][k - first[j]])
+            offset.push(offset[i] + i - first[i] + 1);
+        }
+        let mut l = EnvelopeCholesky {
+            first,
+            values: vec![0.0; offset[n]],
+            offset,
+        };
+        for i in 0..n {
+            let fi = l.first[i];
+            let (done, row) = l.values.split_at_mut(l.offset[i]);
+            for j in fi..i {
+                let fj = l.first[j];
+                let row_j = &done[l.offset[j]..l.offset[j + 1]];
+                let start = fi.max(fj);
+                let dot: f64 = row[start - fi..j - fi]
+                    .iter()
+                    .zip(&row_j[start - fj..j - fj])
+                    .map(|(a, b)| a * b)
                     .sum();
-                row[j - first[i]] = (m(i, j) - dot) / rows[j][j - first[j]];
+                row[j - fi] = (m(i, j) - dot) / row_j[j - fj];
             }
-            let pivot = m(i, i) - row[..i - first[i]].iter().map(|v| v * v).sum::<f64>();
+            let pivot = m(i, i) - row[..i - fi].iter().map(|v| v * v).sum::<f64>();
             if !(pivot > 0.0 && pivot.is_finite()) {
                 return None;
             }
-            row[i - first[i]] = pivot.sqrt();
-            rows.push(row);
+            row[i - fi] = pivot.sqrt();
         }
-        Some(EnvelopeCholesky { first, rows })
+        Some(l)
+    }
+
+    /// Row i of L from column first_i to the diagonal.
+    fn row(&self, i: usize) -> &[f64] {
+        &self.values[self.offset[i]..self.offset[i + 1]]
     }
 
     /// M⁻¹ b: L y = b forwards, then Lᵀ x = y backwards (column by column of L).
     pub fn solve(&self, b: &DVector<f64>) -> DVector<f64> {
-        let n = self.rows.len();
+        let n = self.first.len();
         let mut x = b.clone();
         for i in 0..n {
-            let row = &self.rows[i];
-            let dot: f64 = (self.first[i]..i)
-                .map(|k| row[k - self.first[i]] * x[k])
+            let (row, fi) = (self.row(i), self.first[i]);
+            let dot: f64 = row[..i - fi]
+                .iter()
+                .zip(&x.as_slice()[fi..i])
+                .map(|(l, x)| l * x)
                 .sum();
-            x[i] = (x[i] - dot) / row[i - self.first[i]];
+            x[i] = (x[i] - dot) / row[i - fi];
         }
         for i in (0..n).rev() {
-            let row = &self.rows[i];
-            x[i] /= row[i - self.first[i]];
-            for k in self.first[i]..i {
-                x[k] -= row[k - self.first[i]] * x[i];
+            let (row, fi) = (self.row(i), self.first[i]);
+            x[i] /= row[i - fi];
+            let xi = x[i];
+            for (xk, l) in x.as_mut_slice()[fi..i].iter_mut().zip(row) {
+                *xk -= l * xi;
             }
         }
         x
@@ -1004,7 +1190,7 @@ fn move_toward(
 /// (λ_i < −tol_i at a lower bound, λ_i > tol_i at an upper bound), tol_i the rounding allowance
 /// 8(n+1)ε(|g_i| + Σ_j |A_ij h_j|). None: h satisfies the KKT conditions.
 fn most_violated_bound(
-    a: &DMatrix<f64>,
+    a: &Damped,
     g: &DVector<f64>,
     h: &DVector<f64>,
     status: &[Status],
@@ -1017,14 +1203,8 @@ fn most_violated_bound(
             Status::Upper => 1.0,
             Status::Free | Status::Fixed => continue,
         };
-        let row = a.row(i);
-        let multiplier = g[i] + row.iter().zip(h.iter()).map(|(&a, &h)| a * h).sum::<f64>();
-        let scale = g[i].abs()
-            + row
-                .iter()
-                .zip(h.iter())
-                .map(|(&a, &h)| (a * h).abs())
-                .sum::<f64>();
+        let multiplier = g[i] + a.row_sum(i, h, |a, h| a * h);
+        let scale = g[i].abs() + a.row_sum(i, h, |a, h| (a * h).abs());
         let tolerance = 8.0 * (n as f64 + 1.0) * f64::EPSILON * scale;
         let wrong = violation * multiplier; // > 0 when the bound holds h back from descent
         if wrong > tolerance && worst.is_none_or(|(w, _)| wrong > w) {

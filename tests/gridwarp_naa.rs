@@ -311,3 +311,54 @@ fn results_are_bit_identical_with_one_and_two_threads() {
         assert_eq!(x.lm.energy.to_bits(), y.lm.energy.to_bits());
     }
 }
+
+#[test]
+fn residuals_equal_the_formula_with_components_of_one_or_several_resolutions() {
+    // On the rest vertices W_s = (1, 0), W_t = (0, 1) exactly, so r^s = σ(‖D_s(p)‖ − o_s) and
+    // r^t = σ(‖D_t(p)‖ − o_t) at the rest sample points, each component of D sampled
+    // bilinearly on its own field. Six fields of one resolution take the interleaved path, a
+    // component of another resolution the field-by-field one: both give the formula's values.
+    let rigidity = disc_rigidity(32, &[(0.4, 0.6, 0.2)], 0.2);
+    let rest = flat_rest(32, rigidity);
+    let grid = Grid::new(vec![0.0, 0.3, 0.55, 1.0], vec![0.0, 0.45, 1.0]).unwrap();
+    let component = |size: usize, f: fn(f64, f64) -> f64| Field::from_fn(size, size, f);
+    let jacobian = |z_size: usize| DeformedJacobian {
+        d_s: VectorField {
+            x: component(24, |s, t| 1.0 + 0.3 * s * t),
+            y: component(24, |s, t| 0.2 * (3.0 * s).sin() + 0.1 * t),
+            z: component(z_size, |s, t| 0.4 * s - 0.2 * t * t),
+        },
+        d_t: VectorField {
+            x: component(24, |s, t| 0.1 * s * s - 0.05 * t),
+            y: component(24, |s, t| 1.2 - 0.4 * t * s),
+            z: component(24, |s, t| 0.3 * (2.0 * t).cos() + 0.05 * s),
+        },
+    };
+    let (k, l) = (3, 2);
+    let samples = reparam::gridwarp::energy::rest_samples(&rest, &grid, k, l);
+    for z_size in [24, 17] {
+        let deformed = jacobian(z_size);
+        let energy = NaaEnergy::new(&rest, &grid, &deformed, k, l);
+        let residuals = energy.residuals(&energy.rest_vertices().to_unknowns());
+        let mut expected = Vec::new();
+        let rows = grid.t.len() - 1;
+        for (cell, cell_samples) in samples.chunks(k * l).enumerate() {
+            let (i, j) = (cell / rows, cell % rows);
+            let (h, kj) = (grid.s[i + 1] - grid.s[i], grid.t[j + 1] - grid.t[j]);
+            for p in cell_samples {
+                let (s, t) = (grid.s[i] + p.alpha * h, grid.t[j] + p.beta * kj);
+                let length = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                expected.push(p.sigma * (length(deformed.d_s.value(s, t)) - p.o_s));
+                expected.push(p.sigma * (length(deformed.d_t.value(s, t)) - p.o_t));
+            }
+        }
+        assert_eq!(residuals.len(), expected.len());
+        for (n, (r, e)) in residuals.iter().zip(&expected).enumerate() {
+            // The same operations on the same values: equal up to the last bit or two.
+            assert!(
+                (r - e).abs() <= 4.0 * f64::EPSILON * e.abs().max(1e-300),
+                "z field {z_size}², residual {n}: {r:e} vs {e:e}"
+            );
+        }
+    }
+}

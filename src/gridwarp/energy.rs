@@ -51,28 +51,66 @@ pub struct RestSample {
 /// area w = h_i k_j/(K L). Shared by the axis-aligned, non-axis-aligned and GPU energies.
 pub fn rest_samples(rest: &RestFields, rest_grid: &Grid, k: usize, l: usize) -> Vec<RestSample> {
     let (k, l) = (k.max(1), l.max(1));
-    let mut samples = Vec::with_capacity((rest_grid.s.len() - 1) * (rest_grid.t.len() - 1) * k * l);
-    for i in 0..rest_grid.s.len() - 1 {
-        let h = rest_grid.s[i + 1] - rest_grid.s[i];
-        for j in 0..rest_grid.t.len() - 1 {
-            let kj = rest_grid.t[j + 1] - rest_grid.t[j];
-            let w = h * kj / (k * l) as f64;
-            for a in 0..k {
-                for b in 0..l {
-                    let (alpha, beta) = ((a as f64 + 0.5) / k as f64, (b as f64 + 0.5) / l as f64);
-                    let (s, t) = (rest_grid.s[i] + alpha * h, rest_grid.t[j] + beta * kj);
-                    samples.push(RestSample {
-                        alpha,
-                        beta,
-                        sigma: w.sqrt() * rest.rigidity.nearest(s, t),
-                        o_s: rest.o_s.bilinear(s, t).value,
-                        o_t: rest.o_t.bilinear(s, t).value,
-                    });
+    let columns = RestAxis::along(&rest_grid.s, k, [rest.o_s.width, rest.o_t.width]);
+    let rows = RestAxis::along(&rest_grid.t, l, [rest.o_s.height, rest.o_t.height]);
+    // One cell column per parallel task, concatenated in column order.
+    let per_column: Vec<Vec<RestSample>> = columns
+        .par_chunks(k)
+        .enumerate()
+        .map(|(i, column)| {
+            let h = rest_grid.s[i + 1] - rest_grid.s[i];
+            let mut samples = Vec::with_capacity(column.len() * rows.len());
+            for (j, row) in rows.chunks(l).enumerate() {
+                let kj = rest_grid.t[j + 1] - rest_grid.t[j];
+                let root_w = (h * kj / (k * l) as f64).sqrt();
+                for x in column {
+                    for y in row {
+                        samples.push(RestSample {
+                            alpha: x.fraction,
+                            beta: y.fraction,
+                            sigma: root_w * rest.rigidity.nearest(x.s, y.s),
+                            o_s: rest.o_s.bilinear_at(&x.o_s, &y.o_s).value,
+                            o_t: rest.o_t.bilinear_at(&x.o_t, &y.o_t).value,
+                        });
+                    }
                 }
             }
+            samples
+        })
+        .collect();
+    per_column.concat()
+}
+
+/// One coordinate of the rest samples along one axis: the midpoint fraction (a + ½)/K in its
+/// cell, the rest coordinate ŝ_i + α h_i and its texel positions on the ‖O_s‖ and ‖O_t‖
+/// fields, found once per column (row) of samples instead of once per sample.
+struct RestAxis {
+    fraction: f64,
+    s: f64,
+    o_s: Axis,
+    o_t: Axis,
+}
+
+impl RestAxis {
+    /// The K midpoints of every cell along `lines` (cell-major), `texels` the ‖O_s‖ and
+    /// ‖O_t‖ fields' sizes along that axis.
+    fn along(lines: &[f64], per_cell: usize, texels: [usize; 2]) -> Vec<RestAxis> {
+        let mut out = Vec::with_capacity((lines.len() - 1) * per_cell);
+        for i in 0..lines.len() - 1 {
+            let h = lines[i + 1] - lines[i];
+            for a in 0..per_cell {
+                let fraction = (a as f64 + 0.5) / per_cell as f64;
+                let s = lines[i] + fraction * h;
+                out.push(RestAxis {
+                    fraction,
+                    s,
+                    o_s: Axis::new(s, texels[0]),
+                    o_t: Axis::new(s, texels[1]),
+                });
+            }
         }
+        out
     }
-    samples
 }
 
 /// The axis-aligned energy of one frame as a least-squares problem in the interior grid lines.
@@ -169,9 +207,56 @@ impl<'a> AaEnergy<'a> {
         }
     }
 
+    /// Visit every sample of cell `cell` = (i, j) at the grid `g` with a non-zero weight:
+    /// `visit(cell, x, y, p)`, x and y the texel positions of its warped point p = (f, g).
+    #[inline(always)]
+    fn for_each_sample(
+        &self,
+        g: &Grid,
+        axes: &WarpedAxes,
+        cell: usize,
+        mut visit: impl FnMut(&WarpedCell, &Axis, &Axis, &RestSample),
+    ) {
+        let (i, j) = (cell / self.rows(), cell % self.rows());
+        let h = self.rest_grid.s[i + 1] - self.rest_grid.s[i];
+        let kj = self.rest_grid.t[j + 1] - self.rest_grid.t[j];
+        let warped = WarpedCell {
+            h,
+            kj,
+            a: (g.s[i + 1] - g.s[i]) / h,
+            b: (g.t[j + 1] - g.t[j]) / kj,
+        };
+        let per_cell = self.k * self.l;
+        let samples = &self.samples[cell * per_cell..][..per_cell];
+        let column_axes = &axes.columns[i * self.k..][..self.k];
+        let row_axes = &axes.rows[j * self.l..][..self.l];
+        for (x, column) in column_axes.iter().zip(samples.chunks_exact(self.l)) {
+            for (y, p) in row_axes.iter().zip(column) {
+                if p.sigma != 0.0 {
+                    visit(&warped, x, y, p);
+                }
+            }
+        }
+    }
+
+    /// Σ r² over cell `cell`'s residuals: values only, no field gradients (an energy-only
+    /// evaluation of a damping trial). Same residuals, same order as
+    /// [`AaEnergy::for_each_residual`].
+    fn cell_energy(&self, g: &Grid, axes: &WarpedAxes, cell: usize) -> f64 {
+        let mut e = 0.0;
+        self.for_each_sample(g, axes, cell, |w, x, y, p| {
+            let cs = self.deformed.d_s.bilinear_at(x, y).value;
+            let ct = self.deformed.d_t.bilinear_at(x, y).value;
+            let (rs, rt) = (w.residual_s(cs, p), w.residual_t(ct, p));
+            e += rs * rs;
+            e += rt * rt;
+        });
+        e
+    }
+
     /// Visit every residual of cell `cell` = (i, j) at the grid `g`: `visit(r, ∂r/∂x)`, the
     /// derivatives in slot order (s_i, s_{i+1}, t_j, t_{j+1}) of [`AaEnergy::cell_unknowns`].
-    #[inline]
+    #[inline(always)]
     fn for_each_residual(
         &self,
         g: &Grid,
@@ -179,47 +264,33 @@ impl<'a> AaEnergy<'a> {
         cell: usize,
         mut visit: impl FnMut(f64, &[f64; 4]),
     ) {
-        let (i, j) = (cell / self.rows(), cell % self.rows());
-        let h = self.rest_grid.s[i + 1] - self.rest_grid.s[i];
-        let kj = self.rest_grid.t[j + 1] - self.rest_grid.t[j];
-        let a = (g.s[i + 1] - g.s[i]) / h;
-        let b = (g.t[j + 1] - g.t[j]) / kj;
-        let per_cell = self.k * self.l;
-        let samples = &self.samples[cell * per_cell..][..per_cell];
-        let column_axes = &axes.columns[i * self.k..][..self.k];
-        let row_axes = &axes.rows[j * self.l..][..self.l];
-        for (ka, x) in column_axes.iter().enumerate() {
-            for (lb, y) in row_axes.iter().enumerate() {
-                let p = &samples[ka * self.l + lb];
-                if p.sigma == 0.0 {
-                    continue;
-                }
-                // c_s, c_t at the warped point p = (f, g).
-                let cs: Sample = self.deformed.d_s.bilinear_at(x, y);
-                let ct: Sample = self.deformed.d_t.bilinear_at(x, y);
-                let (al, be, sg) = (p.alpha, p.beta, p.sigma);
-                // r^s = σ (c_s a − o_s) and its four partial derivatives (notes).
-                visit(
-                    sg * (cs.value * a - p.o_s),
-                    &[
-                        sg * (a * cs.ds * (1.0 - al) - cs.value / h),
-                        sg * (a * cs.ds * al + cs.value / h),
-                        sg * a * cs.dt * (1.0 - be),
-                        sg * a * cs.dt * be,
-                    ],
-                );
-                // r^t = σ (c_t b − o_t), symmetric.
-                visit(
-                    sg * (ct.value * b - p.o_t),
-                    &[
-                        sg * b * ct.ds * (1.0 - al),
-                        sg * b * ct.ds * al,
-                        sg * (b * ct.dt * (1.0 - be) - ct.value / kj),
-                        sg * (b * ct.dt * be + ct.value / kj),
-                    ],
-                );
-            }
-        }
+        self.for_each_sample(g, axes, cell, |w, x, y, p| {
+            // c_s, c_t and their gradients at the warped point p = (f, g).
+            let cs: Sample = self.deformed.d_s.bilinear_at(x, y);
+            let ct: Sample = self.deformed.d_t.bilinear_at(x, y);
+            let (al, be, sg) = (p.alpha, p.beta, p.sigma);
+            let (a, b, h, kj) = (w.a, w.b, w.h, w.kj);
+            // r^s = σ (c_s a − o_s) and its four partial derivatives (notes).
+            visit(
+                w.residual_s(cs.value, p),
+                &[
+                    sg * (a * cs.ds * (1.0 - al) - cs.value / h),
+                    sg * (a * cs.ds * al + cs.value / h),
+                    sg * a * cs.dt * (1.0 - be),
+                    sg * a * cs.dt * be,
+                ],
+            );
+            // r^t = σ (c_t b − o_t), symmetric.
+            visit(
+                w.residual_t(ct.value, p),
+                &[
+                    sg * b * ct.ds * (1.0 - al),
+                    sg * b * ct.ds * al,
+                    sg * (b * ct.dt * (1.0 - be) - ct.value / kj),
+                    sg * (b * ct.dt * be + ct.value / kj),
+                ],
+            );
+        });
     }
 
     /// All residuals at `x`, in a fixed order (cell column, row, sample, axis). For tests.
@@ -270,6 +341,29 @@ impl<'a> AaEnergy<'a> {
     }
 }
 
+/// What a cell's residuals need of the grid: the rest cell size h_i × k_j and the slopes
+/// a_i = (s_{i+1} − s_i)/h_i, b_j = (t_{j+1} − t_j)/k_j.
+struct WarpedCell {
+    h: f64,
+    kj: f64,
+    a: f64,
+    b: f64,
+}
+
+impl WarpedCell {
+    /// r^s = σ (c_s a_i − o_s), c_s = ‖D_s‖ at the warped point.
+    #[inline(always)]
+    fn residual_s(&self, cs: f64, p: &RestSample) -> f64 {
+        p.sigma * (cs * self.a - p.o_s)
+    }
+
+    /// r^t = σ (c_t b_j − o_t), c_t = ‖D_t‖ at the warped point.
+    #[inline(always)]
+    fn residual_t(&self, ct: f64, p: &RestSample) -> f64 {
+        p.sigma * (ct * self.b - p.o_t)
+    }
+}
+
 /// Cells per parallel task: enough work (≥ a few thousand samples at 8×8) to amortise rayon's
 /// scheduling; the results do not depend on it.
 const CELLS_PER_TASK: usize = 4;
@@ -286,11 +380,7 @@ impl Residuals for AaEnergy<'_> {
         let per_cell: Vec<f64> = (0..self.cells())
             .into_par_iter()
             .with_min_len(CELLS_PER_TASK)
-            .map(|cell| {
-                let mut e = 0.0;
-                self.for_each_residual(&g, &axes, cell, |r, _| e += r * r);
-                e
-            })
+            .map(|cell| self.cell_energy(&g, &axes, cell))
             .collect();
         per_cell.iter().sum()
     }

@@ -50,11 +50,11 @@ use rayon::prelude::*;
 
 use super::bounds::{foldover, loop_distance, merge, BoundOptions, Interval};
 use super::energy::{rest_samples, RestFields, RestSample};
-use super::field::{Axis, Field, Sample};
+use super::field::{interpolate, Axis, Field, Sample};
 use super::grid::Grid;
-use super::solve::SolveOptions;
+use super::solve::{minimize_and_rest_energy, SolveOptions};
 use crate::error::{Error, Result};
-use crate::lm::{minimize, Bounds, LmReport, LocalNormalEquations, NormalEquations, Residuals};
+use crate::lm::{Bounds, LmReport, LocalNormalEquations, NormalEquations, Residuals};
 
 /// A 3-vector field over the unit square: one scalar [`Field`] per component.
 #[derive(Clone, Debug, PartialEq)]
@@ -82,15 +82,14 @@ impl VectorField {
         }
     }
 
-    /// The three components at (s, t), the texel positions found once for all three
-    /// ([`Field::bilinear_at`] redoes them only for a component of another resolution).
+    /// The three components at the [`Axis`] positions x, y ([`Field::bilinear_at`]: redone
+    /// for a component of another resolution).
     #[inline(always)]
-    fn bilinear(&self, s: f64, t: f64) -> VectorSample {
-        let (x, y) = (Axis::new(s, self.x.width), Axis::new(t, self.x.height));
+    fn bilinear_at(&self, x: &Axis, y: &Axis) -> VectorSample {
         let c: [Sample; 3] = [
-            self.x.bilinear_at(&x, &y),
-            self.y.bilinear_at(&x, &y),
-            self.z.bilinear_at(&x, &y),
+            self.x.bilinear_at(x, y),
+            self.y.bilinear_at(x, y),
+            self.z.bilinear_at(x, y),
         ];
         VectorSample {
             value: c.map(|c| c.value),
@@ -269,7 +268,12 @@ pub struct NaaEnergy<'a> {
     deformed: &'a DeformedJacobian,
     /// Samples of cell (i, j) at `samples[(i·(N−1) + j)·K·L ..]`.
     samples: Vec<RestSample>,
+    /// Per sample, the bilinear weights' slopes that do not depend on the unknowns:
+    /// [(1−β)/h_i, β/h_i, (1−α)/k_j, α/k_j] (∂φ_c/∂s and ∂φ_c/∂t up to sign).
+    weight_slopes: Vec<[f64; 4]>,
     per_cell: usize,
+    /// The six components of J_D interleaved per texel, when they share one resolution.
+    packed: Option<PackedJacobian>,
 }
 
 impl<'a> NaaEnergy<'a> {
@@ -283,13 +287,33 @@ impl<'a> NaaEnergy<'a> {
         l: usize,
     ) -> Self {
         let samples = rest_samples(rest, rest_grid, k, l);
-        let (k, l) = (k.max(1), l.max(1));
+        let per_cell = k.max(1) * l.max(1);
+        let rows = rest_grid.t.len() - 1;
+        let weight_slopes = samples
+            .chunks_exact(per_cell)
+            .enumerate()
+            .flat_map(|(cell, cell_samples)| {
+                let (i, j) = (cell / rows, cell % rows);
+                let h = rest_grid.s[i + 1] - rest_grid.s[i];
+                let kj = rest_grid.t[j + 1] - rest_grid.t[j];
+                cell_samples.iter().map(move |p| {
+                    [
+                        (1.0 - p.beta) / h,
+                        p.beta / h,
+                        (1.0 - p.alpha) / kj,
+                        p.alpha / kj,
+                    ]
+                })
+            })
+            .collect();
         NaaEnergy {
             rest_grid,
             rest_vertices: VertexGrid::from_grid(rest_grid),
             deformed,
             samples,
-            per_cell: k * l,
+            weight_slopes,
+            per_cell,
+            packed: PackedJacobian::new(deformed),
         }
     }
 
@@ -312,12 +336,18 @@ impl<'a> NaaEnergy<'a> {
         self.rest_grid.t.len() - 1
     }
 
-    /// J_D = [D_s D_t] at the point p, with its derivatives along s and t.
+    /// J_D = [D_s D_t] at the point p, with its derivatives along s and t (each component
+    /// sampled as [`Field::bilinear`] samples it).
     #[inline(always)]
     fn jacobian_at(&self, p: [f64; 2]) -> (VectorSample, VectorSample) {
+        if let Some(packed) = &self.packed {
+            return packed.bilinear(p);
+        }
+        let first = &self.deformed.d_s.x;
+        let (x, y) = (Axis::new(p[0], first.width), Axis::new(p[1], first.height));
         (
-            self.deformed.d_s.bilinear(p[0], p[1]),
-            self.deformed.d_t.bilinear(p[0], p[1]),
+            self.deformed.d_s.bilinear_at(&x, &y),
+            self.deformed.d_t.bilinear_at(&x, &y),
         )
     }
 
@@ -338,81 +368,102 @@ impl<'a> NaaEnergy<'a> {
         [a[0], a[1], b[0], b[1], c[0], c[1], d[0], d[1]]
     }
 
+    /// The bilinear warp of cell `cell` = (i, j) at the vertices `g`.
+    fn cell_warp(&self, g: &VertexGrid, cell: usize) -> CellWarp {
+        let (i, j) = (cell / self.rows(), cell % self.rows());
+        CellWarp::new(
+            [
+                g.at(i, j),
+                g.at(i + 1, j),
+                g.at(i, j + 1),
+                g.at(i + 1, j + 1),
+            ],
+            self.rest_grid.s[i + 1] - self.rest_grid.s[i],
+            self.rest_grid.t[j + 1] - self.rest_grid.t[j],
+        )
+    }
+
+    /// The rest samples of cell `cell`.
+    fn cell_samples(&self, cell: usize) -> &[RestSample] {
+        &self.samples[cell * self.per_cell..][..self.per_cell]
+    }
+
+    /// The two residuals (r^s, r^t) of one sample, without derivatives (what an energy-only
+    /// evaluation needs): r = σ (‖J_D(p) W_·‖ − o_·).
+    #[inline(always)]
+    fn sample_residuals(&self, warp: &CellWarp, p: &RestSample) -> [f64; 2] {
+        let w = warp.at(p.alpha, p.beta);
+        let (ds, dt) = self.jacobian_at(w.pos);
+        [
+            p.sigma * (norm(image(&ds.value, &dt.value, w.w_s)) - p.o_s),
+            p.sigma * (norm(image(&ds.value, &dt.value, w.w_t)) - p.o_t),
+        ]
+    }
+
+    /// Σ r² over cell `cell`'s residuals (in the order of [`NaaEnergy::for_each_residual`]).
+    fn cell_energy(&self, g: &VertexGrid, cell: usize) -> f64 {
+        let warp = self.cell_warp(g, cell);
+        let mut e = 0.0;
+        for p in self.cell_samples(cell) {
+            if p.sigma == 0.0 {
+                continue;
+            }
+            let [rs, rt] = self.sample_residuals(&warp, p);
+            e += rs * rs;
+            e += rt * rt;
+        }
+        e
+    }
+
     /// Visit every residual of cell `cell` = (i, j) at the vertices `g`: `visit(r, ∂r/∂x)`, the
-    /// derivatives in the slot order of [`NaaEnergy::cell_unknowns`].
-    #[inline]
+    /// derivatives in the slot order of [`NaaEnergy::cell_unknowns`] (module docs, "Analytic
+    /// Jacobian").
+    #[inline(always)]
     fn for_each_residual(
         &self,
         g: &VertexGrid,
         cell: usize,
         mut visit: impl FnMut(f64, &[f64; 8]),
     ) {
-        let (i, j) = (cell / self.rows(), cell % self.rows());
-        let h = self.rest_grid.s[i + 1] - self.rest_grid.s[i];
-        let kj = self.rest_grid.t[j + 1] - self.rest_grid.t[j];
-        let samples = &self.samples[cell * self.per_cell..][..self.per_cell];
-        let (p00, p10, p01, p11) = (
-            g.at(i, j),
-            g.at(i + 1, j),
-            g.at(i, j + 1),
-            g.at(i + 1, j + 1),
-        );
-        // Edge vectors and the twist P11 − P10 − P01 + P00 (exactly 0 on a rectangle, so that
-        // an axis-aligned grid reproduces the AA sample points and slopes bit for bit).
-        let e_a0 = sub(p10, p00); // ∂W/∂α at β = 0
-        let e_b0 = sub(p01, p00); // ∂W/∂β at α = 0
-        let twist = sub(sub(p11, p10), e_b0);
-        for p in samples {
+        let warp = self.cell_warp(g, cell);
+        let slopes = &self.weight_slopes[cell * self.per_cell..][..self.per_cell];
+        for (p, &[bs, bt, as_, at]) in self.cell_samples(cell).iter().zip(slopes) {
             if p.sigma == 0.0 {
                 continue;
             }
             let (al, be, sg) = (p.alpha, p.beta, p.sigma);
-            let w_a = add(e_a0, scale(be, twist));
-            let w_b = add(e_b0, scale(al, twist));
-            let w_s = [w_a[0] / h, w_a[1] / h];
-            let w_t = [w_b[0] / kj, w_b[1] / kj];
-            let pos = add(
-                add(p00, scale(al, e_a0)),
-                add(scale(be, e_b0), scale(al * be, twist)),
-            );
-            let (ds, dt) = self.jacobian_at(pos);
+            let w = warp.at(al, be);
+            let (ds, dt) = self.jacobian_at(w.pos);
+            // φ_c and ∂φ_c/∂s = (∂φ_c/∂α)/h, ∂φ_c/∂t = (∂φ_c/∂β)/k for the corners 00, 10, 01, 11.
             let phi = [
                 (1.0 - al) * (1.0 - be),
                 al * (1.0 - be),
                 (1.0 - al) * be,
                 al * be,
             ];
-            let dphi_da = [-(1.0 - be), 1.0 - be, -be, be];
-            let dphi_db = [-(1.0 - al), -al, 1.0 - al, al];
-            for (w, dphi, o, len) in [(w_s, dphi_da, p.o_s, h), (w_t, dphi_db, p.o_t, kj)] {
-                // q = J_D(p) w = D_s w_s + D_t w_t.
-                let q: [f64; 3] = std::array::from_fn(|c| ds.value[c] * w[0] + dt.value[c] * w[1]);
-                let norm = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
-                let u = if norm > 0.0 {
-                    q.map(|v| v / norm)
+            let dphi_ds = [-bs, bs, -bt, bt];
+            let dphi_dt = [-as_, -at, as_, at];
+            for (w, dphi, o) in [(w.w_s, dphi_ds, p.o_s), (w.w_t, dphi_dt, p.o_t)] {
+                let q = image(&ds.value, &dt.value, w);
+                let length = norm(q);
+                let u = if length > 0.0 {
+                    q.map(|v| v / length)
                 } else {
                     [0.0; 3]
                 };
                 // m = J_Dᵀ u; g_k = u · (∂_k J_D) w.
                 let m = [dot(ds.value, u), dot(dt.value, u)];
                 let gk = [
-                    dot(
-                        u,
-                        std::array::from_fn(|c| ds.ds[c] * w[0] + dt.ds[c] * w[1]),
-                    ),
-                    dot(
-                        u,
-                        std::array::from_fn(|c| ds.dt[c] * w[0] + dt.dt[c] * w[1]),
-                    ),
+                    dot(u, image(&ds.ds, &dt.ds, w)),
+                    dot(u, image(&ds.dt, &dt.dt, w)),
                 ];
                 let mut d = [0.0; 8];
                 for c in 0..4 {
-                    let dp = dphi[c] / len;
                     for k in 0..2 {
-                        d[2 * c + k] = sg * (dp * m[k] + phi[c] * gk[k]);
+                        d[2 * c + k] = sg * (dphi[c] * m[k] + phi[c] * gk[k]);
                     }
                 }
-                visit(sg * (norm - o), &d);
+                visit(sg * (length - o), &d);
             }
         }
     }
@@ -448,10 +499,157 @@ impl<'a> NaaEnergy<'a> {
 
     /// One cell's energy and normal equations over its eight slots.
     pub fn cell_normal_equations(&self, g: &VertexGrid, cell: usize) -> LocalNormalEquations<8> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F, checked just above.
+            return unsafe { self.cell_normal_equations_avx512(g, cell) };
+        }
+        self.cell_normal_equations_baseline(g, cell)
+    }
+
+    /// [`NaaEnergy::cell_normal_equations`] compiled with AVX-512: the 8×8 accumulation
+    /// fits in vector registers. Same IEEE operations in the same order as the baseline
+    /// (Rust never fuses a multiply and an add by itself): the same results bit for bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn cell_normal_equations_avx512(&self, g: &VertexGrid, cell: usize) -> LocalNormalEquations<8> {
+        self.cell_normal_equations_baseline(g, cell)
+    }
+
+    /// The accumulation itself: JᵀJ += d dᵀ, Jᵀr += d r, F += r² over the cell's residuals.
+    #[inline(always)]
+    fn cell_normal_equations_baseline(
+        &self,
+        g: &VertexGrid,
+        cell: usize,
+    ) -> LocalNormalEquations<8> {
         let mut local = LocalNormalEquations::default();
         self.for_each_residual(g, cell, |r, d| local.accumulate(r, d));
         local
     }
+}
+
+/// The six scalar fields of a [`DeformedJacobian`] (D_s.x, D_s.y, D_s.z, D_t.x, D_t.y, D_t.z)
+/// interleaved per texel, so that a sample finds its texel positions once and reads 4
+/// neighbouring texels instead of 24 scattered values. Same interpolation
+/// ([`super::field::interpolate`]), same values as sampling the fields one by one.
+struct PackedJacobian {
+    width: usize,
+    height: usize,
+    /// Texel (x, y) at y·width + x.
+    texels: Vec<[f64; 6]>,
+}
+
+impl PackedJacobian {
+    /// The interleaved fields, or None if the six do not share one resolution.
+    fn new(d: &DeformedJacobian) -> Option<PackedJacobian> {
+        let fields = [&d.d_s.x, &d.d_s.y, &d.d_s.z, &d.d_t.x, &d.d_t.y, &d.d_t.z];
+        let (width, height) = (fields[0].width, fields[0].height);
+        if fields
+            .iter()
+            .any(|f| (f.width, f.height) != (width, height))
+        {
+            return None;
+        }
+        let texels = (0..width * height)
+            .map(|i| fields.map(|f| f.values[i]))
+            .collect();
+        Some(PackedJacobian {
+            width,
+            height,
+            texels,
+        })
+    }
+
+    /// D_s and D_t at p with their derivatives along s and t.
+    #[inline(always)]
+    fn bilinear(&self, p: [f64; 2]) -> (VectorSample, VectorSample) {
+        let (x, y) = (Axis::new(p[0], self.width), Axis::new(p[1], self.height));
+        let (row0, row1) = (y.lower * self.width, y.upper * self.width);
+        let [t00, t10, t01, t11] = [
+            self.texels[row0 + x.lower],
+            self.texels[row0 + x.upper],
+            self.texels[row1 + x.lower],
+            self.texels[row1 + x.upper],
+        ];
+        let at = |c: usize| interpolate(&x, &y, [t00[c], t10[c], t01[c], t11[c]]);
+        let c: [Sample; 6] = [at(0), at(1), at(2), at(3), at(4), at(5)];
+        let vector = |c: &[Sample]| VectorSample {
+            value: [c[0].value, c[1].value, c[2].value],
+            ds: [c[0].ds, c[1].ds, c[2].ds],
+            dt: [c[0].dt, c[1].dt, c[2].dt],
+        };
+        (vector(&c[..3]), vector(&c[3..]))
+    }
+}
+
+/// The bilinear warp of one rest cell of size h × k onto the quadrilateral of its corners
+/// P00, P10, P01, P11 (module docs, "Energy"):
+///   W(α, β) = P00 + α e_α + β e_β + αβ τ,  e_α = P10 − P00,  e_β = P01 − P00,
+///   τ = P11 − P10 − P01 + P00 (the twist; exactly 0 on a rectangle, so that an axis-aligned
+///   grid reproduces the AA sample points and slopes bit for bit).
+struct CellWarp {
+    p00: [f64; 2],
+    e_a0: [f64; 2],
+    e_b0: [f64; 2],
+    twist: [f64; 2],
+    h: f64,
+    k: f64,
+}
+
+/// One sample point of a [`CellWarp`]: p = W(α, β), W_s = (∂W/∂α)/h, W_t = (∂W/∂β)/k.
+struct WarpedPoint {
+    pos: [f64; 2],
+    w_s: [f64; 2],
+    w_t: [f64; 2],
+}
+
+impl CellWarp {
+    /// The warp of the corners [P00, P10, P01, P11] of a rest cell of size h × k.
+    fn new([p00, p10, p01, p11]: [[f64; 2]; 4], h: f64, k: f64) -> CellWarp {
+        let e_a0 = sub(p10, p00); // ∂W/∂α at β = 0
+        let e_b0 = sub(p01, p00); // ∂W/∂β at α = 0
+        CellWarp {
+            p00,
+            e_a0,
+            e_b0,
+            twist: sub(sub(p11, p10), e_b0),
+            h,
+            k,
+        }
+    }
+
+    /// W, W_s and W_t at (α, β): ∂W/∂α = e_α + β τ, ∂W/∂β = e_β + α τ.
+    #[inline(always)]
+    fn at(&self, al: f64, be: f64) -> WarpedPoint {
+        let w_a = add(self.e_a0, scale(be, self.twist));
+        let w_b = add(self.e_b0, scale(al, self.twist));
+        WarpedPoint {
+            pos: add(
+                add(self.p00, scale(al, self.e_a0)),
+                add(scale(be, self.e_b0), scale(al * be, self.twist)),
+            ),
+            w_s: [w_a[0] / self.h, w_a[1] / self.h],
+            w_t: [w_b[0] / self.k, w_b[1] / self.k],
+        }
+    }
+}
+
+/// q = J_D w = D_s w₀ + D_t w₁ (seed eq. 7–8), J_D's columns given as `d_s`, `d_t` (also
+/// used with their derivatives along s or t).
+#[inline(always)]
+fn image(d_s: &[f64; 3], d_t: &[f64; 3], w: [f64; 2]) -> [f64; 3] {
+    [
+        d_s[0] * w[0] + d_t[0] * w[1],
+        d_s[1] * w[0] + d_t[1] * w[1],
+        d_s[2] * w[0] + d_t[2] * w[1],
+    ]
+}
+
+/// ‖q‖.
+#[inline(always)]
+fn norm(q: [f64; 3]) -> f64 {
+    (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt()
 }
 
 fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
@@ -485,11 +683,7 @@ impl Residuals for NaaEnergy<'_> {
         let per_cell: Vec<f64> = (0..self.cells())
             .into_par_iter()
             .with_min_len(CELLS_PER_TASK)
-            .map(|cell| {
-                let mut e = 0.0;
-                self.for_each_residual(&g, cell, |r, _| e += r * r);
-                e
-            })
+            .map(|cell| self.cell_energy(&g, cell))
             .collect();
         per_cell.iter().sum()
     }
@@ -633,8 +827,13 @@ pub fn solve_naa_frame(
     let bound_options = options.bound_options(frame, frames);
     let bounds = naa_frame_bounds(previous, first, &bound_options);
     let rest_x = energy.rest_vertices().to_unknowns();
-    let rest_energy = energy.energy(&rest_x);
-    let report = minimize(&mut energy, &previous.to_unknowns(), &bounds, &options.lm)?;
+    let (report, rest_energy) = minimize_and_rest_energy(
+        &mut energy,
+        &previous.to_unknowns(),
+        &rest_x,
+        &bounds,
+        &options.lm,
+    )?;
     Ok(NaaFrameSolution {
         vertices: energy.rest_vertices().with_unknowns(&report.x),
         lm: report,

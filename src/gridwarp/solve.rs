@@ -9,7 +9,7 @@ use super::energy::{AaEnergy, DeformedFields, RestFields};
 use super::energy_naa::{solve_naa_frame, DeformedJacobian, NaaFrameSolution, VertexGrid};
 use super::grid::Grid;
 use crate::error::Result;
-use crate::lm::{minimize, LmOptions, LmReport, Residuals};
+use crate::lm::{minimize, Bounds, LmOptions, LmReport, Residuals};
 
 /// Options of a gridwarp solve. Defaults: 8×8 midpoint samples per cell, the practical LM
 /// preset ([`LmOptions::default`]), no smoothness bound, no looping.
@@ -90,14 +90,38 @@ pub fn minimize_frame(
     start: Instant,
 ) -> Result<FrameSolution> {
     let bounds = frame_bounds(previous, first, &options.bound_options(frame, frames));
-    let rest_energy = energy.energy(&rest_grid.to_unknowns());
-    let report = minimize(&mut energy, &previous.to_unknowns(), &bounds, &options.lm)?;
+    let (report, rest_energy) = minimize_and_rest_energy(
+        &mut energy,
+        &previous.to_unknowns(),
+        &rest_grid.to_unknowns(),
+        &bounds,
+        &options.lm,
+    )?;
     Ok(FrameSolution {
         grid: rest_grid.with_unknowns(&report.x),
         lm: report,
         rest_energy,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// [`minimize`] from `start`, and the energy at `rest` for the report. When the solver starts
+/// at the rest point (a first frame, or a frame whose previous solution did not move) its
+/// first evaluation already is F(rest), so no evaluation is spent on it.
+pub fn minimize_and_rest_energy(
+    energy: &mut impl Residuals,
+    start: &[f64],
+    rest: &[f64],
+    bounds: &Bounds,
+    options: &LmOptions,
+) -> Result<(LmReport, f64)> {
+    let report = minimize(energy, start, bounds, options)?;
+    let rest_energy = if bounds.clamp(start) == rest {
+        report.accepted_energies[0]
+    } else {
+        energy.energy(rest)
+    };
+    Ok((report, rest_energy))
 }
 
 /// The frame loop of seed §5.3, shared by every sequence solver: frame j is solved by
