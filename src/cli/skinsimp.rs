@@ -24,7 +24,7 @@ use reparam::skinsimp::poses::{
     frames_input, select_poses, skinned_input, PoseSelection, PoseSets,
 };
 use reparam::skinsimp::{
-    simplify, simplify_with_progress, Hierarchy, Input, Level, Method, Options,
+    simplify, simplify_with_progress, Hierarchy, Input, Level, Method, Options, Schedule,
 };
 use reparam::texture::save_png;
 use reparam::{Error, Result};
@@ -51,6 +51,11 @@ pub struct SkinsimpArgs {
     /// rest (rest-pose quadrics, endpoint weights).
     #[arg(long, default_value = "full", value_parser = ["full", "mohr", "rest"])]
     pub method: String,
+    /// Collapse order: greedy (always the cheapest valid edge; the paper's order) or passes
+    /// (meshoptimizer-style: cost and sort every edge, collapse in order skipping edges next to
+    /// a merge of the same pass, repeat; faster on large meshes, not the greedy order).
+    #[arg(long, default_value = "greedy", value_parser = ["greedy", "passes"])]
+    pub schedule: String,
     /// Also run the other two methods and report all three at equal vertex counts.
     #[arg(long)]
     pub compare: bool,
@@ -73,6 +78,8 @@ struct Summary {
     input: String,
     output: String,
     method: String,
+    /// The collapse order (`greedy` or `passes`).
+    schedule: String,
     training_poses: usize,
     held_out_poses: usize,
     input_vertices: usize,
@@ -154,6 +161,10 @@ fn options(args: &SkinsimpArgs, method: Method, vertices: usize) -> Options {
         ..Options::default()
     };
     options.cost.max_weights = args.max_weights;
+    options.schedule = match args.schedule.as_str() {
+        "passes" => Schedule::Passes,
+        _ => Schedule::Greedy,
+    };
     options
 }
 
@@ -203,6 +214,7 @@ fn run_gltf(args: &SkinsimpArgs, path: &Path, method: Method) -> Result<()> {
         input: path.display().to_string(),
         output: args.out.display().to_string(),
         method: method.name().to_string(),
+        schedule: args.schedule.clone(),
         training_poses: sets.training.len(),
         held_out_poses: sets.held_out.len(),
         input_vertices: model.mesh.positions.len(),

@@ -20,23 +20,37 @@
 //!    `n_before · n_after > 0` in the rest pose and every training pose.
 //!
 //! Queue entries carry the versions of both endpoints; an entry whose endpoint changed since is
-//! skipped. Ties in cost are broken by (a, b): the order does not depend on the thread count
-//! (the initial costs are computed in parallel, each edge independently).
+//! skipped ([`super::queue`]). Ties in cost are broken by (a, b): the order does not depend on
+//! the thread count (the costs are computed in parallel, each edge independently).
+//!
+//! **Order** ([`Schedule`]): by default exactly greedy — after each collapse every edge around
+//! the kept vertex is costed again and re-queued. On shapes where merged vertices gather many
+//! edges (the rest-pose quadrics of a tube let whole rulings merge at zero cost, ≈ 40 edges
+//! per vertex at 100k triangles) that re-costing dominates; [`Schedule::Passes`] instead costs
+//! and sorts all edges once per pass, as meshoptimizer does.
+//!
+//! **Cost of one step** (issue #6 speed targets): the neighbourhood of a collapse is scanned in
+//! O(valence) with reusable per-vertex stamps ([`Star`]) instead of sorted neighbour lists;
+//! face lists are merged, not re-sorted; nothing is allocated per collapse; a costly candidate
+//! (skinned Full/Mohr) is kept with its queue entry so that the popped edge is not evaluated a
+//! second time; the rest-pose method queues edges by the QEM value alone
+//! ([`super::cost::rest_position`]) and chooses the weights only for the edge it collapses.
+//! None of this changes a bit of the greedy result (a test pins the records' hash).
 
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+use std::borrow::Cow;
 
 use nalgebra::{Matrix4, Point2, Point3};
 use rayon::prelude::*;
 
 use super::cost::{
     place_at_endpoint, place_endpoint_weights, place_frames, place_full_cost, place_rest,
-    reduce_weights, Candidates, EdgeProblem,
+    reduce_weights, rest_position, rest_value, Candidates, EdgeProblem,
 };
 use super::hierarchy::{CollapseRecord, Hierarchy};
 use super::quadric::{edge_constraint, unit_normal, Quadric};
+use super::queue::{Entry, Queue};
 use super::weights::{largest_support, Weights, MAX_CANDIDATES};
-use super::{Deformation, Input, Method, Options};
+use super::{Deformation, Input, Method, Options, Schedule};
 use crate::error::Result;
 use crate::mesh::{Adjacency, EdgeKind, EDGE_CORNERS};
 
@@ -50,7 +64,7 @@ pub fn simplify(input: &Input, options: &Options) -> Result<Hierarchy> {
 ///
 /// The loop runs on a rayon worker ([`rayon::scope`]) so that the re-evaluation of the edges
 /// around each collapse can fork cheaply; results do not depend on the thread count (entries
-/// are computed in parallel but pushed in neighbour order).
+/// are computed in parallel, each edge on its own, and their order is fixed by their keys).
 pub fn simplify_with_progress(
     input: &Input,
     options: &Options,
@@ -63,8 +77,7 @@ pub fn simplify_with_progress(
     Ok(result.expect("the scope ran"))
 }
 
-/// The greedy loop of [`simplify`]: pop the cheapest edge, skip stale or invalid entries,
-/// collapse, re-queue the edges around the kept vertex.
+/// The loop of [`simplify`] in the order of `options.schedule`.
 fn collapse_loop(
     input: &Input,
     options: &Options,
@@ -72,39 +85,83 @@ fn collapse_loop(
 ) -> Hierarchy {
     let mut state = State::new(input, options);
     let wanted = state.alive_count.saturating_sub(options.target_vertices);
-    let mut queue = state.initial_queue();
-    // A skinned Full/Mohr cost is an alternating minimisation (tens of µs): worth forking.
-    // The rest-pose and frame costs are a 3×3 solve: cheaper than the fork.
-    let parallel = state.skinned && state.method != Method::Rest;
-    while state.alive_count > options.target_vertices {
-        let Some(Reverse(entry)) = queue.pop() else {
+    state.records.reserve(wanted);
+    match options.schedule {
+        Schedule::Greedy => greedy(&mut state, options.target_vertices, progress),
+        Schedule::Passes => passes(&mut state, options.target_vertices, progress),
+    }
+    state.into_hierarchy()
+}
+
+/// [`Schedule::Greedy`]: pop the cheapest edge, skip stale entries, try to collapse it,
+/// re-queue the edges around the kept vertex.
+fn greedy(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usize) + Send)) {
+    let wanted = state.alive_count.saturating_sub(target);
+    let (entries, candidates) = state.scored_edges();
+    let mut queue = Queue::new(entries, candidates);
+    let mut scratch = Scratch::new(state.alive.len());
+    while state.alive_count > target {
+        let Some((entry, cached)) = queue.pop(|e| state.is_current(e)) else {
             break;
         };
         let (a, b) = (entry.a as usize, entry.b as usize);
-        if state.version[a] != entry.version_a || state.version[b] != entry.version_b {
+        if !state.is_current(&entry) || !state.try_collapse(a, b, cached, &mut scratch) {
             continue;
         }
-        let Some(mode) = state.uv_mode(a, b) else {
-            continue;
-        };
-        let mut candidate = state.evaluate(a, b, mode);
-        state.pose(&mut candidate);
-        let Some(uv_plan) = state.valid(a, b, mode, &candidate) else {
-            continue;
-        };
-        state.collapse(a, b, candidate, uv_plan);
-        // The edges around `a` changed cost: re-evaluate them, push them in neighbour order.
-        let neighbours = state.neighbours(a);
-        let requeue = |&n: &usize| state.entry(a.min(n), a.max(n));
-        let around: Vec<Entry> = if parallel {
-            neighbours.par_iter().map(requeue).collect()
-        } else {
-            neighbours.iter().map(requeue).collect()
-        };
-        queue.extend(around.into_iter().map(Reverse));
+        state.requeue_around(a, &mut queue, &mut scratch);
+        queue.tidy(|e| state.is_current(e));
         progress(state.records.len(), wanted);
     }
-    state.into_hierarchy()
+}
+
+/// [`Schedule::Passes`]: repeat { cost every edge; sort; try the edges in that order, skipping
+/// those with an endpoint already merged in this pass, until the pass's share is done } until
+/// the target or a pass without collapse. A pass stops (as meshoptimizer's) at the cost
+/// `1.5 × c_g`, `c_g` the cost of the `g`-th cheapest edge, `g` the collapses still wanted,
+/// once it has done more than `max(g / 10, w / 100)` (`w` the collapses wanted at the start):
+/// the skipped edges are re-costed by the next pass.
+fn passes(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usize) + Send)) {
+    let wanted = state.alive_count.saturating_sub(target);
+    let mut scratch = Scratch::new(state.alive.len());
+    let mut merged = vec![false; state.alive.len()];
+    // Sorted as (entry, index of its candidate): the candidates stay in place. One buffer
+    // for all passes.
+    let mut order: Vec<(Entry, usize)> = Vec::new();
+    while state.alive_count > target {
+        let (entries, mut candidates) = state.scored_edges();
+        order.clear();
+        order.extend(entries.into_iter().zip(0..));
+        order.par_sort_unstable_by(|x, y| x.0.cmp(&y.0));
+        let goal = state.alive_count - target;
+        let stop = order
+            .get(goal.min(order.len().saturating_sub(1)))
+            .map_or(f64::INFINITY, |e| 1.5 * e.0.cost);
+        // The least a pass does before its cost bound applies (so that the passes do not
+        // dwindle to one collapse each near the target).
+        let least = (goal / 10).max(wanted / 100);
+        merged.fill(false);
+        let mut done = 0;
+        for &(entry, index) in &order {
+            let cached = candidates[index].take();
+            if state.alive_count <= target || !entry.cost.is_finite() {
+                break;
+            }
+            if entry.cost > stop && done > least {
+                break;
+            }
+            let (a, b) = (entry.a as usize, entry.b as usize);
+            if merged[a] || merged[b] || !state.try_collapse(a, b, cached, &mut scratch) {
+                continue;
+            }
+            merged[a] = true;
+            merged[b] = true;
+            done += 1;
+            progress(state.records.len(), wanted);
+        }
+        if done == 0 {
+            break;
+        }
+    }
 }
 
 /// Joint matrices per pose, `[pose][joint]`.
@@ -114,34 +171,104 @@ type PosePoints = Vec<Vec<Point3<f64>>>;
 /// Faces, UV faces and UVs.
 type CleanFaces = (Vec<[u32; 3]>, Vec<[u32; 3]>, Vec<Point2<f64>>);
 
-/// A queued edge with the cost when it was queued and its endpoints' versions then.
-#[derive(Clone, Copy, Debug)]
-struct Entry {
-    cost: f64,
-    a: u32,
-    b: u32,
-    version_a: u32,
-    version_b: u32,
+/// A candidate with the UV mode it was computed for (boxed: most entries have none, and
+/// `Option<Box<_>>` keeps those small).
+type Scored = Box<(Mode, Candidate)>;
+
+/// Buffers reused by every collapse (the serial part of the loop allocates nothing per step).
+struct Scratch {
+    /// The stars of the two endpoints.
+    star_a: Star,
+    star_b: Star,
+    /// Opposite vertices of the faces removed by a collapse.
+    opposite: Vec<u32>,
+    /// A face list, swapped with the kept vertex's when a collapse merges the two lists.
+    faces: Vec<u32>,
 }
 
-impl PartialEq for Entry {
-    fn eq(&self, other: &Self) -> bool {
-        self.cmp(other) == std::cmp::Ordering::Equal
+impl Scratch {
+    /// Buffers for a mesh of `n` vertices.
+    fn new(n: usize) -> Scratch {
+        Scratch {
+            star_a: Star::new(n),
+            star_b: Star::new(n),
+            opposite: Vec::new(),
+            faces: Vec::new(),
+        }
     }
 }
-impl Eq for Entry {}
-impl PartialOrd for Entry {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
+
+/// The sorted union of two sorted lists without common values, into `out`.
+fn merge_sorted<'x>(
+    x: impl Iterator<Item = &'x u32>,
+    y: impl Iterator<Item = &'x u32>,
+    out: &mut Vec<u32>,
+) {
+    out.clear();
+    let (mut x, mut y) = (x.peekable(), y.peekable());
+    loop {
+        let next = match (x.peek(), y.peek()) {
+            (Some(&&p), Some(&&q)) if p <= q => x.next(),
+            (Some(_), Some(_)) => y.next(),
+            (Some(_), None) => x.next(),
+            (None, Some(_)) => y.next(),
+            (None, None) => return,
+        };
+        out.extend(next);
     }
 }
-impl Ord for Entry {
-    /// By cost, then by `(a, b)` (deterministic ties).
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.cost
-            .total_cmp(&other.cost)
-            .then(self.a.cmp(&other.a))
-            .then(self.b.cmp(&other.b))
+
+/// The star of a vertex `v`: its distinct neighbours, each with the alive faces on the edge
+/// `(v, n)` (in face order), found in O(valence) without sorting ([`Star::gather`]): a
+/// neighbour's index in the list is remembered per vertex, valid while its stamp is the
+/// current one (so nothing is cleared between stars).
+struct Star {
+    /// `(n, faces on (v, n))`, neighbours in the order they are first met.
+    list: Vec<(u32, EdgeFaces)>,
+    stamp: u32,
+    /// `seen[x] == stamp`: `x` is a neighbour, at `list[index[x]]`.
+    seen: Vec<u32>,
+    index: Vec<u32>,
+}
+
+impl Star {
+    fn new(n: usize) -> Star {
+        Star {
+            list: Vec::new(),
+            stamp: 0,
+            seen: vec![0; n],
+            index: vec![0; n],
+        }
+    }
+
+    /// The star of `v` over `vertex_faces[v]` (sorted, so each edge's faces are in face order).
+    fn gather(&mut self, v: usize, vertex_faces: &[u32], faces: &[[u32; 3]]) {
+        self.list.clear();
+        self.stamp += 1;
+        for &f in vertex_faces {
+            for x in faces[f as usize] {
+                let x = x as usize;
+                if x == v {
+                    continue;
+                }
+                if self.seen[x] != self.stamp {
+                    self.seen[x] = self.stamp;
+                    self.index[x] = self.list.len() as u32;
+                    self.list.push((x as u32, EdgeFaces::default()));
+                }
+                self.list[self.index[x] as usize].1.push(f);
+            }
+        }
+    }
+
+    /// Whether `x` is a neighbour.
+    fn contains(&self, x: u32) -> bool {
+        self.seen[x as usize] == self.stamp
+    }
+
+    /// Whether the vertex is on the boundary: some edge of it is in exactly one alive face.
+    fn on_boundary(&self) -> bool {
+        self.list.iter().any(|(_, on_edge)| on_edge.count == 1)
     }
 }
 
@@ -169,6 +296,46 @@ enum Mode {
 struct UvPlan {
     map: Vec<(u32, u32)>,
     new_uvs: Vec<Point2<f64>>,
+}
+
+/// The alive faces on an edge: the first two in face order and how many there are (a manifold
+/// edge has one or two; an edge on more never collapses).
+#[derive(Clone, Copy, Debug, Default)]
+struct EdgeFaces {
+    first: [u32; 2],
+    count: usize,
+}
+
+impl EdgeFaces {
+    fn push(&mut self, f: u32) {
+        if self.count < 2 {
+            self.first[self.count] = f;
+        }
+        self.count += 1;
+    }
+
+    /// The first two faces (all of them on a manifold edge).
+    fn faces(&self) -> &[u32] {
+        &self.first[..self.count.min(2)]
+    }
+}
+
+/// The UV sides of an edge with one or two faces: `(uv at a, uv at b)` per distinct side.
+#[derive(Clone, Copy, Debug, Default)]
+struct UvSides {
+    sides: [(u32, u32); 2],
+    len: usize,
+}
+
+impl UvSides {
+    fn push(&mut self, side: (u32, u32)) {
+        self.sides[self.len] = side;
+        self.len += 1;
+    }
+
+    fn pairs(&self) -> &[(u32, u32)] {
+        &self.sides[..self.len]
+    }
 }
 
 /// The working mesh during simplification.
@@ -262,20 +429,31 @@ impl<'a> State<'a> {
                 check_pos[i * check_poses + c] = set[i];
             }
         }
-        let training_quadrics = if skinned && options.method == Method::Rest {
-            vertex_quadrics(&faces, &uv_faces, mesh, &training, options.boundary_weight)
-        } else {
-            quadrics.clone()
-        };
         let weights = match &input.deformation {
-            Deformation::Skinned { influences, joints } => start_weights(
-                influences,
-                joints,
-                &rest,
-                &training_quadrics,
-                training.len(),
-                options,
-            ),
+            Deformation::Skinned { influences, joints } => {
+                // The reduction of a vertex with more than W_max influences uses the training
+                // quadrics; the rest-pose method's own quadrics are of the rest pose, so it
+                // builds them, only when some vertex needs them.
+                let reduces = influences
+                    .iter()
+                    .any(|list| list.len() > options.cost.max_weights);
+                let training_quadrics: Cow<[Quadric]> = if options.method != Method::Rest {
+                    Cow::Borrowed(&quadrics)
+                } else if reduces {
+                    let (m, w) = (mesh, options.boundary_weight);
+                    Cow::Owned(vertex_quadrics(&faces, &uv_faces, m, &training, w))
+                } else {
+                    Cow::Borrowed(&[]) // never read: no vertex is reduced
+                };
+                start_weights(
+                    influences,
+                    joints,
+                    &rest,
+                    &training_quadrics,
+                    training.len(),
+                    options,
+                )
+            }
             Deformation::Frames { .. } => vec![Weights::from_pairs(&[]); n],
         };
         let frames = if skinned { Vec::new() } else { training };
@@ -306,7 +484,7 @@ impl<'a> State<'a> {
             face_alive: vec![true; faces.len()],
             faces,
             uv_faces,
-            wedges: Vec::new(),
+            wedges: vec![Vec::new(); n],
             vertex_faces,
             alive: vec![true; n],
             version: vec![0; n],
@@ -316,37 +494,146 @@ impl<'a> State<'a> {
             records: Vec::new(),
             start,
         };
-        state.wedges = (0..n).map(|v| state.distinct_wedges(v)).collect();
+        for v in 0..n {
+            state.refresh_wedges(v);
+        }
         state
     }
 
-    /// Every edge of the mesh with its cost, computed in parallel.
-    fn initial_queue(&self) -> BinaryHeap<Reverse<Entry>> {
-        let mut edges: Vec<(u32, u32)> = self
-            .faces
-            .iter()
-            .flat_map(|t| EDGE_CORNERS.map(|[i, j]| (t[i].min(t[j]), t[i].max(t[j]))))
-            .collect();
-        edges.par_sort_unstable();
-        edges.dedup();
-        let entries: Vec<Reverse<Entry>> = edges
-            .par_iter()
-            .map(|&(a, b)| Reverse(self.entry(a as usize, b as usize)))
-            .collect();
-        BinaryHeap::from(entries)
+    /// Whether `entry` was computed with the endpoints' current versions.
+    fn is_current(&self, entry: &Entry) -> bool {
+        self.version[entry.a as usize] == entry.version_a
+            && self.version[entry.b as usize] == entry.version_b
     }
 
-    fn entry(&self, a: usize, b: usize) -> Entry {
-        let cost = match self.uv_mode(a, b) {
-            Some(mode) if !self.locked[a] && !self.locked[b] => self.evaluate(a, b, mode).cost,
-            _ => f64::INFINITY,
+    /// Every edge of the alive faces with its cost and candidate ([`State::score`]), computed
+    /// in parallel, ordered by `(a, b)`.
+    fn scored_edges(&self) -> (Vec<Entry>, Vec<Option<Scored>>) {
+        (0..self.alive.len())
+            .into_par_iter()
+            .flat_map_iter(|a| {
+                self.edges_above(a)
+                    .into_iter()
+                    .map(move |(b, on_edge)| self.score(a, b, on_edge))
+            })
+            .unzip()
+    }
+
+    /// The edges `(a, b)`, `b > a`, of vertex `a` with the faces on each (in face order),
+    /// ordered by `b`.
+    fn edges_above(&self, a: usize) -> Vec<(usize, EdgeFaces)> {
+        let mut fan: Vec<(u32, u32)> = Vec::new();
+        for &f in &self.vertex_faces[a] {
+            fan.extend(
+                self.faces[f as usize]
+                    .iter()
+                    .filter(|&&x| x as usize > a)
+                    .map(|&x| (x, f)),
+            );
+        }
+        fan.sort_unstable();
+        fan.chunk_by(|x, y| x.0 == y.0)
+            .map(|run| {
+                let mut on_edge = EdgeFaces::default();
+                for &(_, f) in run {
+                    on_edge.push(f);
+                }
+                (run[0].0 as usize, on_edge)
+            })
+            .collect()
+    }
+
+    /// Collapse `(a, b)` if it is valid now: the UV mode of now, the candidate (`cached` when
+    /// it was computed for that mode with the same endpoints, else evaluated again), the
+    /// validity checks. Whether it collapsed.
+    fn try_collapse(
+        &mut self,
+        a: usize,
+        b: usize,
+        cached: Option<Scored>,
+        scratch: &mut Scratch,
+    ) -> bool {
+        let Some(mode) = self.uv_mode(a, b) else {
+            return false;
         };
-        Entry {
-            cost,
-            a: a as u32,
-            b: b as u32,
-            version_a: self.version[a],
-            version_b: self.version[b],
+        let mut candidate = match cached.map(|s| *s) {
+            Some((m, c)) if m == mode => c,
+            _ => self.evaluate(a, b, mode),
+        };
+        self.pose(&mut candidate);
+        let Some(uv_plan) = self.valid(a, b, mode, &candidate, scratch) else {
+            return false;
+        };
+        self.collapse(a, b, candidate, uv_plan, scratch);
+        true
+    }
+
+    /// Whether evaluating an edge is costly: a skinned Full/Mohr cost is an alternating
+    /// minimisation (tens of µs), worth forking over the edges around a collapse and keeping
+    /// with its queue entry (so that the popped edge is not evaluated again); the rest-pose and
+    /// frame costs are a 3×3 solve, cheaper than either.
+    fn costly(&self) -> bool {
+        self.skinned && self.method != Method::Rest
+    }
+
+    /// The queue entry of edge `(a, b)` (with `on_edge` its faces) and, for a costly method, the
+    /// candidate its cost comes from; cost ∞ when an endpoint is locked or the UVs forbid the
+    /// collapse.
+    fn score(&self, a: usize, b: usize, on_edge: EdgeFaces) -> (Entry, Option<Scored>) {
+        let mode = if self.locked[a] || self.locked[b] {
+            None
+        } else {
+            self.uv_mode_on(a, b, on_edge)
+        };
+        let (cost, scored) = match mode {
+            None => (f64::INFINITY, None),
+            Some(mode) if self.costly() => {
+                let candidate = self.evaluate(a, b, mode);
+                (candidate.cost, Some(Box::new((mode, candidate))))
+            }
+            Some(mode) => (self.cost(a, b, mode), None),
+        };
+        let ends = (a as u32, b as u32);
+        let versions = (self.version[a], self.version[b]);
+        (Entry::new(cost, ends, versions), scored)
+    }
+
+    /// Re-queue the edges around `a` after a collapse into it (their costs changed), costly
+    /// ones evaluated in parallel; the queue order does not depend on the push order
+    /// ([`super::queue`]).
+    fn requeue_around(&self, a: usize, queue: &mut Queue<Scored>, scratch: &mut Scratch) {
+        let star = &mut scratch.star_a;
+        star.gather(a, &self.vertex_faces[a], &self.faces);
+        let score = |&(n, on_edge): &(u32, EdgeFaces)| {
+            let n = n as usize;
+            self.score(a.min(n), a.max(n), on_edge)
+        };
+        if self.costly() {
+            let scored: Vec<(Entry, Option<Scored>)> = star.list.par_iter().map(score).collect();
+            for (entry, s) in scored {
+                queue.push(entry, s);
+            }
+        } else {
+            for edge in &star.list {
+                let (entry, s) = score(edge);
+                queue.push(entry, s);
+            }
+        }
+    }
+
+    /// The cost of [`State::evaluate`] alone. For the rest-pose method that is the plain QEM
+    /// value ([`rest_position`], [`rest_value`]), without choosing the merged vertex's weights.
+    fn cost(&self, a: usize, b: usize, mode: Mode) -> f64 {
+        if !(self.skinned && self.method == Method::Rest) {
+            return self.evaluate(a, b, mode).cost;
+        }
+        // The rest pose is the only quadric pose.
+        let q = self.quadrics[a].add(&self.quadrics[b]);
+        let quadrics = std::slice::from_ref(&q);
+        let ends = [self.rest[a], self.rest[b]];
+        match mode {
+            Mode::Free => rest_position(quadrics, ends, self.options.cost.max_condition).1,
+            Mode::Keep(k) => rest_value(quadrics, &ends[k]),
         }
     }
 
@@ -360,14 +647,24 @@ impl<'a> State<'a> {
 
     /// The merged vertex of `(a, b)` by the method's cost, free or on the kept endpoint.
     fn evaluate(&self, a: usize, b: usize, mode: Mode) -> Candidate {
-        let quadrics = self.summed_quadrics(a, b);
+        if self.quad_poses == 1 {
+            // One quadric pose (the rest-pose method, or one frame): no list to allocate.
+            let q = self.quadrics[a].add(&self.quadrics[b]);
+            self.evaluate_with(a, b, mode, std::slice::from_ref(&q))
+        } else {
+            self.evaluate_with(a, b, mode, &self.summed_quadrics(a, b))
+        }
+    }
+
+    /// [`State::evaluate`] with the summed quadrics `Q^j = Q_a^j + Q_b^j`.
+    fn evaluate_with(&self, a: usize, b: usize, mode: Mode, quadrics: &[Quadric]) -> Candidate {
         if !self.skinned {
             let c = self.check_poses;
             let ends: Vec<[Point3<f64>; 2]> = (0..c)
                 .map(|j| [self.check_pos[a * c + j], self.check_pos[b * c + j]])
                 .collect();
             let (posed, cost) = match mode {
-                Mode::Free => place_frames(&quadrics, &ends, self.options.cost.max_condition),
+                Mode::Free => place_frames(quadrics, &ends, self.options.cost.max_condition),
                 Mode::Keep(k) => {
                     let posed: Vec<Point3<f64>> = ends.iter().map(|e| e[k]).collect();
                     let cost = quadrics.iter().zip(&posed).map(|(q, p)| q.eval(p)).sum();
@@ -382,7 +679,7 @@ impl<'a> State<'a> {
             };
         }
         let problem = EdgeProblem {
-            quadrics: &quadrics,
+            quadrics,
             mats: &self.quad_mats,
             ends: [self.rest[a], self.rest[b]],
             weights: [self.weights[a], self.weights[b]],
@@ -423,43 +720,21 @@ impl<'a> State<'a> {
             .collect();
     }
 
-    /// The sorted distinct neighbours of vertex `v` over its alive faces.
-    fn neighbours(&self, v: usize) -> Vec<usize> {
-        let mut out: Vec<usize> = self.vertex_faces[v]
-            .iter()
-            .flat_map(|&f| self.faces[f as usize])
-            .map(|x| x as usize)
-            .filter(|&x| x != v)
-            .collect();
-        out.sort_unstable();
-        out.dedup();
-        out
-    }
-
     /// Alive faces containing both `a` and `b`, in face order (found in the shorter of the
     /// two face lists).
-    fn faces_on_edge(&self, a: usize, b: usize) -> Vec<u32> {
+    fn faces_on_edge(&self, a: usize, b: usize) -> EdgeFaces {
         let (short, other) = if self.vertex_faces[a].len() <= self.vertex_faces[b].len() {
             (a, b)
         } else {
             (b, a)
         };
-        self.vertex_faces[short]
-            .iter()
-            .copied()
-            .filter(|&f| self.faces[f as usize].contains(&(other as u32)))
-            .collect()
-    }
-
-    /// Whether `v` has an edge in exactly one alive face.
-    fn on_boundary(&self, v: usize) -> bool {
-        let mut ends: Vec<u32> = self.vertex_faces[v]
-            .iter()
-            .flat_map(|&f| self.faces[f as usize])
-            .filter(|&x| x as usize != v)
-            .collect();
-        ends.sort_unstable();
-        ends.chunk_by(|x, y| x == y).any(|g| g.len() == 1)
+        let mut out = EdgeFaces::default();
+        for &f in &self.vertex_faces[short] {
+            if self.faces[f as usize].contains(&(other as u32)) {
+                out.push(f);
+            }
+        }
+        out
     }
 
     /// Whether an alive face has exactly the vertices `{x, y, z}`.
@@ -471,48 +746,68 @@ impl<'a> State<'a> {
     }
 
     /// The validity checks of the module docs; `Some(UV plan)` when valid.
-    fn valid(&self, a: usize, b: usize, mode: Mode, candidate: &Candidate) -> Option<UvPlan> {
+    fn valid(
+        &self,
+        a: usize,
+        b: usize,
+        mode: Mode,
+        candidate: &Candidate,
+        scratch: &mut Scratch,
+    ) -> Option<UvPlan> {
         if self.locked[a] || self.locked[b] || !candidate.cost.is_finite() {
             return None;
         }
         let on_edge = self.faces_on_edge(a, b);
-        if on_edge.is_empty() || on_edge.len() > 2 {
+        if on_edge.count == 0 || on_edge.count > 2 {
             return None;
         }
-        if !self.link_condition(a, b, &on_edge) {
+        let (star_a, star_b) = (&mut scratch.star_a, &mut scratch.star_b);
+        star_a.gather(a, &self.vertex_faces[a], &self.faces);
+        star_b.gather(b, &self.vertex_faces[b], &self.faces);
+        if !self.link_condition(a, b, on_edge.faces(), star_a, star_b) {
             return None;
         }
-        if on_edge.len() == 2 && self.on_boundary(a) && self.on_boundary(b) {
+        if on_edge.count == 2 && star_a.on_boundary() && star_b.on_boundary() {
             return None;
         }
         let plan = self.uv_plan(a, b, mode, candidate);
         self.flip_free(a, b, candidate).then_some(plan)
     }
 
-    /// Condition 2 of the module docs.
-    fn link_condition(&self, a: usize, b: usize, on_edge: &[u32]) -> bool {
-        let na = self.neighbours(a);
-        let nb = self.neighbours(b);
-        let common: Vec<usize> = na
+    /// Condition 2 of the module docs, with the stars of `a` and `b`.
+    fn link_condition(
+        &self,
+        a: usize,
+        b: usize,
+        on_edge: &[u32],
+        star_a: &Star,
+        star_b: &Star,
+    ) -> bool {
+        let common = star_a
+            .list
             .iter()
-            .copied()
-            .filter(|x| nb.binary_search(x).is_ok())
-            .collect();
-        if common.len() != on_edge.len() {
+            .filter(|&&(x, _)| star_b.contains(x))
+            .count();
+        if common != on_edge.len() {
             return false;
         }
-        let opposite = |f: u32| -> usize {
+        let in_both = |o: u32| star_a.contains(o) && star_b.contains(o);
+        let opposite = |f: u32| -> u32 {
             self.faces[f as usize]
                 .iter()
-                .map(|&x| x as usize)
-                .find(|&x| x != a && x != b)
-                .unwrap_or(a)
+                .copied()
+                .find(|&x| x as usize != a && x as usize != b)
+                .unwrap_or(a as u32)
         };
-        let opp: Vec<usize> = on_edge.iter().map(|&f| opposite(f)).collect();
-        if opp.iter().any(|o| common.binary_search(o).is_err()) {
-            return false;
+        let mut opp = [0; 2];
+        for (o, &f) in opp.iter_mut().zip(on_edge) {
+            *o = opposite(f);
+            if !in_both(*o) {
+                return false;
+            }
         }
-        if let [c, d] = opp[..] {
+        if let [c, d] = opp[..on_edge.len()] {
+            let (c, d) = (c as usize, d as usize);
             if c == d || self.has_face(a, c, d) || self.has_face(b, c, d) {
                 return false;
             }
@@ -528,15 +823,19 @@ impl<'a> State<'a> {
     }
 
     /// The UV sides of edge `(a, b)`: one `(uv at a, uv at b)` pair per distinct side among
-    /// the faces on the edge; `None` when two sides share one end's UV but not the other's.
-    fn uv_sides(&self, a: usize, b: usize) -> Option<Vec<(u32, u32)>> {
-        let mut sides: Vec<(u32, u32)> = Vec::new();
-        for f in self.faces_on_edge(a, b) {
+    /// the faces on the edge; `None` when two sides share one end's UV but not the other's,
+    /// or when more than two faces are on the edge (such an edge never collapses, [`State::valid`]).
+    fn uv_sides(&self, a: usize, b: usize, on_edge: EdgeFaces) -> Option<UvSides> {
+        if on_edge.count > 2 {
+            return None;
+        }
+        let mut sides = UvSides::default();
+        for &f in on_edge.faces() {
             let side = (self.corner_uv(f, a), self.corner_uv(f, b));
-            if sides.contains(&side) {
+            if sides.pairs().contains(&side) {
                 continue;
             }
-            if sides.iter().any(|s| s.0 == side.0 || s.1 == side.1) {
+            if sides.pairs().iter().any(|s| s.0 == side.0 || s.1 == side.1) {
                 return None;
             }
             sides.push(side);
@@ -553,34 +852,43 @@ impl<'a> State<'a> {
         })
     }
 
-    /// The sorted distinct UV indices of `v` over its alive faces (empty without UVs).
-    fn distinct_wedges(&self, v: usize) -> Vec<u32> {
+    /// Recompute the sorted distinct UV indices of `v` over its alive faces (empty without
+    /// UVs), in place.
+    fn refresh_wedges(&mut self, v: usize) {
         if self.uv_faces.is_empty() {
-            return Vec::new();
+            return;
         }
-        let mut out: Vec<u32> = self.vertex_faces[v]
-            .iter()
-            .map(|&f| self.corner_uv(f, v))
-            .collect();
-        out.sort_unstable();
-        out.dedup();
-        out
+        let mut out = std::mem::take(&mut self.wedges[v]);
+        out.clear();
+        for &f in &self.vertex_faces[v] {
+            // Few distinct wedges: insert in place rather than sort the valence-long list.
+            let u = self.corner_uv(f, v);
+            if let Err(k) = out.binary_search(&u) {
+                out.insert(k, u);
+            }
+        }
+        self.wedges[v] = out;
     }
 
     /// Condition 4 of the module docs: how the edge may collapse for the UVs. `Free` when both
     /// endpoints' wedges all touch the edge; `Keep(k)` (a half-edge collapse onto endpoint `k`,
     /// which does not move) when only the other endpoint's do; `None` when neither.
     fn uv_mode(&self, a: usize, b: usize) -> Option<Mode> {
+        self.uv_mode_on(a, b, self.faces_on_edge(a, b))
+    }
+
+    /// [`State::uv_mode`] with the faces on the edge already found.
+    fn uv_mode_on(&self, a: usize, b: usize, on_edge: EdgeFaces) -> Option<Mode> {
         if self.uv_faces.is_empty() {
             return Some(Mode::Free);
         }
-        let sides = self.uv_sides(a, b)?;
-        if sides.is_empty() {
+        let sides = self.uv_sides(a, b, on_edge)?;
+        if sides.pairs().is_empty() {
             return None;
         }
         match (
-            self.wedges_covered(a, &sides, 0),
-            self.wedges_covered(b, &sides, 1),
+            self.wedges_covered(a, sides.pairs(), 0),
+            self.wedges_covered(b, sides.pairs(), 1),
         ) {
             (true, true) => Some(Mode::Free),
             (true, false) => Some(Mode::Keep(1)),
@@ -600,9 +908,11 @@ impl<'a> State<'a> {
         if self.uv_faces.is_empty() {
             return plan;
         }
-        let sides = self.uv_sides(a, b).unwrap_or_default();
+        let sides = self
+            .uv_sides(a, b, self.faces_on_edge(a, b))
+            .unwrap_or_default();
         if let Mode::Keep(k) = mode {
-            for &(ua, ub) in &sides {
+            for &(ua, ub) in sides.pairs() {
                 plan.map.push(if k == 0 { (ub, ua) } else { (ua, ub) });
             }
             return plan;
@@ -614,7 +924,7 @@ impl<'a> State<'a> {
         } else {
             0.5
         };
-        for (k, &(ua, ub)) in sides.iter().enumerate() {
+        for (k, &(ua, ub)) in sides.pairs().iter().enumerate() {
             let uv = self.uvs[ua as usize].coords * (1.0 - t) + self.uvs[ub as usize].coords * t;
             let new = (self.uvs.len() + k) as u32;
             plan.new_uvs.push(Point2::from(uv));
@@ -658,7 +968,14 @@ impl<'a> State<'a> {
     }
 
     /// Merge `b` into `a` at `candidate`, with the UV plan; record it.
-    fn collapse(&mut self, a: usize, b: usize, candidate: Candidate, plan: UvPlan) {
+    fn collapse(
+        &mut self,
+        a: usize,
+        b: usize,
+        candidate: Candidate,
+        plan: UvPlan,
+        scratch: &mut Scratch,
+    ) {
         let c = self.check_poses;
         let p = self.quad_poses;
         self.rest[a] = candidate.rest;
@@ -668,31 +985,39 @@ impl<'a> State<'a> {
             let qb = self.quadrics[b * p + j];
             self.quadrics[a * p + j].add_assign(&qb);
         }
-        let mut merged: Vec<u32> = Vec::new();
-        let mut opposite: Vec<usize> = Vec::new();
-        for f in std::mem::take(&mut self.vertex_faces[b]) {
+        // `a` keeps its alive faces and takes `b`'s others; the faces on the edge die.
+        let faces_b = std::mem::take(&mut self.vertex_faces[b]);
+        let opposite = &mut scratch.opposite;
+        opposite.clear();
+        for &f in &faces_b {
             let t = &mut self.faces[f as usize];
             if t.contains(&(a as u32)) {
                 self.face_alive[f as usize] = false;
-                opposite.extend(t.iter().map(|&x| x as usize).filter(|&x| x != a && x != b));
+                opposite.extend(
+                    t.iter()
+                        .copied()
+                        .filter(|&x| x as usize != a && x as usize != b),
+                );
             } else {
                 for x in t.iter_mut() {
                     if *x as usize == b {
                         *x = a as u32;
                     }
                 }
-                merged.push(f);
             }
         }
-        merged.extend(
-            self.vertex_faces[a]
-                .iter()
-                .copied()
-                .filter(|&f| self.face_alive[f as usize]),
+        let alive = |f: &&u32| self.face_alive[**f as usize];
+        let mut merged = std::mem::take(&mut scratch.faces);
+        let faces_a = &self.vertex_faces[a];
+        merge_sorted(
+            faces_a.iter().filter(alive),
+            faces_b.iter().filter(alive),
+            &mut merged,
         );
-        merged.sort_unstable();
+        scratch.faces = std::mem::replace(&mut self.vertex_faces[a], merged);
+        let merged = &self.vertex_faces[a];
         if !self.uv_faces.is_empty() {
-            for &f in &merged {
+            for &f in merged {
                 let k = self.faces[f as usize]
                     .iter()
                     .position(|&x| x as usize == a)
@@ -703,14 +1028,14 @@ impl<'a> State<'a> {
                 }
             }
         }
-        self.vertex_faces[a] = merged;
         // The faces on the edge also leave their opposite vertices' lists.
-        for &x in &opposite {
+        for &x in opposite.iter() {
             let alive = &self.face_alive;
-            self.vertex_faces[x].retain(|&f| alive[f as usize]);
+            self.vertex_faces[x as usize].retain(|&f| alive[f as usize]);
         }
-        for x in std::iter::once(a).chain(opposite) {
-            self.wedges[x] = self.distinct_wedges(x);
+        self.refresh_wedges(a);
+        for &x in &scratch.opposite {
+            self.refresh_wedges(x as usize);
         }
         self.wedges[b].clear();
         self.uvs.extend_from_slice(&plan.new_uvs);
@@ -758,16 +1083,29 @@ fn clean_faces(mesh: &crate::mesh::TriMesh) -> CleanFaces {
     if !mesh.has_uvs() {
         return (faces, Vec::new(), Vec::new());
     }
-    let mut index = std::collections::BTreeMap::new();
+    // The copies of each vertex's UVs as a chain: `first[v]` its first copy, `next[c]` the
+    // copy after `c`, `source[c]` the input UV of copy `c` (a vertex has few copies).
+    const END: u32 = u32::MAX;
+    let mut first = vec![END; mesh.positions.len()];
+    let (mut next, mut source): (Vec<u32>, Vec<u32>) = (Vec::new(), Vec::new());
     let mut uvs = Vec::new();
     let mut uv_faces = Vec::with_capacity(faces.len());
     for &f in &keep {
         let t = [0, 1, 2].map(|k| {
-            let key = (mesh.faces[f][k], mesh.uv_faces[f][k]);
-            *index.entry(key).or_insert_with(|| {
-                uvs.push(mesh.uvs[key.1 as usize]);
-                (uvs.len() - 1) as u32
-            })
+            let (v, uv) = (mesh.faces[f][k] as usize, mesh.uv_faces[f][k]);
+            let mut link = &mut first[v];
+            while *link != END {
+                let c = *link as usize;
+                if source[c] == uv {
+                    return c as u32;
+                }
+                link = &mut next[c];
+            }
+            *link = uvs.len() as u32;
+            uvs.push(mesh.uvs[uv as usize]);
+            source.push(uv);
+            next.push(END);
+            (uvs.len() - 1) as u32
         });
         uv_faces.push(t);
     }
@@ -838,10 +1176,12 @@ fn vertex_quadrics(
 /// `special[f][e]`: local edge `e` of face `f` is a boundary (no other face) or a UV seam (the
 /// other face has different UVs at its ends).
 fn special_edges(faces: &[[u32; 3]], uv_faces: &[[u32; 3]]) -> Vec<[bool; 3]> {
-    let mut records: Vec<(u32, u32, usize, usize)> = Vec::with_capacity(faces.len() * 3);
+    // (edge key (lo, hi) as one u64, 3 f + e), sorted: grouped by edge, faces in order.
+    let mut records: Vec<(u64, usize)> = Vec::with_capacity(faces.len() * 3);
     for (f, t) in faces.iter().enumerate() {
         for (e, [i, j]) in EDGE_CORNERS.iter().enumerate() {
-            records.push((t[*i].min(t[*j]), t[*i].max(t[*j]), f, e));
+            let key = (u64::from(t[*i].min(t[*j])) << 32) | u64::from(t[*i].max(t[*j]));
+            records.push((key, 3 * f + e));
         }
     }
     records.sort_unstable();
@@ -850,15 +1190,16 @@ fn special_edges(faces: &[[u32; 3]], uv_faces: &[[u32; 3]]) -> Vec<[bool; 3]> {
         let k = faces[f].iter().position(|&x| x == v)?;
         uv_faces.get(f).map(|t| t[k])
     };
-    for group in records.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
+    for group in records.chunk_by(|x, y| x.0 == y.0) {
         if group.len() == 1 {
-            let (_, _, f, e) = group[0];
+            let (f, e) = (group[0].1 / 3, group[0].1 % 3);
             special[f][e] = true;
             continue;
         }
         if group.len() == 2 && !uv_faces.is_empty() {
-            let (lo, hi, f, e) = group[0];
-            let (_, _, g, d) = group[1];
+            let (lo, hi) = ((group[0].0 >> 32) as u32, group[0].0 as u32);
+            let (f, e) = (group[0].1 / 3, group[0].1 % 3);
+            let (g, d) = (group[1].1 / 3, group[1].1 % 3);
             if uv_at(f, lo) != uv_at(g, lo) || uv_at(f, hi) != uv_at(g, hi) {
                 special[f][e] = true;
                 special[g][d] = true;

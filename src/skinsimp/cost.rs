@@ -112,19 +112,21 @@ pub struct Candidates {
 impl Candidates {
     /// The union of the endpoints' joints of `problem`, at most [`MAX_CANDIDATES`].
     pub fn of(problem: &EdgeProblem) -> Candidates {
-        let mut joints: Vec<u32> = problem.weights[0]
-            .pairs()
-            .chain(problem.weights[1].pairs())
-            .map(|p| p.0)
-            .collect();
+        let mut joints: Vec<u32> = Vec::with_capacity(MAX_CANDIDATES);
+        joints.extend(
+            problem.weights[0]
+                .pairs()
+                .chain(problem.weights[1].pairs())
+                .map(|p| p.0),
+        );
         joints.sort_unstable();
         joints.dedup();
         joints.truncate(MAX_CANDIDATES);
-        let mats = problem
-            .mats
-            .iter()
-            .flat_map(|pose| joints.iter().map(|&j| pose[j as usize]))
-            .collect();
+        // Sized once (a flattening iterator would grow the vector step by step).
+        let mut mats = Vec::with_capacity(problem.mats.len() * joints.len());
+        for pose in problem.mats {
+            mats.extend(joints.iter().map(|&j| pose[j as usize]));
+        }
         Candidates { joints, mats }
     }
 
@@ -260,11 +262,12 @@ impl PoseGram {
     pub fn new(quadrics: &[Quadric], cand: &Candidates) -> PoseGram {
         let k = cand.joints.len();
         let mut g = vec![Matrix4::zeros(); k * k];
-        let mut q_m = Vec::with_capacity(k);
+        let mut q_m = [Matrix4::zeros(); MAX_CANDIDATES];
         for (j, q) in quadrics.iter().enumerate() {
             let qm = q.matrix();
-            q_m.clear();
-            q_m.extend(cand.pose(j).iter().map(|m| qm * m));
+            for (x, m) in q_m.iter_mut().zip(cand.pose(j)) {
+                *x = qm * m;
+            }
             for r in 0..k {
                 let mt = cand.pose(j)[r].transpose();
                 for c in r..k {
@@ -348,11 +351,10 @@ pub fn weight_step(
     }
 }
 
-/// The fallback points of the position step: current, `a`, `b`, midpoint.
-fn fallbacks(problem: &EdgeProblem, current: Option<Point3<f64>>) -> Vec<Point3<f64>> {
-    let [a, b] = problem.ends;
-    let mid = Point3::from((a.coords + b.coords) * 0.5);
-    current.into_iter().chain([a, b, mid]).collect()
+/// The fallback points of the position step: the endpoints `a`, `b` and their midpoint (the
+/// alternation puts the current position before them).
+fn fallbacks([a, b]: [Point3<f64>; 2]) -> [Point3<f64>; 3] {
+    [a, b, Point3::from((a.coords + b.coords) * 0.5)]
 }
 
 /// Mohr–Gleicher baseline: for each endpoint's weights `α_e`, the optimal position for
@@ -374,7 +376,7 @@ fn endpoint_start(
     for e in 0..2 {
         let alpha = cand.vector(&problem.weights[e]);
         let q = gram.position_quadric(&alpha);
-        let (v, _) = position_step(&q, &fallbacks(problem, None), options.max_condition);
+        let (v, _) = position_step(&q, &fallbacks(problem.ends), options.max_condition);
         let cost = gram.energy(&v, &alpha);
         if best.as_ref().is_none_or(|(b, _)| cost < b.cost) {
             let placement = Placement {
@@ -389,10 +391,10 @@ fn endpoint_start(
 }
 
 /// Rest-pose baseline: `problem.quadrics` holds the rest-pose quadric (`problem.mats` is not
-/// used: the rest pose has identity joint matrices, so `Q̃ = Σ_j Q^j`); the optimal position, and the weights of the endpoint nearer to it (ties: `a`).
+/// used: the rest pose has identity joint matrices, so `Q̃ = Σ_j Q^j`); the optimal position
+/// ([`rest_position`]), and the weights of the endpoint nearer to it (ties: `a`).
 pub fn place_rest(problem: &EdgeProblem, options: &CostOptions) -> Placement {
-    let q: Matrix4<f64> = problem.quadrics.iter().map(Quadric::matrix).sum();
-    let (v, cost) = position_step(&q, &fallbacks(problem, None), options.max_condition);
+    let (v, cost) = rest_position(problem.quadrics, problem.ends, options.max_condition);
     let [a, b] = problem.ends;
     let nearer = usize::from((v - b).norm_squared() < (v - a).norm_squared());
     Placement {
@@ -400,6 +402,23 @@ pub fn place_rest(problem: &EdgeProblem, options: &CostOptions) -> Placement {
         weights: problem.weights[nearer],
         cost,
     }
+}
+
+/// The position of the rest-pose baseline and its cost (plain Garland–Heckbert): the
+/// [`position_step`] of `Q = Σ_j Q^j` with the fallbacks `a`, `b`, midpoint (`ends`); no weights
+/// are involved, so the simplifier queues edges by this value alone.
+pub fn rest_position(
+    quadrics: &[Quadric],
+    ends: [Point3<f64>; 2],
+    max_condition: f64,
+) -> (Point3<f64>, f64) {
+    let q: Matrix4<f64> = quadrics.iter().map(Quadric::matrix).sum();
+    position_step(&q, &fallbacks(ends), max_condition)
+}
+
+/// The rest-pose cost `Σ_j v̂ᵀQ^j v̂` of a given position `v` (a half-edge collapse).
+pub fn rest_value(quadrics: &[Quadric], v: &Point3<f64>) -> f64 {
+    quadrics.iter().map(|q| q.eval(v)).sum()
 }
 
 /// The record of one alternating minimisation: `E` after the start and after every half-step.
@@ -496,11 +515,8 @@ fn position_given_weights(
     options: &CostOptions,
 ) -> (Point3<f64>, f64) {
     let q = gram.position_quadric(alpha);
-    let (v, _) = position_step(
-        &q,
-        &fallbacks(problem, Some(current)),
-        options.max_condition,
-    );
+    let [a, b, mid] = fallbacks(problem.ends);
+    let (v, _) = position_step(&q, &[current, a, b, mid], options.max_condition);
     (v, gram.energy(&v, alpha))
 }
 
@@ -595,7 +611,8 @@ pub fn place_frames(
 /// endpoint's rest position. Weights: the kept endpoint's for the baselines; for
 /// [`Method::Full`](super::Method::Full) one exact weight step at that position from them
 /// (accepted only if `E` drops), then reduction to `W_max` (kept only if still no worse).
-/// For [`Method::Rest`](super::Method::Rest) `E = v̂ᵀ(Σ_j Q^j)v̂` as in [`place_rest`].
+/// For [`Method::Rest`](super::Method::Rest) `E = v̂ᵀ(Σ_j Q^j)v̂` as in [`place_rest`]
+/// ([`rest_value`]).
 pub fn place_at_endpoint(
     problem: &EdgeProblem,
     keep: usize,
@@ -605,7 +622,7 @@ pub fn place_at_endpoint(
     let v = problem.ends[keep];
     let own = problem.weights[keep];
     if method == super::Method::Rest {
-        let cost = problem.quadrics.iter().map(|q| q.eval(&v)).sum();
+        let cost = rest_value(problem.quadrics, &v);
         return Placement {
             rest: v,
             weights: own,

@@ -9,7 +9,8 @@
 //! | per-pose plane quadrics, boundary/seam constraint planes | notes "Per-pose quadrics"; seed "QEF" | [`quadric`] |
 //! | weight QP (active set, support enumeration, KKT check), weight reduction | notes "The error…", seed "Quadratic #2", "Weight reduction" | [`weights`] |
 //! | collapse cost `E(v, α)`, position step, alternation, baselines | notes "The error…", seed "Quadratic #1", "Alternating minimization" | [`cost`] |
-//! | priority queue, link condition, flips in every pose, seams, boundaries | notes "Around it" | [`collapse`] |
+//! | greedy loop, link condition, flips in every pose, seams, boundaries | notes "Around it" | [`collapse`] |
+//! | the priority queue (lazy deletion, heap + unsorted far part) | notes "Around it" | `queue` |
 //! | collapse records, levels | notes "Around it" (multiresolution hierarchy) | [`hierarchy`] |
 //! | RMS / Hausdorff surface distance per pose | notes "Tests" 8 | [`distance`] |
 //! | evaluation on training and held-out poses | notes "Tests" 8 | [`evaluate`] |
@@ -32,6 +33,7 @@ pub mod hierarchy;
 pub mod picture;
 pub mod poses;
 pub mod quadric;
+mod queue;
 pub mod tube;
 pub mod weights;
 
@@ -74,6 +76,19 @@ impl Method {
     }
 }
 
+/// The order in which [`simplify`] collapses edges.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Schedule {
+    /// Always the cheapest valid edge of the current mesh, re-costing the edges around each
+    /// collapse (a priority queue; [`collapse`] module docs). Default: the order of the paper.
+    #[default]
+    Greedy,
+    /// meshoptimizer-style passes: cost and sort every edge, collapse in that order skipping
+    /// edges with an endpoint already merged in the pass, repeat. Far fewer cost evaluations
+    /// when merged vertices gather many edges, but not the exact greedy order.
+    Passes,
+}
+
 /// Options of [`simplify`].
 #[derive(Clone, Copy, Debug)]
 pub struct Options {
@@ -87,6 +102,8 @@ pub struct Options {
     pub boundary_weight: f64,
     /// The alternating minimisation and weight reduction. Default [`CostOptions::default`].
     pub cost: CostOptions,
+    /// The collapse order. Default [`Schedule::Greedy`].
+    pub schedule: Schedule,
 }
 
 impl Default for Options {
@@ -96,6 +113,7 @@ impl Default for Options {
             target_vertices: 0,
             boundary_weight: 10.0,
             cost: CostOptions::default(),
+            schedule: Schedule::Greedy,
         }
     }
 }
