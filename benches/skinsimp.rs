@@ -19,6 +19,9 @@ use reparam::skinsimp::poses::{select_poses, skinned_input, PoseSelection};
 use reparam::skinsimp::tube::skinned_tube;
 use reparam::skinsimp::{simplify, Input, Method, Options, Schedule};
 
+/// Single-threaded runs per schedule in the meshoptimizer comparison (the first is cold).
+const WARM_RUNS: usize = 3;
+
 /// (segments, rings): 2·s·(r + 1) = 10 000, 99 856, 1 000 000 triangles.
 const SIZES: [(usize, usize); 3] = [(50, 99), (158, 315), (500, 999)];
 
@@ -81,14 +84,24 @@ fn single_runs(_: &mut Criterion) {
                 .num_threads(1)
                 .build()
                 .expect("pool");
+            // The first run pays the kernel's first touch of every page the simplifier
+            // allocates; the next ones reuse the freed memory, as a benchmark loop (and
+            // meshoptimizer's figure) does. Both are printed.
             for schedule in [Schedule::Greedy, Schedule::Passes] {
                 let o = Options { schedule, ..o };
-                let start = Instant::now();
-                black_box(pool.install(|| simplify(&input, &o).expect("simplify")));
-                let s = start.elapsed().as_secs_f64();
+                let seconds: Vec<f64> = (0..WARM_RUNS)
+                    .map(|_| {
+                        let start = Instant::now();
+                        black_box(pool.install(|| simplify(&input, &o).expect("simplify")));
+                        start.elapsed().as_secs_f64()
+                    })
+                    .collect();
+                let (first, best) = (seconds[0], seconds.iter().copied().fold(f64::MAX, f64::min));
+                let rate = |s: f64| triangles as f64 / s / 1e6;
                 println!(
-                    "skinsimp single run, 1 thread: {triangles} triangles, rest method, {schedule:?} schedule: {s:.2} s ({:.3} M triangles/s; meshoptimizer ≈ 1.7, target ≥ 0.34)",
-                    triangles as f64 / s / 1e6
+                    "skinsimp single run, 1 thread: {triangles} triangles, rest method, {schedule:?} schedule: first run {first:.2} s ({:.3} M triangles/s), best of {WARM_RUNS} {best:.2} s ({:.3} M triangles/s); meshoptimizer ≈ 1.7, target ≥ 0.34",
+                    rate(first),
+                    rate(best)
                 );
             }
         }
