@@ -52,7 +52,7 @@ use super::queue::{Entry, Queue};
 use super::weights::{largest_support, Weights, MAX_CANDIDATES};
 use super::{Deformation, Input, Method, Options, Schedule};
 use crate::error::Result;
-use crate::mesh::{Adjacency, EdgeKind, EDGE_CORNERS};
+use crate::mesh::EDGE_CORNERS;
 
 /// Simplify `input` with `options`: the full collapse hierarchy (down to
 /// `options.target_vertices`, or as far as the validity checks allow).
@@ -97,7 +97,7 @@ fn collapse_loop(
 /// re-queue the edges around the kept vertex.
 fn greedy(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usize) + Send)) {
     let wanted = state.alive_count.saturating_sub(target);
-    let (entries, candidates) = state.scored_edges();
+    let (entries, candidates) = state.scored_edges(None);
     let mut queue = Queue::new(entries, candidates);
     let mut scratch = Scratch::new(state.alive.len());
     while state.alive_count > target {
@@ -120,29 +120,36 @@ fn greedy(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usi
 /// `1.5 × c_g`, `c_g` the cost of the `g`-th cheapest edge, `g` the collapses still wanted,
 /// once it has done more than `max(g / 10, w / 100)` (`w` the collapses wanted at the start):
 /// the skipped edges are re-costed by the next pass.
+///
+/// Only the edges up to that cost are sorted at first ([`PassOrder`]); the others only if the
+/// pass has not done its least when it reaches them. The order is the same as a full sort's.
+/// An edge whose endpoints no collapse of the last pass changed keeps its cost from that pass
+/// ([`Reuse`]): the same value, not computed again.
 fn passes(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usize) + Send)) {
     let wanted = state.alive_count.saturating_sub(target);
     let mut scratch = Scratch::new(state.alive.len());
     let mut merged = vec![false; state.alive.len()];
-    // Sorted as (entry, index of its candidate): the candidates stay in place. One buffer
-    // for all passes.
-    let mut order: Vec<(Entry, usize)> = Vec::new();
+    // `changed[v]`: a collapse of the last pass moved, removed or took faces from `v`.
+    let mut changed = vec![false; state.alive.len()];
+    let mut order = PassOrder::default();
+    let mut last: Option<(Vec<Entry>, Vec<Option<Scored>>)> = None;
     while state.alive_count > target {
-        let (entries, mut candidates) = state.scored_edges();
-        order.clear();
-        order.extend(entries.into_iter().zip(0..));
-        order.par_sort_unstable_by(|x, y| x.0.cmp(&y.0));
+        let reuse = last.as_ref().map(|(entries, candidates)| Reuse {
+            entries,
+            candidates,
+            changed: &changed,
+        });
+        let (entries, mut candidates) = state.scored_edges(reuse.as_ref());
+        changed.fill(false);
         let goal = state.alive_count - target;
-        let stop = order
-            .get(goal.min(order.len().saturating_sub(1)))
-            .map_or(f64::INFINITY, |e| 1.5 * e.0.cost);
+        let stop = order.start(&entries, goal);
         // The least a pass does before its cost bound applies (so that the passes do not
         // dwindle to one collapse each near the target).
         let least = (goal / 10).max(wanted / 100);
         merged.fill(false);
         let mut done = 0;
-        for &(entry, index) in &order {
-            let cached = candidates[index].take();
+        for index in &mut order {
+            let (entry, cached) = (entries[index], candidates[index].take());
             if state.alive_count <= target || !entry.cost.is_finite() {
                 break;
             }
@@ -155,12 +162,138 @@ fn passes(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usi
             }
             merged[a] = true;
             merged[b] = true;
+            for &x in [a as u32, b as u32].iter().chain(&scratch.opposite) {
+                changed[x as usize] = true;
+            }
             done += 1;
             progress(state.records.len(), wanted);
         }
         if done == 0 {
             break;
         }
+        last = Some((entries, candidates));
+    }
+}
+
+/// The scores of the last pass of [`passes`] (ordered by `(a, b)`, as
+/// [`State::scored_edges`] makes them) and the vertices its collapses changed: an edge with
+/// neither endpoint changed has the same faces, UVs, wedges and quadrics at its ends, so the
+/// same entry (and candidate, unless a try took it).
+struct Reuse<'p> {
+    entries: &'p [Entry],
+    candidates: &'p [Option<Scored>],
+    changed: &'p [bool],
+}
+
+impl Reuse<'_> {
+    /// The index of the first entry with first endpoint `a` or after.
+    fn first_of(&self, a: usize) -> usize {
+        self.entries.partition_point(|e| (e.a as usize) < a)
+    }
+
+    /// The kept score of edge `(a, b)`, if it can be kept: the edges are asked for in `(a, b)`
+    /// order, `cursor` walking the last pass's entries along.
+    fn keep(
+        &self,
+        cursor: &mut usize,
+        (a, b): (usize, usize),
+        costly: bool,
+    ) -> Option<(Entry, Option<Scored>)> {
+        let key = (a as u32, b as u32);
+        while self.entries.get(*cursor).is_some_and(|e| (e.a, e.b) < key) {
+            *cursor += 1;
+        }
+        let i = *cursor;
+        let same_edge = self.entries.get(i).is_some_and(|e| (e.a, e.b) == key);
+        if !same_edge || self.changed[a] || self.changed[b] {
+            return None;
+        }
+        // A costly method's candidate is kept with its entry, unless a try took it.
+        let candidate = self.candidates[i].clone();
+        (!costly || candidate.is_some()).then(|| (self.entries[i], candidate))
+    }
+}
+
+/// The order of one pass of [`passes`]: the entries by `(cost, a, b)`, sorted in two parts
+/// (those up to the pass's stopping cost when the pass starts, the others when reached).
+///
+/// Entries come ordered by `(a, b)` ([`State::scored_edges`]), so a key of the cost's
+/// [`f64::total_cmp`] rank ([`cost_rank`]) and the entry's index orders them by
+/// `(cost, a, b)`: a plain sort of `u128`s, with no comparison closure.
+#[derive(Default)]
+struct PassOrder {
+    /// `cost rank << 64 | index`, sorted up to `sorted`.
+    keys: Vec<u128>,
+    /// Keys before this are sorted; the others all come after them.
+    sorted: usize,
+    /// The position of the next key to hand out.
+    at: usize,
+}
+
+impl PassOrder {
+    /// Start a pass over `entries` wanting `goal` collapses: its stopping cost, `1.5 ×` the
+    /// cost of the `goal`-th cheapest entry (the last if fewer; ∞ if none), with the keys up
+    /// to it sorted.
+    fn start(&mut self, entries: &[Entry], goal: usize) -> f64 {
+        self.keys.clear();
+        self.keys.extend(
+            entries
+                .iter()
+                .enumerate()
+                .map(|(i, e)| u128::from(cost_rank(e.cost)) << 64 | i as u128),
+        );
+        (self.at, self.sorted) = (0, 0);
+        if self.keys.is_empty() {
+            return f64::INFINITY;
+        }
+        let k = goal.min(self.keys.len() - 1);
+        self.keys.select_nth_unstable(k);
+        let stop = 1.5 * entries[key_index(self.keys[k])].cost;
+        let bound = u128::from(cost_rank(stop)) << 64 | u128::from(u64::MAX);
+        // Those above the k-th whose cost ranks at most `stop`'s join the first part.
+        let mut head = k + 1;
+        for i in k + 1..self.keys.len() {
+            if self.keys[i] <= bound {
+                self.keys.swap(head, i);
+                head += 1;
+            }
+        }
+        self.keys[..head].sort_unstable();
+        self.sorted = head;
+        stop
+    }
+}
+
+impl Iterator for PassOrder {
+    type Item = usize;
+
+    /// The index of the next entry in `(cost, a, b)` order.
+    fn next(&mut self) -> Option<usize> {
+        if self.at == self.keys.len() {
+            return None;
+        }
+        if self.at == self.sorted {
+            self.keys[self.sorted..].sort_unstable();
+            self.sorted = self.keys.len();
+        }
+        self.at += 1;
+        Some(key_index(self.keys[self.at - 1]))
+    }
+}
+
+/// The entry index of a [`PassOrder`] key.
+fn key_index(key: u128) -> usize {
+    key as u64 as usize
+}
+
+/// `x`'s rank in [`f64::total_cmp`]'s order as an unsigned integer: the bits with the sign
+/// bit set for positive numbers, all bits flipped for negative ones.
+fn cost_rank(x: f64) -> u64 {
+    let bits = x.to_bits();
+    if bits >> 63 == 1 {
+        !bits
+    } else {
+        bits | 1 << 63
     }
 }
 
@@ -180,7 +313,7 @@ struct Scratch {
     /// The stars of the two endpoints.
     star_a: Star,
     star_b: Star,
-    /// Opposite vertices of the faces removed by a collapse.
+    /// Opposite vertices of the faces removed by the last collapse.
     opposite: Vec<u32>,
     /// A face list, swapped with the kept vertex's when a collapse merges the two lists.
     faces: Vec<u32>,
@@ -215,6 +348,14 @@ fn merge_sorted<'x>(
             (None, None) => return,
         };
         out.extend(next);
+    }
+}
+
+/// Insert `x` into the sorted list `out` unless present (a vertex has few distinct wedges:
+/// cheaper than sorting a valence-long list).
+fn insert_sorted(out: &mut Vec<u32>, x: u32) {
+    if let Err(k) = out.binary_search(&x) {
+        out.insert(k, x);
     }
 }
 
@@ -378,13 +519,17 @@ impl<'a> State<'a> {
         let training: Vec<Vec<Point3<f64>>> =
             (0..input.pose_count()).map(|j| input.posed(j)).collect();
         let (faces, uv_faces, uvs) = clean_faces(mesh);
-        let mut vertex_faces = vec![Vec::new(); n];
-        for (f, tri) in faces.iter().enumerate() {
-            for &v in tri {
-                vertex_faces[v as usize].push(f as u32);
-            }
-        }
-        let locked = locked_vertices(mesh, n);
+        let vertex_faces = vertex_face_lists(&faces, n);
+        let records = sorted_edge_records(&faces, n);
+        let locked = if faces.len() == mesh.faces.len() {
+            locked_vertices(&faces, &records, n)
+        } else {
+            // The input's degenerate faces count in the lock test (they may make an edge
+            // non-manifold): their own records.
+            locked_vertices(&mesh.faces, &sorted_edge_records(&mesh.faces, n), n)
+        };
+        let special = special_edges(&faces, &uv_faces, &records);
+        drop(records);
         let (skinned, rest, joint_count) = match &input.deformation {
             Deformation::Skinned { joints, .. } => (true, mesh.positions.clone(), joints[0].len()),
             Deformation::Frames { frames } => (false, frames[0].clone(), 0),
@@ -399,13 +544,7 @@ impl<'a> State<'a> {
                 (Deformation::Frames { .. }, _) => (Vec::new(), training.clone()),
             };
         let quad_poses = quad_positions.len();
-        let quadrics = vertex_quadrics(
-            &faces,
-            &uv_faces,
-            mesh,
-            &quad_positions,
-            options.boundary_weight,
-        );
+        let quadrics = vertex_quadrics(&faces, &special, &quad_positions, options.boundary_weight);
         let (check_mats, check_sets): (PoseMats, PosePoints) = if skinned {
             let Deformation::Skinned { joints, .. } = &input.deformation else {
                 unreachable!()
@@ -440,8 +579,8 @@ impl<'a> State<'a> {
                 let training_quadrics: Cow<[Quadric]> = if options.method != Method::Rest {
                     Cow::Borrowed(&quadrics)
                 } else if reduces {
-                    let (m, w) = (mesh, options.boundary_weight);
-                    Cow::Owned(vertex_quadrics(&faces, &uv_faces, m, &training, w))
+                    let w = options.boundary_weight;
+                    Cow::Owned(vertex_quadrics(&faces, &special, &training, w))
                 } else {
                     Cow::Borrowed(&[]) // never read: no vertex is reduced
                 };
@@ -506,23 +645,47 @@ impl<'a> State<'a> {
             && self.version[entry.b as usize] == entry.version_b
     }
 
-    /// Every edge of the alive faces with its cost and candidate ([`State::score`]), computed
-    /// in parallel, ordered by `(a, b)`.
-    fn scored_edges(&self) -> (Vec<Entry>, Vec<Option<Scored>>) {
-        (0..self.alive.len())
+    /// Every edge of the alive faces with its cost and candidate ([`State::score`], or kept
+    /// from the last pass by `reuse`), ordered by `(a, b)`; computed in parallel over blocks
+    /// of vertices, each with its own buffers.
+    fn scored_edges(&self, reuse: Option<&Reuse>) -> (Vec<Entry>, Vec<Option<Scored>>) {
+        const BLOCK: usize = 4096;
+        let n = self.alive.len();
+        let blocks: Vec<(Vec<Entry>, Vec<Option<Scored>>)> = (0..n.div_ceil(BLOCK))
             .into_par_iter()
-            .flat_map_iter(|a| {
-                self.edges_above(a)
-                    .into_iter()
-                    .map(move |(b, on_edge)| self.score(a, b, on_edge))
+            .map(|k| {
+                let vertices = k * BLOCK..((k + 1) * BLOCK).min(n);
+                let mut cursor = reuse.map_or(0, |r| r.first_of(vertices.start));
+                let (mut fan, mut out) = (Vec::new(), (Vec::new(), Vec::new()));
+                for a in vertices {
+                    self.edges_above(a, &mut fan, |b, on_edge| {
+                        let kept = reuse.and_then(|r| r.keep(&mut cursor, (a, b), self.costly()));
+                        let (entry, scored) = kept.unwrap_or_else(|| self.score(a, b, on_edge));
+                        out.0.push(entry);
+                        out.1.push(scored);
+                    });
+                }
+                out
             })
-            .unzip()
+            .collect();
+        blocks
+            .into_iter()
+            .fold(Default::default(), |mut all, block| {
+                all.0.extend(block.0);
+                all.1.extend(block.1);
+                all
+            })
     }
 
-    /// The edges `(a, b)`, `b > a`, of vertex `a` with the faces on each (in face order),
-    /// ordered by `b`.
-    fn edges_above(&self, a: usize) -> Vec<(usize, EdgeFaces)> {
-        let mut fan: Vec<(u32, u32)> = Vec::new();
+    /// Call `visit(b, faces on (a, b))` for the edges `(a, b)`, `b > a`, of vertex `a` (faces in
+    /// face order), in the order of `b`; `fan` is a buffer.
+    fn edges_above(
+        &self,
+        a: usize,
+        fan: &mut Vec<(u32, u32)>,
+        mut visit: impl FnMut(usize, EdgeFaces),
+    ) {
+        fan.clear();
         for &f in &self.vertex_faces[a] {
             fan.extend(
                 self.faces[f as usize]
@@ -532,15 +695,13 @@ impl<'a> State<'a> {
             );
         }
         fan.sort_unstable();
-        fan.chunk_by(|x, y| x.0 == y.0)
-            .map(|run| {
-                let mut on_edge = EdgeFaces::default();
-                for &(_, f) in run {
-                    on_edge.push(f);
-                }
-                (run[0].0 as usize, on_edge)
-            })
-            .collect()
+        for run in fan.chunk_by(|x, y| x.0 == y.0) {
+            let mut on_edge = EdgeFaces::default();
+            for &(_, f) in run {
+                on_edge.push(f);
+            }
+            visit(run[0].0 as usize, on_edge);
+        }
     }
 
     /// Collapse `(a, b)` if it is valid now: the UV mode of now, the candidate (`cached` when
@@ -553,7 +714,8 @@ impl<'a> State<'a> {
         cached: Option<Scored>,
         scratch: &mut Scratch,
     ) -> bool {
-        let Some(mode) = self.uv_mode(a, b) else {
+        let on_edge = self.faces_on_edge(a, b);
+        let Some(mode) = self.uv_mode(a, b, on_edge) else {
             return false;
         };
         let mut candidate = match cached.map(|s| *s) {
@@ -561,7 +723,7 @@ impl<'a> State<'a> {
             _ => self.evaluate(a, b, mode),
         };
         self.pose(&mut candidate);
-        let Some(uv_plan) = self.valid(a, b, mode, &candidate, scratch) else {
+        let Some(uv_plan) = self.valid(a, b, mode, on_edge, &candidate, scratch) else {
             return false;
         };
         self.collapse(a, b, candidate, uv_plan, scratch);
@@ -583,7 +745,7 @@ impl<'a> State<'a> {
         let mode = if self.locked[a] || self.locked[b] {
             None
         } else {
-            self.uv_mode_on(a, b, on_edge)
+            self.uv_mode(a, b, on_edge)
         };
         let (cost, scored) = match mode {
             None => (f64::INFINITY, None),
@@ -751,13 +913,13 @@ impl<'a> State<'a> {
         a: usize,
         b: usize,
         mode: Mode,
+        on_edge: EdgeFaces,
         candidate: &Candidate,
         scratch: &mut Scratch,
     ) -> Option<UvPlan> {
         if self.locked[a] || self.locked[b] || !candidate.cost.is_finite() {
             return None;
         }
-        let on_edge = self.faces_on_edge(a, b);
         if on_edge.count == 0 || on_edge.count > 2 {
             return None;
         }
@@ -770,7 +932,7 @@ impl<'a> State<'a> {
         if on_edge.count == 2 && star_a.on_boundary() && star_b.on_boundary() {
             return None;
         }
-        let plan = self.uv_plan(a, b, mode, candidate);
+        let plan = self.uv_plan(a, b, mode, on_edge, candidate);
         self.flip_free(a, b, candidate).then_some(plan)
     }
 
@@ -861,24 +1023,38 @@ impl<'a> State<'a> {
         let mut out = std::mem::take(&mut self.wedges[v]);
         out.clear();
         for &f in &self.vertex_faces[v] {
-            // Few distinct wedges: insert in place rather than sort the valence-long list.
-            let u = self.corner_uv(f, v);
-            if let Err(k) = out.binary_search(&u) {
-                out.insert(k, u);
-            }
+            insert_sorted(&mut out, self.corner_uv(f, v));
         }
         self.wedges[v] = out;
     }
 
-    /// Condition 4 of the module docs: how the edge may collapse for the UVs. `Free` when both
-    /// endpoints' wedges all touch the edge; `Keep(k)` (a half-edge collapse onto endpoint `k`,
-    /// which does not move) when only the other endpoint's do; `None` when neither.
-    fn uv_mode(&self, a: usize, b: usize) -> Option<Mode> {
-        self.uv_mode_on(a, b, self.faces_on_edge(a, b))
+    /// Apply a collapse's UV `map` (old → new index) at the merged vertex `a` of each of its
+    /// faces, and recompute its wedges ([`State::refresh_wedges`]) on the way.
+    fn remap_uvs(&mut self, a: usize, map: &[(u32, u32)]) {
+        if self.uv_faces.is_empty() {
+            return;
+        }
+        let mut out = std::mem::take(&mut self.wedges[a]);
+        out.clear();
+        for &f in &self.vertex_faces[a] {
+            let k = self.faces[f as usize]
+                .iter()
+                .position(|&x| x as usize == a)
+                .unwrap_or(0);
+            let u = &mut self.uv_faces[f as usize][k];
+            if let Some(&(_, new)) = map.iter().find(|m| m.0 == *u) {
+                *u = new;
+            }
+            insert_sorted(&mut out, *u);
+        }
+        self.wedges[a] = out;
     }
 
-    /// [`State::uv_mode`] with the faces on the edge already found.
-    fn uv_mode_on(&self, a: usize, b: usize, on_edge: EdgeFaces) -> Option<Mode> {
+    /// Condition 4 of the module docs: how the edge may collapse for the UVs. `Free` when both
+    /// endpoints' wedges all touch the edge; `Keep(k)` (a half-edge collapse onto endpoint `k`,
+    /// which does not move) when only the other endpoint's do; `None` when neither. `on_edge`:
+    /// the faces on the edge ([`State::faces_on_edge`]).
+    fn uv_mode(&self, a: usize, b: usize, on_edge: EdgeFaces) -> Option<Mode> {
         if self.uv_faces.is_empty() {
             return Some(Mode::Free);
         }
@@ -900,7 +1076,14 @@ impl<'a> State<'a> {
     /// The UV map of a collapse in `mode`: `Free` gives each side the new UV
     /// `(1 − t) uv_a + t uv_b` (`t` the projection of the new rest position on `ab`);
     /// `Keep(k)` maps the moving endpoint's UV on each side to the kept endpoint's.
-    fn uv_plan(&self, a: usize, b: usize, mode: Mode, candidate: &Candidate) -> UvPlan {
+    fn uv_plan(
+        &self,
+        a: usize,
+        b: usize,
+        mode: Mode,
+        on_edge: EdgeFaces,
+        candidate: &Candidate,
+    ) -> UvPlan {
         let mut plan = UvPlan {
             map: Vec::new(),
             new_uvs: Vec::new(),
@@ -908,9 +1091,7 @@ impl<'a> State<'a> {
         if self.uv_faces.is_empty() {
             return plan;
         }
-        let sides = self
-            .uv_sides(a, b, self.faces_on_edge(a, b))
-            .unwrap_or_default();
+        let sides = self.uv_sides(a, b, on_edge).unwrap_or_default();
         if let Mode::Keep(k) = mode {
             for &(ua, ub) in sides.pairs() {
                 plan.map.push(if k == 0 { (ub, ua) } else { (ua, ub) });
@@ -1015,25 +1196,12 @@ impl<'a> State<'a> {
             &mut merged,
         );
         scratch.faces = std::mem::replace(&mut self.vertex_faces[a], merged);
-        let merged = &self.vertex_faces[a];
-        if !self.uv_faces.is_empty() {
-            for &f in merged {
-                let k = self.faces[f as usize]
-                    .iter()
-                    .position(|&x| x as usize == a)
-                    .unwrap_or(0);
-                let u = &mut self.uv_faces[f as usize][k];
-                if let Some(&(_, new)) = plan.map.iter().find(|m| m.0 == *u) {
-                    *u = new;
-                }
-            }
-        }
+        self.remap_uvs(a, &plan.map);
         // The faces on the edge also leave their opposite vertices' lists.
         for &x in opposite.iter() {
             let alive = &self.face_alive;
             self.vertex_faces[x as usize].retain(|&f| alive[f as usize]);
         }
-        self.refresh_wedges(a);
         for &x in &scratch.opposite {
             self.refresh_wedges(x as usize);
         }
@@ -1112,59 +1280,102 @@ fn clean_faces(mesh: &crate::mesh::TriMesh) -> CleanFaces {
     (faces, uv_faces, uvs)
 }
 
-/// Vertices on a non-manifold or misoriented edge of the input: never moved.
-fn locked_vertices(mesh: &crate::mesh::TriMesh, n: usize) -> Vec<bool> {
-    let adjacency = Adjacency::new(mesh);
+/// The faces of every vertex, in face order (each list allocated once, at its length).
+fn vertex_face_lists(faces: &[[u32; 3]], n: usize) -> Vec<Vec<u32>> {
+    let mut count = vec![0usize; n];
+    for &v in faces.iter().flatten() {
+        count[v as usize] += 1;
+    }
+    let mut lists: Vec<Vec<u32>> = count.into_iter().map(Vec::with_capacity).collect();
+    for (f, t) in faces.iter().enumerate() {
+        for &v in t {
+            lists[v as usize].push(f as u32);
+        }
+    }
+    lists
+}
+
+/// One side of an edge: its ends `lo ≤ hi` and where it lies, `3 f + e` (local edge `e` of
+/// face `f`, [`EDGE_CORNERS`]).
+type EdgeRecord = (u32, u32, u32);
+
+/// The records of every local edge of `faces` (vertices `< n`), sorted: the records of one
+/// edge are contiguous and in face order. A counting sort on `lo`, then each vertex's few
+/// records sorted: O(F).
+fn sorted_edge_records(faces: &[[u32; 3]], n: usize) -> Vec<EdgeRecord> {
+    let record = |flat: usize| -> EdgeRecord {
+        let (t, [i, j]) = (faces[flat / 3], EDGE_CORNERS[flat % 3]);
+        (t[i].min(t[j]), t[i].max(t[j]), flat as u32)
+    };
+    let sides = 3 * faces.len();
+    // start[v]..start[v + 1]: the records with lo = v.
+    let mut start = vec![0usize; n + 1];
+    for flat in 0..sides {
+        start[record(flat).0 as usize + 1] += 1;
+    }
+    for v in 0..n {
+        start[v + 1] += start[v];
+    }
+    let mut records = vec![(0, 0, 0); sides];
+    let mut cursor = start.clone();
+    for flat in 0..sides {
+        let r = record(flat);
+        records[cursor[r.0 as usize]] = r;
+        cursor[r.0 as usize] += 1;
+    }
+    for v in 0..n {
+        records[start[v]..start[v + 1]].sort_unstable();
+    }
+    records
+}
+
+/// The groups of `records` ([`sorted_edge_records`]) that are one edge each.
+fn edge_groups(records: &[EdgeRecord]) -> impl Iterator<Item = &[EdgeRecord]> {
+    records.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1))
+}
+
+/// Vertex `k` (0: start, 1: end) of the local edge `flat = 3 f + e` of `faces`.
+fn edge_end(faces: &[[u32; 3]], flat: u32, k: usize) -> u32 {
+    faces[flat as usize / 3][EDGE_CORNERS[flat as usize % 3][k]]
+}
+
+/// Vertices on a non-manifold edge (three or more faces) or a misoriented one (two faces
+/// running it in the same direction) of `faces`, as [`crate::mesh::Adjacency`] classifies
+/// them: never moved. `records` from [`sorted_edge_records`].
+fn locked_vertices(faces: &[[u32; 3]], records: &[EdgeRecord], n: usize) -> Vec<bool> {
     let mut locked = vec![false; n];
-    for (f, kinds) in adjacency.edges.iter().enumerate() {
-        for (e, kind) in kinds.iter().enumerate() {
-            if matches!(kind, EdgeKind::NonManifold | EdgeKind::Misoriented { .. }) {
-                for c in EDGE_CORNERS[e] {
-                    locked[mesh.faces[f][c] as usize] = true;
-                }
-            }
+    for group in edge_groups(records) {
+        let lock = match group {
+            [_] => false,
+            [r, s] => edge_end(faces, r.2, 0) != edge_end(faces, s.2, 1),
+            _ => true,
+        };
+        if lock {
+            locked[group[0].0 as usize] = true;
+            locked[group[0].1 as usize] = true;
         }
     }
     locked
 }
 
-/// `Q_i^j = Σ_{f∋i} K_f^j` plus the constraint planes of boundary and UV-seam edges, for
-/// every vertex `i` and pose `j` of `positions` (`[pose][vertex]`); layout `i * P + j`.
-/// Summed face by face in face order (deterministic).
+/// `Q_i^j = Σ_{f∋i} K_f^j` plus the constraint planes of the `special` (boundary and UV-seam)
+/// edges, for every vertex `i` and pose `j` of `positions` (`[pose][vertex]`); layout
+/// `i * P + j`. Summed face by face in face order (deterministic).
 fn vertex_quadrics(
     faces: &[[u32; 3]],
-    uv_faces: &[[u32; 3]],
-    mesh: &crate::mesh::TriMesh,
+    special: &[[bool; 3]],
     positions: &[Vec<Point3<f64>>],
     boundary_weight: f64,
 ) -> Vec<Quadric> {
-    let p = positions.len();
-    let n = mesh.positions.len();
-    let special = special_edges(faces, uv_faces);
-    let mut out = vec![Quadric::default(); n * p];
-    let per_pose: Vec<Vec<Quadric>> = positions
+    let mut per_pose: Vec<Vec<Quadric>> = positions
         .par_iter()
-        .map(|pos| {
-            let mut q = vec![Quadric::default(); n];
-            for (f, t) in faces.iter().enumerate() {
-                let [x, y, z] = t.map(|v| pos[v as usize]);
-                let k = Quadric::from_triangle(&x, &y, &z);
-                for &v in t {
-                    q[v as usize].add_assign(&k);
-                }
-                let normal = unit_normal(&x, &y, &z);
-                for (e, [i, j]) in EDGE_CORNERS.iter().enumerate() {
-                    if special[f][e] {
-                        let (vi, vj) = (t[*i] as usize, t[*j] as usize);
-                        let c = edge_constraint(&pos[vi], &pos[vj], &normal, boundary_weight);
-                        q[vi].add_assign(&c);
-                        q[vj].add_assign(&c);
-                    }
-                }
-            }
-            q
-        })
+        .map(|pos| pose_quadrics(faces, special, pos, boundary_weight))
         .collect();
+    if let [only] = &mut per_pose[..] {
+        return std::mem::take(only);
+    }
+    let (p, n) = (positions.len(), positions.first().map_or(0, Vec::len));
+    let mut out = vec![Quadric::default(); n * p];
     for (j, q) in per_pose.into_iter().enumerate() {
         for (i, x) in q.into_iter().enumerate() {
             out[i * p + j] = x;
@@ -1173,37 +1384,59 @@ fn vertex_quadrics(
     out
 }
 
-/// `special[f][e]`: local edge `e` of face `f` is a boundary (no other face) or a UV seam (the
-/// other face has different UVs at its ends).
-fn special_edges(faces: &[[u32; 3]], uv_faces: &[[u32; 3]]) -> Vec<[bool; 3]> {
-    // (edge key (lo, hi) as one u64, 3 f + e), sorted: grouped by edge, faces in order.
-    let mut records: Vec<(u64, usize)> = Vec::with_capacity(faces.len() * 3);
-    for (f, t) in faces.iter().enumerate() {
-        for (e, [i, j]) in EDGE_CORNERS.iter().enumerate() {
-            let key = (u64::from(t[*i].min(t[*j])) << 32) | u64::from(t[*i].max(t[*j]));
-            records.push((key, 3 * f + e));
+/// The quadrics of [`vertex_quadrics`] in one pose, vertex positions `pos`.
+fn pose_quadrics(
+    faces: &[[u32; 3]],
+    special: &[[bool; 3]],
+    pos: &[Point3<f64>],
+    boundary_weight: f64,
+) -> Vec<Quadric> {
+    let mut q = vec![Quadric::default(); pos.len()];
+    for (t, special) in faces.iter().zip(special) {
+        let [x, y, z] = t.map(|v| pos[v as usize]);
+        let k = Quadric::from_triangle(&x, &y, &z);
+        for &v in t {
+            q[v as usize].add_assign(&k);
+        }
+        if !special.contains(&true) {
+            continue;
+        }
+        let normal = unit_normal(&x, &y, &z);
+        for (&[i, j], _) in EDGE_CORNERS.iter().zip(special).filter(|e| *e.1) {
+            let (vi, vj) = (t[i] as usize, t[j] as usize);
+            let c = edge_constraint(&pos[vi], &pos[vj], &normal, boundary_weight);
+            q[vi].add_assign(&c);
+            q[vj].add_assign(&c);
         }
     }
-    records.sort_unstable();
+    q
+}
+
+/// `special[f][e]`: local edge `e` of face `f` is a boundary (no other face) or a UV seam (the
+/// other face has different UVs at its ends). `records` from [`sorted_edge_records`].
+fn special_edges(
+    faces: &[[u32; 3]],
+    uv_faces: &[[u32; 3]],
+    records: &[EdgeRecord],
+) -> Vec<[bool; 3]> {
     let mut special = vec![[false; 3]; faces.len()];
-    let uv_at = |f: usize, v: u32| -> Option<u32> {
+    let uv_at = |flat: u32, v: u32| -> Option<u32> {
+        let f = flat as usize / 3;
         let k = faces[f].iter().position(|&x| x == v)?;
         uv_faces.get(f).map(|t| t[k])
     };
-    for group in records.chunk_by(|x, y| x.0 == y.0) {
-        if group.len() == 1 {
-            let (f, e) = (group[0].1 / 3, group[0].1 % 3);
-            special[f][e] = true;
-            continue;
-        }
-        if group.len() == 2 && !uv_faces.is_empty() {
-            let (lo, hi) = ((group[0].0 >> 32) as u32, group[0].0 as u32);
-            let (f, e) = (group[0].1 / 3, group[0].1 % 3);
-            let (g, d) = (group[1].1 / 3, group[1].1 % 3);
-            if uv_at(f, lo) != uv_at(g, lo) || uv_at(f, hi) != uv_at(g, hi) {
-                special[f][e] = true;
-                special[g][d] = true;
+    let mut mark = |flat: u32| special[flat as usize / 3][flat as usize % 3] = true;
+    for group in edge_groups(records) {
+        match group {
+            [r] => mark(r.2),
+            [r, s] if !uv_faces.is_empty() => {
+                let (lo, hi) = (r.0, r.1);
+                if uv_at(r.2, lo) != uv_at(s.2, lo) || uv_at(r.2, hi) != uv_at(s.2, hi) {
+                    mark(r.2);
+                    mark(s.2);
+                }
             }
+            _ => {}
         }
     }
     special
