@@ -12,11 +12,26 @@
 //! only (s_i, s_{i+1}, t_j, t_{j+1}, the cell's "slots"), so JᵀJ and Jᵀr are accumulated per cell
 //! in a 4×4 block ([`LocalNormalEquations`], the GPU kernel's `CellContribution`), cells in
 //! parallel, and the blocks scattered in cell order; J is never stored.
+//!
+//! # Evaluation layout
+//! - The rest side of every sample (σ, o_s, o_t) depends only on the rest fields, the rest grid
+//!   and K×L: [`RestSamples`], built once per sequence ([`super::solve::solve_sequence`]) and
+//!   shared by every frame's energy ([`AaEnergy::from_rest_samples`]).
+//! - Per evaluation, the warped sample coordinates are separable (f depends on the column
+//!   sample only, g on the row sample only), so their texel positions are tabulated once per
+//!   column and row sample.
+//! - Inside a cell, samples are processed 8 (`LANES`) at a time (L row samples of one column
+//!   sample, or two column samples of ≤ 4 rows each) in plain loops over fixed-size arrays that
+//!   the compiler turns into vector instructions; each lane keeps its own partial sums of F,
+//!   Jᵀr and JᵀJ, added in lane order at the end of the cell. The sums therefore depend on the
+//!   sample layout only, never on the number of threads.
+
+use std::borrow::Cow;
 
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use super::field::{Axis, Field, Sample};
+use super::field::{bilinear_formula, bilinear_value, nearest_texel, Axis, Field, Sample};
 use super::grid::Grid;
 use crate::lm::{LocalNormalEquations, NormalEquations, Residuals};
 
@@ -48,65 +63,209 @@ pub struct RestSample {
 
 /// The rest samples of every cell, K×L midpoints each, in the order cell column i, row j,
 /// sample a, b: α = (a + ½)/K, β = (b + ½)/L, rest point (ŝ_i + α h_i, t̂_j + β k_j), sample
-/// area w = h_i k_j/(K L). Shared by the axis-aligned, non-axis-aligned and GPU energies.
+/// area w = h_i k_j/(K L). Shared by the axis-aligned, non-axis-aligned and GPU energies
+/// ([`RestSamples`] in sample-by-sample form).
 pub fn rest_samples(rest: &RestFields, rest_grid: &Grid, k: usize, l: usize) -> Vec<RestSample> {
-    let (k, l) = (k.max(1), l.max(1));
-    let columns = RestAxis::along(&rest_grid.s, k, [rest.o_s.width, rest.o_t.width]);
-    let rows = RestAxis::along(&rest_grid.t, l, [rest.o_s.height, rest.o_t.height]);
-    // One cell column per parallel task, concatenated in column order.
-    let per_column: Vec<Vec<RestSample>> = columns
-        .par_chunks(k)
-        .enumerate()
-        .map(|(i, column)| {
-            let h = rest_grid.s[i + 1] - rest_grid.s[i];
-            let mut samples = Vec::with_capacity(column.len() * rows.len());
-            for (j, row) in rows.chunks(l).enumerate() {
-                let kj = rest_grid.t[j + 1] - rest_grid.t[j];
-                let root_w = (h * kj / (k * l) as f64).sqrt();
-                for x in column {
-                    for y in row {
-                        samples.push(RestSample {
-                            alpha: x.fraction,
-                            beta: y.fraction,
-                            sigma: root_w * rest.rigidity.nearest(x.s, y.s),
-                            o_s: rest.o_s.bilinear_at(&x.o_s, &y.o_s).value,
-                            o_t: rest.o_t.bilinear_at(&x.o_t, &y.o_t).value,
-                        });
-                    }
-                }
-            }
-            samples
-        })
-        .collect();
-    per_column.concat()
+    RestSamples::new(rest, rest_grid, k, l).to_vec()
 }
 
-/// One coordinate of the rest samples along one axis: the midpoint fraction (a + ½)/K in its
-/// cell, the rest coordinate ŝ_i + α h_i and its texel positions on the ‖O_s‖ and ‖O_t‖
-/// fields, found once per column (row) of samples instead of once per sample.
+/// Samples processed together by the sample loops: 8 f64, one 512-bit register.
+const LANES: usize = 8;
+
+/// The layout of a cell's samples in the lane loops: (C, S) = (column samples, stored row
+/// samples) per chunk of [`LANES`] samples. L ≤ 4: two column samples of S = 4 rows each
+/// (L padded to 4); else one column sample and S = L rounded up to a multiple of 8.
+fn chunk_layout(l: usize) -> (usize, usize) {
+    if l <= LANES / 2 {
+        (2, LANES / 2)
+    } else {
+        (1, l.div_ceil(LANES) * LANES)
+    }
+}
+
+/// The rest side of the axis-aligned energy: σ, o_s, o_t of every sample. They depend only
+/// on the rest fields, the rest grid and K×L, so a sequence builds them once (the paper's
+/// preprocessing) and every frame's [`AaEnergy`] reads them
+/// ([`AaEnergy::from_rest_samples`]).
+///
+/// Stored structure-of-arrays, sample (a, b) of cell c = i·(N−1) + j at (c·K' + a)·S + b, the
+/// L row samples of a column sample contiguous, L padded to S and K to K' (a multiple of C)
+/// as `chunk_layout` says, with σ = 0 samples (which contribute exactly 0).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RestSamples {
+    grid: Grid,
+    k: usize,
+    l: usize,
+    /// C: column samples per chunk of LANES samples.
+    chunk_columns: usize,
+    /// K': column samples stored per cell (K plus padding).
+    padded_k: usize,
+    /// S: row samples stored per column sample (L plus padding).
+    stride: usize,
+    /// α_a = (a + ½)/K for a < K, 0 for the padding (length K').
+    alpha: Vec<f64>,
+    /// β_b = (b + ½)/L at c·S + b for b < L, c < C, 0 for the padding (length C·S).
+    beta: Vec<f64>,
+    /// The entries of a row table of C·S entries per cell row: row sample b at c·S + b for
+    /// every c < C (None for padding), so that a chunk of C column samples reads its
+    /// LANES row samples at once.
+    row_slots: Vec<Option<f64>>,
+    /// The entries of a column table of K' entries per cell column (None for padding).
+    column_slots: Vec<Option<f64>>,
+    sigma: Vec<f64>,
+    o_s: Vec<f64>,
+    o_t: Vec<f64>,
+    /// 1/h_i and 1/k_j of the rest cells.
+    inv_h: Vec<f64>,
+    inv_k: Vec<f64>,
+    /// Cell c has a sample with σ ≠ 0 (a cell without one contributes exactly nothing).
+    active: Vec<bool>,
+}
+
+/// One coordinate of the rest samples along one axis: the rest coordinate ŝ_i + α h_i, its
+/// texel positions on the ‖O_s‖ and ‖O_t‖ fields and its nearest texel on R, found once per
+/// column (row) of samples instead of once per sample.
 struct RestAxis {
-    fraction: f64,
-    s: f64,
     o_s: Axis,
     o_t: Axis,
+    rigidity: usize,
 }
 
 impl RestAxis {
-    /// The K midpoints of every cell along `lines` (cell-major), `texels` the ‖O_s‖ and
-    /// ‖O_t‖ fields' sizes along that axis.
-    fn along(lines: &[f64], per_cell: usize, texels: [usize; 2]) -> Vec<RestAxis> {
-        let mut out = Vec::with_capacity((lines.len() - 1) * per_cell);
-        for i in 0..lines.len() - 1 {
-            let h = lines[i + 1] - lines[i];
-            for a in 0..per_cell {
-                let fraction = (a as f64 + 0.5) / per_cell as f64;
-                let s = lines[i] + fraction * h;
+    /// The samples at `fractions` of every cell along `lines` (cell-major); `texels` the
+    /// sizes of ‖O_s‖, ‖O_t‖ and R along that axis.
+    fn along(lines: &[f64], fractions: &[f64], texels: [usize; 3]) -> Vec<RestAxis> {
+        let mut out = Vec::with_capacity((lines.len() - 1) * fractions.len());
+        for cell in lines.windows(2) {
+            let h = cell[1] - cell[0];
+            for &fraction in fractions {
+                let s = cell[0] + fraction * h;
                 out.push(RestAxis {
-                    fraction,
-                    s,
                     o_s: Axis::new(s, texels[0]),
                     o_t: Axis::new(s, texels[1]),
+                    rigidity: nearest_texel(s, texels[2]),
                 });
+            }
+        }
+        out
+    }
+}
+
+/// The midpoint fractions (a + ½)/n, a = 0..n.
+fn midpoints(n: usize) -> Vec<f64> {
+    (0..n).map(|a| (a as f64 + 0.5) / n as f64).collect()
+}
+
+impl RestSamples {
+    /// σ = √w R, o_s = ‖O_s‖ and o_t = ‖O_t‖ at the K×L midpoints of every rest cell
+    /// (R at the nearest texel, ‖O_·‖ bilinear, exactly as [`Field::nearest`] and
+    /// [`Field::bilinear`] give them). Cell columns in parallel.
+    pub fn new(rest: &RestFields, rest_grid: &Grid, k: usize, l: usize) -> RestSamples {
+        let (k, l) = (k.max(1), l.max(1));
+        let (chunk_columns, stride) = chunk_layout(l);
+        let padded_k = k.div_ceil(chunk_columns) * chunk_columns;
+        let alpha = midpoints(k);
+        let mut beta = midpoints(l);
+        beta.resize(stride, 0.0);
+        let slots = |fractions: &[f64], stored: usize| -> Vec<Option<f64>> {
+            (0..stored).map(|a| fractions.get(a).copied()).collect()
+        };
+        let row_slots = slots(&beta[..l], stride).repeat(chunk_columns);
+        let column_slots = slots(&alpha, padded_k);
+        let beta = beta.repeat(chunk_columns);
+        let (r, o_s, o_t) = (&rest.rigidity, &rest.o_s, &rest.o_t);
+        let columns = RestAxis::along(&rest_grid.s, &alpha, [o_s.width, o_t.width, r.width]);
+        let mut alpha = alpha;
+        alpha.resize(padded_k, 0.0);
+        let rows = RestAxis::along(&rest_grid.t, &beta[..l], [o_s.height, o_t.height, r.height]);
+        let (m, n) = (rest_grid.s.len() - 1, rest_grid.t.len() - 1);
+        let per_column = n * padded_k * stride;
+        let mut out = RestSamples {
+            grid: rest_grid.clone(),
+            k,
+            l,
+            chunk_columns,
+            padded_k,
+            stride,
+            alpha,
+            beta,
+            row_slots,
+            column_slots,
+            sigma: vec![0.0; m * per_column],
+            o_s: vec![0.0; m * per_column],
+            o_t: vec![0.0; m * per_column],
+            inv_h: rest_grid
+                .s
+                .windows(2)
+                .map(|w| 1.0 / (w[1] - w[0]))
+                .collect(),
+            inv_k: rest_grid
+                .t
+                .windows(2)
+                .map(|w| 1.0 / (w[1] - w[0]))
+                .collect(),
+            active: Vec::new(),
+        };
+        let chunks = out.sigma.par_chunks_mut(per_column);
+        let chunks = chunks.zip(out.o_s.par_chunks_mut(per_column));
+        let chunks = chunks.zip(out.o_t.par_chunks_mut(per_column));
+        chunks.enumerate().for_each(|(i, ((sigma, os), ot))| {
+            let h = rest_grid.s[i + 1] - rest_grid.s[i];
+            for j in 0..n {
+                let kj = rest_grid.t[j + 1] - rest_grid.t[j];
+                let root_w = (h * kj / (k * l) as f64).sqrt();
+                for a in 0..k {
+                    let x = &columns[i * k + a];
+                    let base = (j * padded_k + a) * stride;
+                    for (b, y) in rows[j * l..][..l].iter().enumerate() {
+                        sigma[base + b] = root_w * r.values[y.rigidity * r.width + x.rigidity];
+                        os[base + b] = o_s.bilinear_at(&x.o_s, &y.o_s).value;
+                        ot[base + b] = o_t.bilinear_at(&x.o_t, &y.o_t).value;
+                    }
+                }
+            }
+        });
+        out.active = out
+            .sigma
+            .chunks_exact(padded_k * stride)
+            .map(|cell| cell.iter().any(|&s| s != 0.0))
+            .collect();
+        out
+    }
+
+    /// The rest grid these samples belong to.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// Samples per cell (K, L).
+    pub fn per_cell(&self) -> (usize, usize) {
+        (self.k, self.l)
+    }
+
+    fn rows(&self) -> usize {
+        self.grid.t.len() - 1
+    }
+
+    fn cells(&self) -> usize {
+        (self.grid.s.len() - 1) * self.rows()
+    }
+
+    /// The samples one by one, in the order of [`rest_samples`] (padding left out).
+    pub fn to_vec(&self) -> Vec<RestSample> {
+        let mut out = Vec::with_capacity(self.cells() * self.k * self.l);
+        for cell in 0..self.cells() {
+            for (a, &alpha) in self.alpha[..self.k].iter().enumerate() {
+                let at = (cell * self.padded_k + a) * self.stride;
+                for (b, &beta) in self.beta[..self.l].iter().enumerate() {
+                    out.push(RestSample {
+                        alpha,
+                        beta,
+                        sigma: self.sigma[at + b],
+                        o_s: self.o_s[at + b],
+                        o_t: self.o_t[at + b],
+                    });
+                }
             }
         }
         out
@@ -115,63 +274,354 @@ impl RestAxis {
 
 /// The axis-aligned energy of one frame as a least-squares problem in the interior grid lines.
 pub struct AaEnergy<'a> {
-    rest_grid: &'a Grid,
     deformed: &'a DeformedFields,
-    /// Samples of cell (i, j) at `samples[(i·(N−1) + j)·K·L ..]`, sample (a, b) at a·L + b.
-    samples: Vec<RestSample>,
-    k: usize,
-    l: usize,
+    /// Built for this energy ([`AaEnergy::new`]) or shared by a sequence's frames.
+    rest: Cow<'a, RestSamples>,
 }
 
-/// The warped sample coordinates of one grid, separable because the grid is axis-aligned:
-/// f = s_i + α_a (s_{i+1} − s_i) depends on the cell column and α only, g = t_j + β_b (t_{j+1} −
-/// t_j) on the row and β only. Their texel [`Axis`] positions are found once per column sample
-/// (index i·K + a) and row sample (j·L + b), not once per sample.
-struct WarpedAxes {
-    columns: Vec<Axis>,
-    rows: Vec<Axis>,
+/// Where the warped samples of one grid fall on one deformed field's texels, separable
+/// because the grid is axis-aligned: f = s_i + α_a (s_{i+1} − s_i) depends on the cell column
+/// and α only, g = t_j + β_b (t_{j+1} − t_j) on the row and β only. Found once per column
+/// sample (index i·K + a) and row sample (j·S + b, padded as [`RestSamples`]), not once per
+/// sample.
+struct FieldTexels {
+    columns: AxisTexels,
+    /// Texel rows stored as offsets y·W into the field's values.
+    rows: AxisTexels,
 }
+
+impl FieldTexels {
+    /// Lane l's column sample `column(l)`.
+    #[inline(always)]
+    fn columns_at(&self, column: impl Fn(usize) -> usize) -> ColumnTexels {
+        let c = &self.columns;
+        ColumnTexels {
+            lower: std::array::from_fn(|lane| c.lower[column(lane)]),
+            upper: std::array::from_fn(|lane| c.upper[column(lane)]),
+            frac: std::array::from_fn(|lane| c.frac[column(lane)]),
+            scale: std::array::from_fn(|lane| c.scale[column(lane)]),
+        }
+    }
+
+    /// The LANES row table entries from `at` on.
+    #[inline(always)]
+    fn rows_at(&self, at: usize) -> RowTexels<'_> {
+        RowTexels {
+            lower: lanes(&self.rows.lower, at),
+            upper: lanes(&self.rows.upper, at),
+            frac: lanes(&self.rows.frac, at),
+            scale: lanes(&self.rows.scale, at),
+        }
+    }
+}
+
+/// [`Axis`] positions of many coordinates, structure-of-arrays (what a lane loop reads).
+struct AxisTexels {
+    lower: Vec<usize>,
+    upper: Vec<usize>,
+    frac: Vec<f64>,
+    scale: Vec<f64>,
+}
+
+impl AxisTexels {
+    /// The samples of every cell along `lines` at the fractions `slots` (one table entry
+    /// each; None: padding with lower = upper = 0, frac = scale = 0), on an axis of `texels`
+    /// texels; texel indices multiplied by `step` (1 along s, the field's width along t).
+    fn along(lines: &[f64], slots: &[Option<f64>], texels: usize, step: usize) -> Self {
+        let size = (lines.len() - 1) * slots.len();
+        let mut out = AxisTexels {
+            lower: vec![0; size],
+            upper: vec![0; size],
+            frac: vec![0.0; size],
+            scale: vec![0.0; size],
+        };
+        for (i, cell) in lines.windows(2).enumerate() {
+            for (a, slot) in slots.iter().enumerate() {
+                let Some(fraction) = slot else { continue };
+                let axis = Axis::new(cell[0] + fraction * (cell[1] - cell[0]), texels);
+                let at = i * slots.len() + a;
+                out.lower[at] = axis.lower * step;
+                out.upper[at] = axis.upper * step;
+                out.frac[at] = axis.frac;
+                out.scale[at] = axis.scale;
+            }
+        }
+        out
+    }
+}
+
+/// Everything an evaluation at the grid g needs besides the rest samples: the texel tables of
+/// D_s and (if its resolution differs) D_t, and the cell slopes a_i, b_j.
+struct WarpedAxes {
+    d_s: FieldTexels,
+    d_t: Option<FieldTexels>,
+    slope_s: Vec<f64>,
+    slope_t: Vec<f64>,
+}
+
+impl WarpedAxes {
+    fn d_t(&self) -> &FieldTexels {
+        self.d_t.as_ref().unwrap_or(&self.d_s)
+    }
+}
+
+/// What a cell's residuals need of the grid: the slopes a_i = (s_{i+1} − s_i)/h_i,
+/// b_j = (t_{j+1} − t_j)/k_j and the inverse rest sizes 1/h_i, 1/k_j.
+#[derive(Clone, Copy)]
+struct WarpedCell {
+    a: f64,
+    b: f64,
+    inv_h: f64,
+    inv_k: f64,
+}
+
+/// The column samples' texel positions on one field, per lane (lane l belongs to column
+/// sample a₀ + l / (LANES/C) of its chunk).
+#[derive(Clone, Copy)]
+struct ColumnTexels {
+    lower: [usize; LANES],
+    upper: [usize; LANES],
+    frac: [f64; LANES],
+    scale: [f64; LANES],
+}
+
+/// The row samples' texel rows on one field, per lane.
+#[derive(Clone, Copy)]
+struct RowTexels<'c> {
+    lower: &'c [usize; LANES],
+    upper: &'c [usize; LANES],
+    frac: &'c [f64; LANES],
+    scale: &'c [f64; LANES],
+}
+
+/// LANES samples of a cell: C column samples a₀ … a₀ + C − 1, each with LANES/C row samples
+/// b₀ …: what the lane loops read.
+struct Chunk<'c> {
+    alpha: [f64; LANES],
+    beta: &'c [f64; LANES],
+    sigma: &'c [f64; LANES],
+    o_s: &'c [f64; LANES],
+    o_t: &'c [f64; LANES],
+    columns_s: ColumnTexels,
+    columns_t: ColumnTexels,
+    rows_s: RowTexels<'c>,
+    rows_t: RowTexels<'c>,
+}
+
+/// The first LANES entries of `v` from `at`, as a fixed-size array (index checks once).
+#[inline(always)]
+fn lanes<T>(v: &[T], at: usize) -> &[T; LANES] {
+    v[at..at + LANES].try_into().expect("LANES entries")
+}
+
+impl Chunk<'_> {
+    /// The four texels [f₀₀, f₁₀, f₀₁, f₁₁] of `values` around lane `lane`'s warped point.
+    /// (The tables hold only valid indices; reading through `get` with a fallback instead of
+    /// indexing leaves the lane loop without a panic branch, so that it vectorises.)
+    #[inline(always)]
+    fn quad(values: &[f64], x: &ColumnTexels, y: &RowTexels, lane: usize) -> [f64; 4] {
+        let at = |row: usize, column: usize| values.get(row + column).copied().unwrap_or(0.0);
+        [
+            at(y.lower[lane], x.lower[lane]),
+            at(y.lower[lane], x.upper[lane]),
+            at(y.upper[lane], x.lower[lane]),
+            at(y.upper[lane], x.upper[lane]),
+        ]
+    }
+
+    /// c_s = ‖D_s‖ and c_t = ‖D_t‖ at lane `lane`'s warped point, values only.
+    #[inline(always)]
+    fn values(&self, d: &DeformedFields, lane: usize) -> [f64; 2] {
+        let (xs, ys, xt, yt) = (&self.columns_s, &self.rows_s, &self.columns_t, &self.rows_t);
+        let qs = Self::quad(&d.d_s.values, xs, ys, lane);
+        let qt = Self::quad(&d.d_t.values, xt, yt, lane);
+        [
+            bilinear_value(xs.frac[lane], ys.frac[lane], qs),
+            bilinear_value(xt.frac[lane], yt.frac[lane], qt),
+        ]
+    }
+
+    /// c_s and c_t at lane `lane`'s warped point with their gradients.
+    #[inline(always)]
+    fn samples(&self, d: &DeformedFields, lane: usize) -> [Sample; 2] {
+        let (xs, ys, xt, yt) = (&self.columns_s, &self.rows_s, &self.columns_t, &self.rows_t);
+        let qs = Self::quad(&d.d_s.values, xs, ys, lane);
+        let qt = Self::quad(&d.d_t.values, xt, yt, lane);
+        [
+            bilinear_formula(
+                (xs.frac[lane], xs.scale[lane]),
+                (ys.frac[lane], ys.scale[lane]),
+                qs,
+            ),
+            bilinear_formula(
+                (xt.frac[lane], xt.scale[lane]),
+                (yt.frac[lane], yt.scale[lane]),
+                qt,
+            ),
+        ]
+    }
+
+    /// Lane `lane`'s residuals r^s = σ (c_s a_i − o_s), r^t = σ (c_t b_j − o_t).
+    #[inline(always)]
+    fn residuals(&self, w: WarpedCell, [cs, ct]: [f64; 2], lane: usize) -> [f64; 2] {
+        let sigma = self.sigma[lane];
+        [
+            sigma * (cs * w.a - self.o_s[lane]),
+            sigma * (ct * w.b - self.o_t[lane]),
+        ]
+    }
+
+    /// Lane `lane`'s two residuals with their derivatives in slot order (s_i, s_{i+1}, t_j,
+    /// t_{j+1}) (notes, "Analytic Jacobian"):
+    ///   ∂r^s = σ [a c_s,x (1−α) − c_s/h, a c_s,x α + c_s/h, a c_s,y (1−β), a c_s,y β],
+    ///   ∂r^t = σ [b c_t,x (1−α), b c_t,x α, b c_t,y (1−β) − c_t/k, b c_t,y β + c_t/k].
+    #[inline(always)]
+    fn residuals_and_derivatives(
+        &self,
+        w: WarpedCell,
+        [cs, ct]: [Sample; 2],
+        lane: usize,
+    ) -> [(f64, [f64; 4]); 2] {
+        let [rs, rt] = self.residuals(w, [cs.value, ct.value], lane);
+        let (al, be, sg) = (self.alpha[lane], self.beta[lane], self.sigma[lane]);
+        let (a, b) = (w.a, w.b);
+        [
+            (
+                rs,
+                [
+                    sg * (a * cs.ds * (1.0 - al) - cs.value * w.inv_h),
+                    sg * (a * cs.ds * al + cs.value * w.inv_h),
+                    sg * a * cs.dt * (1.0 - be),
+                    sg * a * cs.dt * be,
+                ],
+            ),
+            (
+                rt,
+                [
+                    sg * b * ct.ds * (1.0 - al),
+                    sg * b * ct.ds * al,
+                    sg * (b * ct.dt * (1.0 - be) - ct.value * w.inv_k),
+                    sg * (b * ct.dt * be + ct.value * w.inv_k),
+                ],
+            ),
+        ]
+    }
+}
+
+/// The upper triangle of a 4×4 block, row by row: (0,0) (0,1) (0,2) (0,3) (1,1) … (3,3).
+const UPPER: [(usize, usize); 10] = [
+    (0, 0),
+    (0, 1),
+    (0, 2),
+    (0, 3),
+    (1, 1),
+    (1, 2),
+    (1, 3),
+    (2, 2),
+    (2, 3),
+    (3, 3),
+];
+
+/// Per-lane partial sums of a cell's F, Jᵀr and the upper triangle of JᵀJ: each lane
+/// accumulates its own samples (independent additions the compiler runs side by side in one
+/// vector register), and the lanes are added in lane order at the end of the cell.
+struct LaneSums {
+    energy: [f64; LANES],
+    jtr: [[f64; LANES]; 4],
+    jtj: [[f64; LANES]; 10],
+}
+
+impl LaneSums {
+    fn new() -> Self {
+        LaneSums {
+            energy: [0.0; LANES],
+            jtr: [[0.0; LANES]; 4],
+            jtj: [[0.0; LANES]; 10],
+        }
+    }
+
+    /// F += r², Jᵀr += d r, JᵀJ += d dᵀ (upper triangle), one residual per lane: `r[lane]`
+    /// with derivatives `d[p][lane]`, p the slot.
+    #[inline(always)]
+    fn accumulate(&mut self, r: &[f64; LANES], d: &[[f64; LANES]; 4]) {
+        for lane in 0..LANES {
+            self.energy[lane] += r[lane] * r[lane];
+            for (sum, d_p) in self.jtr.iter_mut().zip(d) {
+                sum[lane] += d_p[lane] * r[lane];
+            }
+            for (sum, &(p, q)) in self.jtj.iter_mut().zip(&UPPER) {
+                sum[lane] += d[p][lane] * d[q][lane];
+            }
+        }
+    }
+
+    /// The cell's block: lanes summed in order, the lower triangle mirrored from the upper.
+    fn reduce(&self) -> LocalNormalEquations<4> {
+        let total = |lanes: &[f64; LANES]| lanes.iter().sum::<f64>();
+        let mut block = LocalNormalEquations {
+            energy: total(&self.energy),
+            jtr: self.jtr.each_ref().map(total),
+            ..Default::default()
+        };
+        for (sum, &(p, q)) in self.jtj.iter().zip(&UPPER) {
+            block.jtj[p][q] = total(sum);
+            block.jtj[q][p] = block.jtj[p][q];
+        }
+        block
+    }
+}
+
+/// Samples per parallel task: enough work (tens of microseconds) to amortise handing a task
+/// to another thread; a problem of at most this many samples is evaluated on the calling
+/// thread. Depends on the problem size only, and results do not depend on it.
+const SAMPLES_PER_TASK: usize = 4096;
 
 impl<'a> AaEnergy<'a> {
-    /// Precompute the rest-point quantities of every sample: K×L midpoints per cell.
+    /// Precompute the rest-point quantities of every sample ([`RestSamples`]): K×L midpoints
+    /// per cell.
     pub fn new(
         rest: &RestFields,
-        rest_grid: &'a Grid,
+        rest_grid: &Grid,
         deformed: &'a DeformedFields,
         k: usize,
         l: usize,
     ) -> Self {
-        let samples = rest_samples(rest, rest_grid, k, l);
         AaEnergy {
-            rest_grid,
             deformed,
-            samples,
-            k: k.max(1),
-            l: l.max(1),
+            rest: Cow::Owned(RestSamples::new(rest, rest_grid, k, l)),
         }
     }
 
-    fn columns(&self) -> usize {
-        self.rest_grid.s.len() - 1
+    /// The energy of `deformed` over rest samples built beforehand (once per sequence).
+    pub fn from_rest_samples(samples: &'a RestSamples, deformed: &'a DeformedFields) -> Self {
+        AaEnergy {
+            deformed,
+            rest: Cow::Borrowed(samples),
+        }
+    }
+
+    /// The rest grid.
+    pub fn rest_grid(&self) -> &Grid {
+        &self.rest.grid
     }
 
     fn rows(&self) -> usize {
-        self.rest_grid.t.len() - 1
+        self.rest.rows()
     }
 
     fn cells(&self) -> usize {
-        self.columns() * self.rows()
+        self.rest.cells()
     }
 
     /// Index of line s_i in the unknowns (None for the fixed lines 0 and 1).
     fn s_index(&self, i: usize) -> Option<usize> {
-        (i > 0 && i < self.rest_grid.s.len() - 1).then(|| i - 1)
+        (i > 0 && i < self.rest.grid.s.len() - 1).then(|| i - 1)
     }
 
     /// Index of line t_j in the unknowns.
     fn t_index(&self, j: usize) -> Option<usize> {
-        let m = self.rest_grid.s.len();
-        (j > 0 && j < self.rest_grid.t.len() - 1).then(|| m - 2 + j - 1)
+        let m = self.rest.grid.s.len();
+        (j > 0 && j < self.rest.grid.t.len() - 1).then(|| m - 2 + j - 1)
     }
 
     /// The unknowns of cell `cell` = (i, j) in slot order (s_i, s_{i+1}, t_j, t_{j+1}).
@@ -185,133 +635,266 @@ impl<'a> AaEnergy<'a> {
         ]
     }
 
-    /// The [`Axis`] positions of every column and row sample of the grid `g` (on the D_s
-    /// field's texels; [`Field::bilinear_at`] redoes them if D_t has another resolution).
+    /// The texel tables of every column and row sample of the grid `g` on D_s's texels (and
+    /// D_t's, if it has another resolution), and the cells' slopes.
     fn warped_axes(&self, g: &Grid) -> WarpedAxes {
-        let along = |lines: &[f64], per_cell: usize, texels: usize| -> Vec<Axis> {
-            let mut axes = Vec::with_capacity((lines.len() - 1) * per_cell);
-            for i in 0..lines.len() - 1 {
-                for a in 0..per_cell {
-                    let alpha = (a as f64 + 0.5) / per_cell as f64;
-                    axes.push(Axis::new(
-                        lines[i] + alpha * (lines[i + 1] - lines[i]),
-                        texels,
-                    ));
-                }
-            }
-            axes
+        let r = &*self.rest;
+        let texels = |f: &Field| FieldTexels {
+            columns: AxisTexels::along(&g.s, &r.column_slots, f.width, 1),
+            rows: AxisTexels::along(&g.t, &r.row_slots, f.height, f.width),
+        };
+        let (d_s, d_t) = (&self.deformed.d_s, &self.deformed.d_t);
+        let slopes = |lines: &[f64], rest: &[f64]| -> Vec<f64> {
+            let widths = |v: &[f64]| v.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>();
+            let (warped, rest) = (widths(lines), widths(rest));
+            warped.iter().zip(&rest).map(|(w, h)| w / h).collect()
         };
         WarpedAxes {
-            columns: along(&g.s, self.k, self.deformed.d_s.width),
-            rows: along(&g.t, self.l, self.deformed.d_s.height),
+            d_s: texels(d_s),
+            d_t: ((d_t.width, d_t.height) != (d_s.width, d_s.height)).then(|| texels(d_t)),
+            slope_s: slopes(&g.s, &r.grid.s),
+            slope_t: slopes(&g.t, &r.grid.t),
         }
     }
 
-    /// Visit every sample of cell `cell` = (i, j) at the grid `g` with a non-zero weight:
-    /// `visit(cell, x, y, p)`, x and y the texel positions of its warped point p = (f, g).
+    /// Cell `cell` = (i, j)'s slopes and inverse rest sizes.
     #[inline(always)]
-    fn for_each_sample(
-        &self,
-        g: &Grid,
-        axes: &WarpedAxes,
-        cell: usize,
-        mut visit: impl FnMut(&WarpedCell, &Axis, &Axis, &RestSample),
-    ) {
+    fn warped_cell(&self, w: &WarpedAxes, cell: usize) -> WarpedCell {
         let (i, j) = (cell / self.rows(), cell % self.rows());
-        let h = self.rest_grid.s[i + 1] - self.rest_grid.s[i];
-        let kj = self.rest_grid.t[j + 1] - self.rest_grid.t[j];
-        let warped = WarpedCell {
-            h,
-            kj,
-            a: (g.s[i + 1] - g.s[i]) / h,
-            b: (g.t[j + 1] - g.t[j]) / kj,
-        };
-        let per_cell = self.k * self.l;
-        let samples = &self.samples[cell * per_cell..][..per_cell];
-        let column_axes = &axes.columns[i * self.k..][..self.k];
-        let row_axes = &axes.rows[j * self.l..][..self.l];
-        for (x, column) in column_axes.iter().zip(samples.chunks_exact(self.l)) {
-            for (y, p) in row_axes.iter().zip(column) {
-                if p.sigma != 0.0 {
-                    visit(&warped, x, y, p);
-                }
-            }
+        WarpedCell {
+            a: w.slope_s[i],
+            b: w.slope_t[j],
+            inv_h: self.rest.inv_h[i],
+            inv_k: self.rest.inv_k[j],
+        }
+    }
+
+    /// The chunk of cell `cell` = (i, j) from column sample a₀ and row sample b₀ (a₀ a
+    /// multiple of C, b₀ of LANES/C), C = `COLUMNS` ([`chunk_layout`]).
+    #[inline(always)]
+    fn chunk<'c, const COLUMNS: usize>(
+        &'c self,
+        w: &'c WarpedAxes,
+        cell: usize,
+        a0: usize,
+        b0: usize,
+    ) -> Chunk<'c> {
+        let r = &*self.rest;
+        let (i, j) = (cell / self.rows(), cell % self.rows());
+        let at = (cell * r.padded_k + a0) * r.stride + b0;
+        let row = j * COLUMNS * r.stride + b0;
+        let (ts, tt) = (&w.d_s, w.d_t());
+        // Lane l reads column sample a₀ + l / (LANES/C): one value broadcast (C = 1) or two.
+        let column = |lane: usize| i * r.padded_k + a0 + lane / (LANES / COLUMNS);
+        Chunk {
+            alpha: std::array::from_fn(|lane| r.alpha[a0 + lane / (LANES / COLUMNS)]),
+            beta: lanes(&r.beta, b0),
+            sigma: lanes(&r.sigma, at),
+            o_s: lanes(&r.o_s, at),
+            o_t: lanes(&r.o_t, at),
+            columns_s: ts.columns_at(column),
+            columns_t: tt.columns_at(column),
+            rows_s: ts.rows_at(row),
+            rows_t: tt.rows_at(row),
         }
     }
 
     /// Σ r² over cell `cell`'s residuals: values only, no field gradients (an energy-only
-    /// evaluation of a damping trial). Same residuals, same order as
-    /// [`AaEnergy::for_each_residual`].
-    fn cell_energy(&self, g: &Grid, axes: &WarpedAxes, cell: usize) -> f64 {
-        let mut e = 0.0;
-        self.for_each_sample(g, axes, cell, |w, x, y, p| {
-            let cs = self.deformed.d_s.bilinear_at(x, y).value;
-            let ct = self.deformed.d_t.bilinear_at(x, y).value;
-            let (rs, rt) = (w.residual_s(cs, p), w.residual_t(ct, p));
-            e += rs * rs;
-            e += rt * rt;
-        });
-        e
+    /// evaluation of a damping trial); per-lane sums added in lane order.
+    #[inline(always)]
+    fn cell_energy<const COLUMNS: usize>(&self, w: &WarpedAxes, cell: usize) -> f64 {
+        if !self.rest.active[cell] {
+            return 0.0;
+        }
+        let warped = self.warped_cell(w, cell);
+        let mut sums = [0.0; LANES];
+        for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
+            for b0 in (0..self.rest.stride).step_by(LANES / COLUMNS) {
+                let chunk = self.chunk::<COLUMNS>(w, cell, a0, b0);
+                for (lane, sum) in sums.iter_mut().enumerate() {
+                    let c = chunk.values(self.deformed, lane);
+                    let [rs, rt] = chunk.residuals(warped, c, lane);
+                    *sum += rs * rs;
+                    *sum += rt * rt;
+                }
+            }
+        }
+        sums.iter().sum()
     }
 
-    /// Visit every residual of cell `cell` = (i, j) at the grid `g`: `visit(r, ∂r/∂x)`, the
-    /// derivatives in slot order (s_i, s_{i+1}, t_j, t_{j+1}) of [`AaEnergy::cell_unknowns`].
+    /// Cell `cell`'s F, JᵀJ and Jᵀr over its four slots.
     #[inline(always)]
+    fn cell_block<const COLUMNS: usize>(
+        &self,
+        w: &WarpedAxes,
+        cell: usize,
+    ) -> LocalNormalEquations<4> {
+        if !self.rest.active[cell] {
+            return LocalNormalEquations::default();
+        }
+        let warped = self.warped_cell(w, cell);
+        let mut sums = LaneSums::new();
+        for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
+            for b0 in (0..self.rest.stride).step_by(LANES / COLUMNS) {
+                let chunk = self.chunk::<COLUMNS>(w, cell, a0, b0);
+                // Residuals and derivatives of all lanes, then their sums: two simple
+                // loops over the lanes (each one vector operation per line).
+                let mut r = [[0.0; LANES]; 2];
+                let mut d = [[[0.0; LANES]; 4]; 2];
+                for lane in 0..LANES {
+                    let c = chunk.samples(self.deformed, lane);
+                    let rd = chunk.residuals_and_derivatives(warped, c, lane);
+                    for (axis, (r_axis, d_axis)) in rd.into_iter().enumerate() {
+                        r[axis][lane] = r_axis;
+                        for p in 0..4 {
+                            d[axis][p][lane] = d_axis[p];
+                        }
+                    }
+                }
+                for axis in 0..2 {
+                    sums.accumulate(&r[axis], &d[axis]);
+                }
+            }
+        }
+        sums.reduce()
+    }
+
+    /// `out[c] = cell_energy(first + c)`, with the chunk layout of these rest samples.
+    #[inline(always)]
+    fn fill_energies_baseline(&self, w: &WarpedAxes, first: usize, out: &mut [f64]) {
+        for (c, e) in out.iter_mut().enumerate() {
+            *e = match self.rest.chunk_columns {
+                2 => self.cell_energy::<2>(w, first + c),
+                _ => self.cell_energy::<1>(w, first + c),
+            };
+        }
+    }
+
+    /// `out[c] = cell_block(first + c)`.
+    #[inline(always)]
+    fn fill_blocks_baseline(
+        &self,
+        w: &WarpedAxes,
+        first: usize,
+        out: &mut [LocalNormalEquations<4>],
+    ) {
+        for (c, block) in out.iter_mut().enumerate() {
+            *block = match self.rest.chunk_columns {
+                2 => self.cell_block::<2>(w, first + c),
+                _ => self.cell_block::<1>(w, first + c),
+            };
+        }
+    }
+
+    /// [`AaEnergy::fill_energies_baseline`] compiled with AVX-512 (8 lanes in one register,
+    /// gathers for the texel reads): the same IEEE operations in the same order (Rust never
+    /// fuses a multiply and an add by itself), so the same results bit for bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn fill_energies_avx512(&self, w: &WarpedAxes, first: usize, out: &mut [f64]) {
+        self.fill_energies_baseline(w, first, out)
+    }
+
+    /// [`AaEnergy::fill_blocks_baseline`] compiled with AVX-512 (same results bit for bit).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn fill_blocks_avx512(
+        &self,
+        w: &WarpedAxes,
+        first: usize,
+        out: &mut [LocalNormalEquations<4>],
+    ) {
+        self.fill_blocks_baseline(w, first, out)
+    }
+
+    /// Cell energies `first..` into `out`, AVX-512 if the CPU has it.
+    fn fill_energies(&self, w: &WarpedAxes, first: usize, out: &mut [f64]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F, checked just above.
+            return unsafe { self.fill_energies_avx512(w, first, out) };
+        }
+        self.fill_energies_baseline(w, first, out)
+    }
+
+    /// Cell blocks `first..` into `out`, AVX-512 if the CPU has it.
+    fn fill_blocks(&self, w: &WarpedAxes, first: usize, out: &mut [LocalNormalEquations<4>]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F, checked just above.
+            return unsafe { self.fill_blocks_avx512(w, first, out) };
+        }
+        self.fill_blocks_baseline(w, first, out)
+    }
+
+    /// Fill `out` (one entry per cell) by `fill(first cell, part)`, in parallel tasks of about
+    /// [`SAMPLES_PER_TASK`] samples (on this thread if there is only one).
+    fn per_cell<T: Send>(&self, out: &mut [T], fill: impl Fn(usize, &mut [T]) + Sync) {
+        let per_task = (SAMPLES_PER_TASK / (self.rest.k * self.rest.l)).max(1);
+        if out.len() <= per_task {
+            return fill(0, out);
+        }
+        out.par_chunks_mut(per_task)
+            .enumerate()
+            .for_each(|(t, part)| fill(t * per_task, part));
+    }
+
+    /// Visit every residual of cell `cell` at the grid `g` (σ ≠ 0 samples, in the order cell,
+    /// sample a, b, axis): `visit(r, ∂r/∂x)` in slot order. The lane loops' formulas, one
+    /// sample at a time; for the test helpers below.
     fn for_each_residual(
         &self,
-        g: &Grid,
-        axes: &WarpedAxes,
+        w: &WarpedAxes,
         cell: usize,
         mut visit: impl FnMut(f64, &[f64; 4]),
     ) {
-        self.for_each_sample(g, axes, cell, |w, x, y, p| {
-            // c_s, c_t and their gradients at the warped point p = (f, g).
-            let cs: Sample = self.deformed.d_s.bilinear_at(x, y);
-            let ct: Sample = self.deformed.d_t.bilinear_at(x, y);
-            let (al, be, sg) = (p.alpha, p.beta, p.sigma);
-            let (a, b, h, kj) = (w.a, w.b, w.h, w.kj);
-            // r^s = σ (c_s a − o_s) and its four partial derivatives (notes).
-            visit(
-                w.residual_s(cs.value, p),
-                &[
-                    sg * (a * cs.ds * (1.0 - al) - cs.value / h),
-                    sg * (a * cs.ds * al + cs.value / h),
-                    sg * a * cs.dt * (1.0 - be),
-                    sg * a * cs.dt * be,
-                ],
-            );
-            // r^t = σ (c_t b − o_t), symmetric.
-            visit(
-                w.residual_t(ct.value, p),
-                &[
-                    sg * b * ct.ds * (1.0 - al),
-                    sg * b * ct.ds * al,
-                    sg * (b * ct.dt * (1.0 - be) - ct.value / kj),
-                    sg * (b * ct.dt * be + ct.value / kj),
-                ],
-            );
-        });
+        match self.rest.chunk_columns {
+            2 => self.for_each_residual_in::<2>(w, cell, &mut visit),
+            _ => self.for_each_residual_in::<1>(w, cell, &mut visit),
+        }
+    }
+
+    fn for_each_residual_in<const COLUMNS: usize>(
+        &self,
+        w: &WarpedAxes,
+        cell: usize,
+        visit: &mut impl FnMut(f64, &[f64; 4]),
+    ) {
+        let warped = self.warped_cell(w, cell);
+        let rows_per_chunk = LANES / COLUMNS;
+        for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
+            for b0 in (0..self.rest.stride).step_by(rows_per_chunk) {
+                let chunk = self.chunk::<COLUMNS>(w, cell, a0, b0);
+                for lane in 0..LANES {
+                    let (a, b) = (a0 + lane / rows_per_chunk, b0 + lane % rows_per_chunk);
+                    if a < self.rest.k && b < self.rest.l && chunk.sigma[lane] != 0.0 {
+                        let c = chunk.samples(self.deformed, lane);
+                        for (r, d) in chunk.residuals_and_derivatives(warped, c, lane) {
+                            visit(r, &d);
+                        }
+                    }
+                }
+            }
+        }
     }
 
     /// All residuals at `x`, in a fixed order (cell column, row, sample, axis). For tests.
     pub fn residuals(&self, x: &[f64]) -> Vec<f64> {
-        let g = self.rest_grid.with_unknowns(x);
-        let axes = self.warped_axes(&g);
+        let axes = self.warped_axes(&self.rest.grid.with_unknowns(x));
         let mut out = Vec::new();
         for cell in 0..self.cells() {
-            self.for_each_residual(&g, &axes, cell, |r, _| out.push(r));
+            self.for_each_residual(&axes, cell, |r, _| out.push(r));
         }
         out
     }
 
     /// The dense Jacobian at `x` (rows as in [`AaEnergy::residuals`]). For tests.
     pub fn jacobian(&self, x: &[f64]) -> DMatrix<f64> {
-        let g = self.rest_grid.with_unknowns(x);
-        let axes = self.warped_axes(&g);
+        let axes = self.warped_axes(&self.rest.grid.with_unknowns(x));
         let mut rows = Vec::new();
         for cell in 0..self.cells() {
             let slots = self.cell_unknowns(cell);
-            self.for_each_residual(&g, &axes, cell, |_, d| rows.push((slots, *d)));
+            self.for_each_residual(&axes, cell, |_, d| rows.push((slots, *d)));
         }
         let mut jac = DMatrix::zeros(rows.len(), x.len());
         for (row, (slots, d)) in rows.iter().enumerate() {
@@ -326,80 +909,37 @@ impl<'a> AaEnergy<'a> {
 
     /// One cell's energy and normal equations over its four slots.
     pub fn cell_normal_equations(&self, g: &Grid, cell: usize) -> LocalNormalEquations<4> {
-        self.cell_normal_equations_with(g, &self.warped_axes(g), cell)
-    }
-
-    fn cell_normal_equations_with(
-        &self,
-        g: &Grid,
-        axes: &WarpedAxes,
-        cell: usize,
-    ) -> LocalNormalEquations<4> {
-        let mut local = LocalNormalEquations::default();
-        self.for_each_residual(g, axes, cell, |r, d| local.accumulate(r, d));
-        local
+        let mut block = [LocalNormalEquations::default()];
+        self.fill_blocks(&self.warped_axes(g), cell, &mut block);
+        block[0]
     }
 }
-
-/// What a cell's residuals need of the grid: the rest cell size h_i × k_j and the slopes
-/// a_i = (s_{i+1} − s_i)/h_i, b_j = (t_{j+1} − t_j)/k_j.
-struct WarpedCell {
-    h: f64,
-    kj: f64,
-    a: f64,
-    b: f64,
-}
-
-impl WarpedCell {
-    /// r^s = σ (c_s a_i − o_s), c_s = ‖D_s‖ at the warped point.
-    #[inline(always)]
-    fn residual_s(&self, cs: f64, p: &RestSample) -> f64 {
-        p.sigma * (cs * self.a - p.o_s)
-    }
-
-    /// r^t = σ (c_t b_j − o_t), c_t = ‖D_t‖ at the warped point.
-    #[inline(always)]
-    fn residual_t(&self, ct: f64, p: &RestSample) -> f64 {
-        p.sigma * (ct * self.b - p.o_t)
-    }
-}
-
-/// Cells per parallel task: enough work (≥ a few thousand samples at 8×8) to amortise rayon's
-/// scheduling; the results do not depend on it.
-const CELLS_PER_TASK: usize = 4;
 
 impl Residuals for AaEnergy<'_> {
     fn dim(&self) -> usize {
-        self.rest_grid.unknowns()
+        self.rest.grid.unknowns()
     }
 
-    /// F(x) = Σ r², per cell in parallel, then summed in cell order (deterministic).
+    /// F(x) = Σ r², per cell (cells in parallel), then summed in cell order (deterministic).
     fn energy(&mut self, x: &[f64]) -> f64 {
-        let g = self.rest_grid.with_unknowns(x);
-        let axes = self.warped_axes(&g);
-        let per_cell: Vec<f64> = (0..self.cells())
-            .into_par_iter()
-            .with_min_len(CELLS_PER_TASK)
-            .map(|cell| self.cell_energy(&g, &axes, cell))
-            .collect();
+        let axes = self.warped_axes(&self.rest.grid.with_unknowns(x));
+        let mut per_cell = vec![0.0; self.cells()];
+        self.per_cell(&mut per_cell, |first, out| {
+            self.fill_energies(&axes, first, out)
+        });
         per_cell.iter().sum()
     }
 
-    /// F, JᵀJ and Jᵀr: each cell's 4×4 block in parallel, scattered in cell order
+    /// F, JᵀJ and Jᵀr: each cell's 4×4 block (cells in parallel), scattered in cell order
     /// (deterministic for any number of threads; the GPU kernel computes the same blocks).
     fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
-        let g = self.rest_grid.with_unknowns(x);
-        let axes = self.warped_axes(&g);
-        let blocks: Vec<([Option<usize>; 4], LocalNormalEquations<4>)> = (0..self.cells())
-            .into_par_iter()
-            .with_min_len(CELLS_PER_TASK)
-            .map(|cell| {
-                (
-                    self.cell_unknowns(cell),
-                    self.cell_normal_equations_with(&g, &axes, cell),
-                )
-            })
-            .collect();
-        NormalEquations::assemble(self.dim(), blocks.iter().map(|(s, b)| (s, b)))
+        let axes = self.warped_axes(&self.rest.grid.with_unknowns(x));
+        let mut blocks = vec![LocalNormalEquations::default(); self.cells()];
+        self.per_cell(&mut blocks, |first, out| {
+            self.fill_blocks(&axes, first, out)
+        });
+        let slots: Vec<[Option<usize>; 4]> =
+            (0..self.cells()).map(|c| self.cell_unknowns(c)).collect();
+        NormalEquations::assemble(self.dim(), slots.iter().zip(&blocks))
     }
 }

@@ -50,7 +50,7 @@ use rayon::prelude::*;
 
 use super::bounds::{foldover, loop_distance, merge, BoundOptions, Interval};
 use super::energy::{rest_samples, RestFields, RestSample};
-use super::field::{interpolate, Axis, Field, Sample};
+use super::field::{bilinear_formula, Axis, Field, Sample};
 use super::grid::Grid;
 use super::solve::{minimize_and_rest_energy, SolveOptions};
 use crate::error::{Error, Result};
@@ -266,14 +266,97 @@ pub struct NaaEnergy<'a> {
     rest_grid: &'a Grid,
     rest_vertices: VertexGrid,
     deformed: &'a DeformedJacobian,
-    /// Samples of cell (i, j) at `samples[(i·(N−1) + j)·K·L ..]`.
-    samples: Vec<RestSample>,
-    /// Per sample, the bilinear weights' slopes that do not depend on the unknowns:
-    /// [(1−β)/h_i, β/h_i, (1−α)/k_j, α/k_j] (∂φ_c/∂s and ∂φ_c/∂t up to sign).
-    weight_slopes: Vec<[f64; 4]>,
-    per_cell: usize,
+    /// The rest samples (cell (i, j)'s K·L samples in the order of [`rest_samples`]) and,
+    /// per sample, the bilinear weights' slopes that do not depend on the unknowns:
+    /// [(1−β)/h_i, β/h_i, (1−α)/k_j, α/k_j] (∂φ_c/∂s and ∂φ_c/∂t up to sign),
+    /// structure-of-arrays, padded per cell for the lane loops.
+    lanes: SampleLanes,
     /// The six components of J_D interleaved per texel, when they share one resolution.
     packed: Option<PackedJacobian>,
+}
+
+/// Samples of a cell processed together by the per-sample part of the evaluations (the
+/// warp, J_D and the residuals with their derivatives): 8 f64, one 512-bit register.
+const LANES: usize = 8;
+
+/// The rest samples and weight slopes of [`NaaEnergy`] structure-of-arrays: cell c's samples
+/// at c·P …, P = K·L rounded up to a multiple of [`LANES`], the padding with σ = 0 (never
+/// visited).
+struct SampleLanes {
+    padded: usize,
+    alpha: Vec<f64>,
+    beta: Vec<f64>,
+    sigma: Vec<f64>,
+    o_s: Vec<f64>,
+    o_t: Vec<f64>,
+    /// [(1−β)/h_i, β/h_i, (1−α)/k_j, α/k_j] of each sample, one vector per entry.
+    slopes: [Vec<f64>; 4],
+}
+
+impl SampleLanes {
+    fn new(samples: &[RestSample], slopes: &[[f64; 4]], per_cell: usize) -> SampleLanes {
+        let padded = per_cell.div_ceil(LANES) * LANES;
+        let spread = |f: &dyn Fn(usize) -> f64| -> Vec<f64> {
+            let mut out = vec![0.0; samples.len() / per_cell * padded];
+            for (n, v) in out.iter_mut().enumerate() {
+                let (cell, k) = (n / padded, n % padded);
+                if k < per_cell {
+                    *v = f(cell * per_cell + k);
+                }
+            }
+            out
+        };
+        SampleLanes {
+            padded,
+            alpha: spread(&|n| samples[n].alpha),
+            beta: spread(&|n| samples[n].beta),
+            sigma: spread(&|n| samples[n].sigma),
+            o_s: spread(&|n| samples[n].o_s),
+            o_t: spread(&|n| samples[n].o_t),
+            slopes: std::array::from_fn(|e| spread(&|n| slopes[n][e])),
+        }
+    }
+}
+
+/// The first LANES entries of `v` from `at`, as a fixed-size array (index checks once).
+#[inline(always)]
+fn lanes(v: &[f64], at: usize) -> &[f64; LANES] {
+    v[at..at + LANES].try_into().expect("LANES entries")
+}
+
+/// The two residuals of LANES samples, and their derivatives in slot order:
+/// `r[axis][lane]`, `d[axis][slot][lane]`.
+struct ChunkResiduals {
+    r: [[f64; LANES]; 2],
+    d: [[[f64; LANES]; 8]; 2],
+}
+
+/// J_D = [D_s D_t] at a point with its derivatives along s and t: [`PackedJacobian`], or the
+/// six fields one by one ([`FieldJacobian`]) when they do not share one resolution.
+trait JacobianAt {
+    fn at(&self, p: [f64; 2]) -> (VectorSample, VectorSample);
+}
+
+/// The six fields of a [`DeformedJacobian`] sampled one by one ([`Field::bilinear_at`]).
+struct FieldJacobian<'a>(&'a DeformedJacobian);
+
+impl JacobianAt for FieldJacobian<'_> {
+    #[inline(always)]
+    fn at(&self, p: [f64; 2]) -> (VectorSample, VectorSample) {
+        let first = &self.0.d_s.x;
+        let (x, y) = (Axis::new(p[0], first.width), Axis::new(p[1], first.height));
+        (
+            self.0.d_s.bilinear_at(&x, &y),
+            self.0.d_t.bilinear_at(&x, &y),
+        )
+    }
+}
+
+impl JacobianAt for PackedJacobian {
+    #[inline(always)]
+    fn at(&self, p: [f64; 2]) -> (VectorSample, VectorSample) {
+        self.bilinear(p)
+    }
 }
 
 impl<'a> NaaEnergy<'a> {
@@ -289,7 +372,7 @@ impl<'a> NaaEnergy<'a> {
         let samples = rest_samples(rest, rest_grid, k, l);
         let per_cell = k.max(1) * l.max(1);
         let rows = rest_grid.t.len() - 1;
-        let weight_slopes = samples
+        let weight_slopes: Vec<[f64; 4]> = samples
             .chunks_exact(per_cell)
             .enumerate()
             .flat_map(|(cell, cell_samples)| {
@@ -310,9 +393,7 @@ impl<'a> NaaEnergy<'a> {
             rest_grid,
             rest_vertices: VertexGrid::from_grid(rest_grid),
             deformed,
-            samples,
-            weight_slopes,
-            per_cell,
+            lanes: SampleLanes::new(&samples, &weight_slopes, per_cell),
             packed: PackedJacobian::new(deformed),
         }
     }
@@ -334,21 +415,6 @@ impl<'a> NaaEnergy<'a> {
 
     fn rows(&self) -> usize {
         self.rest_grid.t.len() - 1
-    }
-
-    /// J_D = [D_s D_t] at the point p, with its derivatives along s and t (each component
-    /// sampled as [`Field::bilinear`] samples it).
-    #[inline(always)]
-    fn jacobian_at(&self, p: [f64; 2]) -> (VectorSample, VectorSample) {
-        if let Some(packed) = &self.packed {
-            return packed.bilinear(p);
-        }
-        let first = &self.deformed.d_s.x;
-        let (x, y) = (Axis::new(p[0], first.width), Axis::new(p[1], first.height));
-        (
-            self.deformed.d_s.bilinear_at(&x, &y),
-            self.deformed.d_t.bilinear_at(&x, &y),
-        )
     }
 
     fn cells(&self) -> usize {
@@ -383,57 +449,41 @@ impl<'a> NaaEnergy<'a> {
         )
     }
 
-    /// The rest samples of cell `cell`.
-    fn cell_samples(&self, cell: usize) -> &[RestSample] {
-        &self.samples[cell * self.per_cell..][..self.per_cell]
-    }
-
-    /// The two residuals (r^s, r^t) of one sample, without derivatives (what an energy-only
-    /// evaluation needs): r = σ (‖J_D(p) W_·‖ − o_·).
+    /// The residuals (r^s, r^t) of the LANES samples from `at` on (an index into the lane
+    /// arrays) of the cell warped by `warp`, values only (what an energy-only evaluation
+    /// needs): r = σ (‖J_D(p) W_·‖ − o_·).
     #[inline(always)]
-    fn sample_residuals(&self, warp: &CellWarp, p: &RestSample) -> [f64; 2] {
-        let w = warp.at(p.alpha, p.beta);
-        let (ds, dt) = self.jacobian_at(w.pos);
-        [
-            p.sigma * (norm(image(&ds.value, &dt.value, w.w_s)) - p.o_s),
-            p.sigma * (norm(image(&ds.value, &dt.value, w.w_t)) - p.o_t),
-        ]
-    }
-
-    /// Σ r² over cell `cell`'s residuals (in the order of [`NaaEnergy::for_each_residual`]).
-    fn cell_energy(&self, g: &VertexGrid, cell: usize) -> f64 {
-        let warp = self.cell_warp(g, cell);
-        let mut e = 0.0;
-        for p in self.cell_samples(cell) {
-            if p.sigma == 0.0 {
-                continue;
-            }
-            let [rs, rt] = self.sample_residuals(&warp, p);
-            e += rs * rs;
-            e += rt * rt;
+    fn chunk_values(&self, jac: &impl JacobianAt, warp: &CellWarp, at: usize) -> [[f64; LANES]; 2] {
+        let s = &self.lanes;
+        let (alpha, beta, sigma) = (lanes(&s.alpha, at), lanes(&s.beta, at), lanes(&s.sigma, at));
+        let (o_s, o_t) = (lanes(&s.o_s, at), lanes(&s.o_t, at));
+        let mut r = [[0.0; LANES]; 2];
+        for lane in 0..LANES {
+            let w = warp.at(alpha[lane], beta[lane]);
+            let (ds, dt) = jac.at(w.pos);
+            r[0][lane] = sigma[lane] * (norm(image(&ds.value, &dt.value, w.w_s)) - o_s[lane]);
+            r[1][lane] = sigma[lane] * (norm(image(&ds.value, &dt.value, w.w_t)) - o_t[lane]);
         }
-        e
+        r
     }
 
-    /// Visit every residual of cell `cell` = (i, j) at the vertices `g`: `visit(r, ∂r/∂x)`, the
-    /// derivatives in the slot order of [`NaaEnergy::cell_unknowns`] (module docs, "Analytic
-    /// Jacobian").
+    /// The residuals of the LANES samples from `at` on with their derivatives in the slot
+    /// order of [`NaaEnergy::cell_unknowns`] (module docs, "Analytic Jacobian"). One simple
+    /// loop over the lanes: the compiler runs the lanes side by side in vector registers.
     #[inline(always)]
-    fn for_each_residual(
-        &self,
-        g: &VertexGrid,
-        cell: usize,
-        mut visit: impl FnMut(f64, &[f64; 8]),
-    ) {
-        let warp = self.cell_warp(g, cell);
-        let slopes = &self.weight_slopes[cell * self.per_cell..][..self.per_cell];
-        for (p, &[bs, bt, as_, at]) in self.cell_samples(cell).iter().zip(slopes) {
-            if p.sigma == 0.0 {
-                continue;
-            }
-            let (al, be, sg) = (p.alpha, p.beta, p.sigma);
+    fn chunk_residuals(&self, jac: &impl JacobianAt, warp: &CellWarp, at: usize) -> ChunkResiduals {
+        let s = &self.lanes;
+        let (alpha, beta, sigma) = (lanes(&s.alpha, at), lanes(&s.beta, at), lanes(&s.sigma, at));
+        let (o_s, o_t) = (lanes(&s.o_s, at), lanes(&s.o_t, at));
+        let [bs, bt, as_, at_] = s.slopes.each_ref().map(|v| lanes(v, at));
+        let mut out = ChunkResiduals {
+            r: [[0.0; LANES]; 2],
+            d: [[[0.0; LANES]; 8]; 2],
+        };
+        for lane in 0..LANES {
+            let (al, be, sg) = (alpha[lane], beta[lane], sigma[lane]);
             let w = warp.at(al, be);
-            let (ds, dt) = self.jacobian_at(w.pos);
+            let (ds, dt) = jac.at(w.pos);
             // φ_c and ∂φ_c/∂s = (∂φ_c/∂α)/h, ∂φ_c/∂t = (∂φ_c/∂β)/k for the corners 00, 10, 01, 11.
             let phi = [
                 (1.0 - al) * (1.0 - be),
@@ -441,9 +491,10 @@ impl<'a> NaaEnergy<'a> {
                 (1.0 - al) * be,
                 al * be,
             ];
-            let dphi_ds = [-bs, bs, -bt, bt];
-            let dphi_dt = [-as_, -at, as_, at];
-            for (w, dphi, o) in [(w.w_s, dphi_ds, p.o_s), (w.w_t, dphi_dt, p.o_t)] {
+            let dphi_ds = [-bs[lane], bs[lane], -bt[lane], bt[lane]];
+            let dphi_dt = [-as_[lane], -at_[lane], as_[lane], at_[lane]];
+            let axes = [(w.w_s, dphi_ds, o_s[lane]), (w.w_t, dphi_dt, o_t[lane])];
+            for (axis, (w, dphi, o)) in axes.into_iter().enumerate() {
                 let q = image(&ds.value, &dt.value, w);
                 let length = norm(q);
                 let u = if length > 0.0 {
@@ -457,13 +508,95 @@ impl<'a> NaaEnergy<'a> {
                     dot(u, image(&ds.ds, &dt.ds, w)),
                     dot(u, image(&ds.dt, &dt.dt, w)),
                 ];
-                let mut d = [0.0; 8];
+                out.r[axis][lane] = sg * (length - o);
                 for c in 0..4 {
                     for k in 0..2 {
-                        d[2 * c + k] = sg * (dphi[c] * m[k] + phi[c] * gk[k]);
+                        out.d[axis][2 * c + k][lane] = sg * (dphi[c] * m[k] + phi[c] * gk[k]);
                     }
                 }
-                visit(sg * (length - o), &d);
+            }
+        }
+        out
+    }
+
+    /// Σ r² over cell `cell`'s residuals (σ ≠ 0 samples, in the order of
+    /// [`NaaEnergy::for_each_residual`]).
+    #[inline(always)]
+    fn cell_energy_with(&self, jac: &impl JacobianAt, g: &VertexGrid, cell: usize) -> f64 {
+        let warp = self.cell_warp(g, cell);
+        let first = cell * self.lanes.padded;
+        let mut e = 0.0;
+        for at in (first..first + self.lanes.padded).step_by(LANES) {
+            let [rs, rt] = self.chunk_values(jac, &warp, at);
+            let sigma = lanes(&self.lanes.sigma, at);
+            for lane in 0..LANES {
+                if sigma[lane] != 0.0 {
+                    e += rs[lane] * rs[lane];
+                    e += rt[lane] * rt[lane];
+                }
+            }
+        }
+        e
+    }
+
+    /// [`NaaEnergy::cell_energy_with`] on the packed J_D if there is one.
+    #[inline(always)]
+    fn cell_energy_baseline(&self, g: &VertexGrid, cell: usize) -> f64 {
+        match &self.packed {
+            Some(packed) => self.cell_energy_with(packed, g, cell),
+            None => self.cell_energy_with(&FieldJacobian(self.deformed), g, cell),
+        }
+    }
+
+    /// [`NaaEnergy::cell_energy_baseline`] compiled with AVX-512 (same results bit for bit,
+    /// as [`NaaEnergy::cell_normal_equations_avx512`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn cell_energy_avx512(&self, g: &VertexGrid, cell: usize) -> f64 {
+        self.cell_energy_baseline(g, cell)
+    }
+
+    /// Σ r² over cell `cell`'s residuals, AVX-512 if the CPU has it.
+    fn cell_energy(&self, g: &VertexGrid, cell: usize) -> f64 {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F, checked just above.
+            return unsafe { self.cell_energy_avx512(g, cell) };
+        }
+        self.cell_energy_baseline(g, cell)
+    }
+
+    /// Visit every residual of cell `cell` = (i, j) at the vertices `g` (σ ≠ 0 samples, in
+    /// the order sample, axis): `visit(r, ∂r/∂x)`, the derivatives in the slot order of
+    /// [`NaaEnergy::cell_unknowns`] (module docs, "Analytic Jacobian").
+    #[inline(always)]
+    fn for_each_residual(&self, g: &VertexGrid, cell: usize, visit: impl FnMut(f64, &[f64; 8])) {
+        match &self.packed {
+            Some(packed) => self.for_each_residual_with(packed, g, cell, visit),
+            None => self.for_each_residual_with(&FieldJacobian(self.deformed), g, cell, visit),
+        }
+    }
+
+    #[inline(always)]
+    fn for_each_residual_with(
+        &self,
+        jac: &impl JacobianAt,
+        g: &VertexGrid,
+        cell: usize,
+        mut visit: impl FnMut(f64, &[f64; 8]),
+    ) {
+        let warp = self.cell_warp(g, cell);
+        let first = cell * self.lanes.padded;
+        for at in (first..first + self.lanes.padded).step_by(LANES) {
+            let chunk = self.chunk_residuals(jac, &warp, at);
+            let sigma = lanes(&self.lanes.sigma, at);
+            for (lane, &sigma) in sigma.iter().enumerate() {
+                if sigma != 0.0 {
+                    for axis in 0..2 {
+                        let d = std::array::from_fn(|slot| chunk.d[axis][slot][lane]);
+                        visit(chunk.r[axis][lane], &d);
+                    }
+                }
             }
         }
     }
@@ -561,18 +694,32 @@ impl PackedJacobian {
         })
     }
 
-    /// D_s and D_t at p with their derivatives along s and t.
+    /// D_s and D_t at p with their derivatives along s and t. Branch-free (texel positions by
+    /// [`texel_axis`], texels read through `get`), so that a loop over samples vectorises.
     #[inline(always)]
     fn bilinear(&self, p: [f64; 2]) -> (VectorSample, VectorSample) {
-        let (x, y) = (Axis::new(p[0], self.width), Axis::new(p[1], self.height));
-        let (row0, row1) = (y.lower * self.width, y.upper * self.width);
-        let [t00, t10, t01, t11] = [
-            self.texels[row0 + x.lower],
-            self.texels[row0 + x.upper],
-            self.texels[row1 + x.lower],
-            self.texels[row1 + x.upper],
-        ];
-        let at = |c: usize| interpolate(&x, &y, [t00[c], t10[c], t01[c], t11[c]]);
+        let (x, y) = (texel_axis(p[0], self.width), texel_axis(p[1], self.height));
+        let texels = self.texels.as_flattened();
+        // Component c of texel (column, row); the positions are always in range, so the
+        // fallback is never taken (it only spares the loop a panic branch).
+        let texel = |row: usize, column: usize, c: usize| {
+            texels
+                .get((row * self.width + column) * 6 + c)
+                .copied()
+                .unwrap_or(0.0)
+        };
+        let at = |c: usize| {
+            bilinear_formula(
+                (x.frac, x.scale),
+                (y.frac, y.scale),
+                [
+                    texel(y.lower, x.lower, c),
+                    texel(y.lower, x.upper, c),
+                    texel(y.upper, x.lower, c),
+                    texel(y.upper, x.upper, c),
+                ],
+            )
+        };
         let c: [Sample; 6] = [at(0), at(1), at(2), at(3), at(4), at(5)];
         let vector = |c: &[Sample]| VectorSample {
             value: [c[0].value, c[1].value, c[2].value],
@@ -580,6 +727,41 @@ impl PackedJacobian {
             dt: [c[0].dt, c[1].dt, c[2].dt],
         };
         (vector(&c[..3]), vector(&c[3..]))
+    }
+}
+
+/// A coordinate's texel position on one axis: [`Axis::new`]'s lower, upper, frac and scale
+/// (the same values), computed with selects instead of branches.
+struct TexelAxis {
+    lower: usize,
+    upper: usize,
+    frac: f64,
+    scale: f64,
+}
+
+/// [`Axis::new`] without branches: u = s·n − ½; inside the texel-centre range (0 < u < n − 1)
+/// lower = ⌊u⌋, upper = lower + 1, frac = u − lower, scale = n; clamped to the first texel for
+/// u ≤ 0 (or NaN) and to the last for u ≥ n − 1, with frac = scale = 0.
+#[inline(always)]
+fn texel_axis(s: f64, n: usize) -> TexelAxis {
+    let u = s * n as f64 - 0.5;
+    let last = n.saturating_sub(1);
+    let inside = n > 1 && u > 0.0 && u < last as f64;
+    let high = n > 1 && u >= last as f64;
+    // Truncation of u in [0, n − 1] (its floor inside the range).
+    let floor = u.max(0.0).min(last as f64) as u32 as usize;
+    let lower = if inside {
+        floor
+    } else if high {
+        last
+    } else {
+        0
+    };
+    TexelAxis {
+        lower,
+        upper: if inside { lower + 1 } else { lower },
+        frac: if inside { u - lower as f64 } else { 0.0 },
+        scale: if inside { n as f64 } else { 0.0 },
     }
 }
 

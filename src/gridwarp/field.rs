@@ -95,25 +95,48 @@ impl Field {
 
     /// The value of the texel containing (s, t) (clamped to the field).
     pub fn nearest(&self, s: f64, t: f64) -> f64 {
-        let x = ((s * self.width as f64).floor().max(0.0) as usize).min(self.width - 1);
-        let y = ((t * self.height as f64).floor().max(0.0) as usize).min(self.height - 1);
-        self.at(x, y)
+        self.at(nearest_texel(s, self.width), nearest_texel(t, self.height))
     }
+}
+
+/// The index of the texel containing coordinate s on an axis of `texels` texels:
+/// ⌊s·n⌋ clamped to 0 … n − 1.
+#[inline]
+pub fn nearest_texel(s: f64, texels: usize) -> usize {
+    ((s * texels as f64).floor().max(0.0) as usize).min(texels - 1)
 }
 
 /// The bilinear formula of [`Field::bilinear`] on the four texels [f₀₀, f₁₀, f₀₁, f₁₁] around a
 /// point at [`Axis`] positions x, y (fractions α = x.frac, β = y.frac).
 #[inline(always)]
-pub fn interpolate(x: &Axis, y: &Axis, [f00, f10, f01, f11]: [f64; 4]) -> Sample {
-    let (alpha, beta) = (x.frac, y.frac);
+pub fn interpolate(x: &Axis, y: &Axis, f: [f64; 4]) -> Sample {
+    bilinear_formula((x.frac, x.scale), (y.frac, y.scale), f)
+}
+
+/// [`interpolate`] given each axis as (fraction, scale) = (α, du/ds) and (β, dv/dt): the one
+/// place the formula is written, so that every caller (a single sample, or a lane of a
+/// vectorised loop) gets the same operations in the same order.
+#[inline(always)]
+pub fn bilinear_formula(
+    (alpha, scale_s): (f64, f64),
+    (beta, scale_t): (f64, f64),
+    [f00, f10, f01, f11]: [f64; 4],
+) -> Sample {
     Sample {
-        value: (1.0 - alpha) * (1.0 - beta) * f00
-            + alpha * (1.0 - beta) * f10
-            + (1.0 - alpha) * beta * f01
-            + alpha * beta * f11,
-        ds: x.scale * ((1.0 - beta) * (f10 - f00) + beta * (f11 - f01)),
-        dt: y.scale * ((1.0 - alpha) * (f01 - f00) + alpha * (f11 - f10)),
+        value: bilinear_value(alpha, beta, [f00, f10, f01, f11]),
+        ds: scale_s * ((1.0 - beta) * (f10 - f00) + beta * (f11 - f01)),
+        dt: scale_t * ((1.0 - alpha) * (f01 - f00) + alpha * (f11 - f10)),
     }
+}
+
+/// The value part of [`bilinear_formula`]:
+/// (1−α)(1−β) f₀₀ + α(1−β) f₁₀ + (1−α)β f₀₁ + αβ f₁₁.
+#[inline(always)]
+pub fn bilinear_value(alpha: f64, beta: f64, [f00, f10, f01, f11]: [f64; 4]) -> f64 {
+    (1.0 - alpha) * (1.0 - beta) * f00
+        + alpha * (1.0 - beta) * f10
+        + (1.0 - alpha) * beta * f01
+        + alpha * beta * f11
 }
 
 /// Where a coordinate s falls on one axis of `texels` texel centres: u = s·n − ½ = lower + frac,

@@ -37,9 +37,12 @@ pub mod rigidity;
 pub mod scene;
 pub mod solve;
 
-pub use energy::{AaEnergy, DeformedFields, RestFields};
+pub use energy::{AaEnergy, DeformedFields, RestFields, RestSamples};
 pub use energy_naa::{solve_naa_frame, DeformedJacobian, NaaEnergy, NaaFrameSolution, VertexGrid};
 pub use field::Field;
 pub use grid::{grid_from_rigidity, Grid};
 pub use remap::{AtlasRemap, Remap, RemapOptions, Warped};
-pub use solve::{solve_frame, solve_naa_sequence, solve_sequence, FrameSolution, SolveOptions};
+pub use solve::{
+    solve_frame, solve_frame_with_rest_samples, solve_naa_sequence, solve_sequence, FrameSolution,
+    SolveOptions,
+};

@@ -5,7 +5,7 @@
 use std::time::Instant;
 
 use super::bounds::{frame_bounds, BoundOptions};
-use super::energy::{AaEnergy, DeformedFields, RestFields};
+use super::energy::{AaEnergy, DeformedFields, RestFields, RestSamples};
 use super::energy_naa::{solve_naa_frame, DeformedJacobian, NaaFrameSolution, VertexGrid};
 use super::grid::Grid;
 use crate::error::Result;
@@ -69,6 +69,31 @@ pub fn solve_frame(
     minimize_frame(
         energy,
         rest_grid,
+        previous,
+        first,
+        (frame, frames),
+        options,
+        start,
+    )
+}
+
+/// [`solve_frame`] on rest samples built beforehand ([`RestSamples::new`], once per sequence:
+/// they depend on the rest fields, the rest grid and K×L only, the paper's preprocessing).
+/// The samples' K×L is used (`options.samples` is not read); `seconds` is the frame's own
+/// cost, without the samples' precomputation.
+pub fn solve_frame_with_rest_samples(
+    samples: &RestSamples,
+    deformed: &DeformedFields,
+    previous: &Grid,
+    first: &Grid,
+    (frame, frames): (usize, usize),
+    options: &SolveOptions,
+) -> Result<FrameSolution> {
+    let start = Instant::now();
+    let energy = AaEnergy::from_rest_samples(samples, deformed);
+    minimize_frame(
+        energy,
+        samples.grid(),
         previous,
         first,
         (frame, frames),
@@ -144,20 +169,23 @@ pub fn solve_frames<G, S>(
 }
 
 /// Solve a whole sequence frame by frame, each frame warm-started from the previous solution
-/// (the first from the rest grid).
+/// (the first from the rest grid). The rest samples are built once, before the first frame
+/// (the first frame's `seconds` does not include them).
 pub fn solve_sequence(
     rest: &RestFields,
     rest_grid: &Grid,
     frames: &[DeformedFields],
     options: &SolveOptions,
 ) -> Result<Vec<FrameSolution>> {
+    let (k, l) = options.samples_per_cell();
+    let samples = RestSamples::new(rest, rest_grid, k, l);
     solve_frames(
         rest_grid,
         frames.len(),
         |s: &FrameSolution| &s.grid,
         |j, previous, first| {
             let frame = (j, frames.len());
-            solve_frame(rest, rest_grid, &frames[j], previous, first, frame, options)
+            solve_frame_with_rest_samples(&samples, &frames[j], previous, first, frame, options)
         },
     )
 }
