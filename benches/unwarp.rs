@@ -3,9 +3,10 @@
 //! - `unwarp_pass`: one phase pass (active texel updates/s) at 256² and 1024², f64 CPU in rayon
 //!   pools of 1 and 2 threads, and the f32 GPU kernel (offsets kept on the GPU, one sync per
 //!   pass);
-//! - time to a target energy, single level vs coarse-to-fine, on the 64² and 512² cones
-//!   (s = 0.08, θ = 5): printed once, not sampled by criterion (a whole solve is seconds).
-//!   Targets: energy ratio 1.10 (the notes' figure) and the single-level 240-pass energy.
+//! - time to a target energy on the 64² and 512² cones (s = 0.08, θ = 5), single level vs
+//!   coarse-to-fine vs coarse moves vs both: printed once, not sampled by criterion (a whole
+//!   solve is seconds). Targets: energy ratio 1.10 (the notes' figure) and the single-level
+//!   240-pass energy.
 //!
 //! Run: `cargo bench --bench unwarp`.
 
@@ -75,75 +76,99 @@ fn bench_gpu_pass(
 }
 
 /// Solve and time-stamp every finest-level sweep: (seconds since the start, energy ratio). The
-/// clock includes the coarse levels and the per-pass energy evaluations. Also returns the
-/// coarse levels' work in finest-pass equivalents (passes × texels / finest texels).
-fn timed_solve(map: &reparam::unwarp::HeightMap, opts: &UnwarpOptions) -> (Vec<(f64, f64)>, f64) {
+/// clock includes the coarse levels, the coarse moves and the per-pass energy evaluations.
+fn timed_solve(map: &reparam::unwarp::HeightMap, opts: &UnwarpOptions) -> Vec<(f64, f64)> {
     let start = Instant::now();
     let mut stamps = Vec::new();
-    let solution = solve(map, opts, |p| {
+    solve(map, opts, |p| {
         if p.level == 0 {
             stamps.push((start.elapsed().as_secs_f64(), p.energy_ratio));
         }
     })
     .unwrap();
-    let fine = solution.fine();
-    let texels = (fine.width * fine.height) as f64;
-    let coarse_work = solution.levels[..solution.levels.len() - 1]
-        .iter()
-        .map(|l| l.passes as f64 * (l.width * l.height) as f64 / texels)
-        .sum();
-    (stamps, coarse_work)
+    stamps
 }
 
-/// Finest-pass equivalents until the ratio is ≤ `target`: coarse work + 4 × sweeps.
-fn work_to(stamps: &[(f64, f64)], coarse_work: f64, target: f64) -> Option<f64> {
+/// The first (time, finest-level sweeps) at which the ratio is ≤ `target`.
+fn time_to(stamps: &[(f64, f64)], target: f64) -> Option<(f64, usize)> {
     stamps
         .iter()
-        .position(|s| s.1 <= target)
-        .map(|i| coarse_work + 4.0 * (i + 1) as f64)
+        .enumerate()
+        .find(|(_, s)| s.1 <= target)
+        .map(|(i, s)| (s.0, i + 1))
 }
 
-/// The first time-stamp at which the ratio is ≤ `target`.
-fn time_to(stamps: &[(f64, f64)], target: f64) -> Option<f64> {
-    stamps.iter().find(|s| s.1 <= target).map(|s| s.0)
+/// The schemes compared at one size: the paper's single level; coarse-to-fine alone (nested
+/// iteration: `levels` levels, `coarse_sweeps` sweeps on each coarse level); coarse moves alone
+/// (`coarse_moves` scales at the end of every sweep); and both, with 2 sweeps per coarse level.
+fn schemes(
+    levels: usize,
+    coarse_sweeps: usize,
+    coarse_moves: usize,
+) -> [(String, UnwarpOptions); 4] {
+    let single = UnwarpOptions {
+        sweeps: 60,
+        ..options()
+    };
+    [
+        ("single level".to_string(), single.clone()),
+        (
+            format!("coarse-to-fine {levels} levels × {coarse_sweeps} coarse sweeps"),
+            UnwarpOptions {
+                levels,
+                coarse_sweeps,
+                ..single.clone()
+            },
+        ),
+        (
+            format!("coarse moves r = 2…{}", 1 << coarse_moves),
+            UnwarpOptions {
+                coarse_moves,
+                ..single.clone()
+            },
+        ),
+        (
+            format!(
+                "coarse-to-fine {levels} levels × 2 coarse sweeps + coarse moves r = 2…{}",
+                1 << coarse_moves
+            ),
+            UnwarpOptions {
+                levels,
+                coarse_sweeps: 2,
+                coarse_moves,
+                ..single
+            },
+        ),
+    ]
 }
 
 fn report_time_to_energy(_: &mut Criterion) {
-    for (size, c2f_levels, c2f_sweeps) in [(64usize, 3usize, 15usize), (512, 4, 10)] {
+    for (size, levels, coarse_sweeps, coarse_moves) in [(64usize, 3, 15, 2), (512, 4, 10, 3)] {
         let map = procedural("cones", size).unwrap();
-        let single = UnwarpOptions {
-            sweeps: 60,
-            ..options()
-        };
-        let c2f = UnwarpOptions {
-            levels: c2f_levels,
-            coarse_sweeps: c2f_sweeps,
-            ..single.clone()
-        };
-        let ((a, wa), (b, wb)) = (timed_solve(&map, &single), timed_solve(&map, &c2f));
-        let target240 = a[59].1;
+        let runs: Vec<(String, Vec<(f64, f64)>)> = schemes(levels, coarse_sweeps, coarse_moves)
+            .into_iter()
+            .map(|(name, opts)| {
+                let stamps = timed_solve(&map, &opts);
+                (name, stamps)
+            })
+            .collect();
+        let single = &runs[0].1;
+        let target240 = single[59].1;
         for (name, target) in [
             ("ratio 1.10", 1.10),
             ("single-level 240-pass ratio", target240),
         ] {
-            let (ta, tb) = (time_to(&a, target), time_to(&b, target));
-            let work = |w: Option<f64>| w.map_or("never".to_string(), |w| format!("{w:.0}"));
-            let show = |t: Option<f64>| t.map_or("never".to_string(), |t| format!("{t:.3} s"));
-            let speedup = match (ta, tb) {
-                (Some(x), Some(y)) => format!("{:.1}×", x / y),
-                _ => "n/a".into(),
-            };
-            println!(
-                "unwarp {size}² cones, target {name} ({target:.4}): single level {} (after 60 sweeps {:.4}), \
-                 coarse-to-fine {c2f_levels} levels × {c2f_sweeps} coarse sweeps {} (after 60 sweeps {:.4}), speed-up {speedup}; \
-                 work in finest-pass equivalents {} vs {}",
-                show(ta),
-                a[59].1,
-                show(tb),
-                b[59].1,
-                work(work_to(&a, wa, target)),
-                work(work_to(&b, wb, target)),
-            );
+            let reference = time_to(single, target).map(|t| t.0);
+            for (scheme, stamps) in &runs {
+                let line = match time_to(stamps, target) {
+                    Some((t, sweeps)) => format!(
+                        "{t:.3} s, {sweeps} finest-level sweeps{}",
+                        reference.map_or(String::new(), |r| format!(", speed-up {:.1}×", r / t))
+                    ),
+                    None => format!("not reached in 60 sweeps (ratio {:.4})", stamps[59].1),
+                };
+                println!("unwarp {size}² cones, target {name} ({target:.4}), {scheme}: {line}");
+            }
         }
     }
 }

@@ -964,7 +964,7 @@ fn the_command_writes_outputs_and_json_for_procedural_and_png_maps() {
         .save(&mask)
         .unwrap();
     let out2 = dir.path().join("b");
-    let (ok, _, stderr) = run(&[
+    let (ok, stdout, stderr) = run(&[
         "unwarp",
         png.to_str().unwrap(),
         "--border",
@@ -973,11 +973,23 @@ fn the_command_writes_outputs_and_json_for_procedural_and_png_maps() {
         "2",
         "--pin",
         mask.to_str().unwrap(),
+        "--coarse-moves",
+        "2",
         "--out",
         out2.to_str().unwrap(),
         "--json",
     ]);
     assert!(ok, "{stderr}");
+    // Coarse moves on an odd map with a fixed border: r = 2 and 4, four phases each, per sweep.
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["coarse_passes"].as_u64(), Some(2 * 2 * 4));
+    let per_sweep: Vec<f64> = v["energy_ratio_per_sweep"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e.as_f64().unwrap())
+        .collect();
+    assert!(per_sweep.windows(2).all(|w| w[1] <= w[0]), "{per_sweep:?}");
     // Bad input: a clear error, no panic.
     let (ok, _, stderr) = run(&[
         "unwarp",

@@ -69,13 +69,42 @@ pub fn dirichlet(t: &TriangleGeometry, u1: [f64; 2], u2: [f64; 2]) -> f64 {
     norm2_2(u12) * t.c12 + norm2_2(u1) * t.c11 + norm2_2(u2) * t.c22
 }
 
-/// y^θ: `powi` (repeated multiplication, exact order) when θ is an integer in [−64, 64], else
-/// `powf`. The WGSL twin `theta_power` does the same.
+/// y^θ: [`integer_power`] (repeated multiplication, exact order) when θ is an integer in
+/// [−64, 64], else `powf`. The WGSL twin `theta_power` does the same.
+#[inline]
 pub fn theta_power(y: f64, theta: f64) -> f64 {
-    if theta.fract() == 0.0 && theta.abs() <= 64.0 {
-        y.powi(theta as i32)
+    // θ integral and |θ| ≤ 64 (the cast saturates and sends NaN to 0, so it never passes
+    // for a non-finite θ); cheaper than `fract`, which is a libm call.
+    let n = theta as i32;
+    if n as f64 == theta && n.abs() <= 64 {
+        integer_power(y, n)
     } else {
         y.powf(theta)
+    }
+}
+
+/// yⁿ by binary powering, in the order of `f64::powi`'s runtime routine (libgcc/compiler-rt
+/// `__powidf2`, so the same bits) but inlined: r = y or 1 by the lowest bit of |n|, then per
+/// further bit y ← y², r ← r·y when the bit is set; 1/r for n < 0.
+#[inline]
+pub fn integer_power(y: f64, n: i32) -> f64 {
+    let mut bits = n.unsigned_abs();
+    let mut base = y;
+    let mut result = if bits & 1 == 1 { y } else { 1.0 };
+    loop {
+        bits >>= 1;
+        if bits == 0 {
+            break;
+        }
+        base *= base;
+        if bits & 1 == 1 {
+            result *= base;
+        }
+    }
+    if n < 0 {
+        1.0 / result
+    } else {
+        result
     }
 }
 

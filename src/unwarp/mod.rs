@@ -13,6 +13,7 @@
 //! | A, a, D, E_T = D/(A a)·(A/a + a/A)^θ, its gradient, node and total energy | § Energy | [`energy`] |
 //! | pin weights, barrier ½/(1 − ‖w R⊙o‖²), its root | § Fixation; seed "Fixation Energy" | [`fixation`] |
 //! | bracket, ternary search, guard, one phase pass | § One pass 1–4; seed "ternary line search" | [`pass`] |
+//! | coarse moves: hat-weighted block steps on the same energy (not in the paper) | § One pass 1–4 generalised | [`coarse_move`] |
 //! | sweeps, tolerance, progress, coarse-to-fine | § One pass 4, § Defects | [`solve`](mod@solve) |
 //! | area-ratio CV, max offset, per-texel σ1/σ2 and σ1σ2 | § Reference figures | [`stats`] |
 //! | offset EXR, mip chain, baked texture, pictures | § Application; seed "store per-texel offsets", "Mip Mapping" | [`output`] |
@@ -20,6 +21,7 @@
 //!
 //! Entry point: [`solve()`] with [`UnwarpOptions`]; one pass is [`pass::pass`].
 
+pub mod coarse_move;
 pub mod energy;
 pub mod fixation;
 #[cfg(feature = "gpu")]
@@ -59,6 +61,9 @@ pub struct UnwarpOptions {
     pub levels: usize,
     /// Sweeps on each coarser level. Default 30.
     pub coarse_sweeps: usize,
+    /// Scales of coarse moves at the end of every sweep on every level (r = 2, 4, …, 2^n;
+    /// [`coarse_move`]); 0 = texel passes only, the paper's scheme. Default 0.
+    pub coarse_moves: usize,
 }
 
 impl Default for UnwarpOptions {
@@ -72,6 +77,7 @@ impl Default for UnwarpOptions {
             tolerance: None,
             levels: 1,
             coarse_sweeps: 30,
+            coarse_moves: 0,
         }
     }
 }

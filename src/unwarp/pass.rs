@@ -86,10 +86,21 @@ pub struct Search {
 /// Ternary search for the minimum of `f` on [lo, hi]: at most [`SEARCH_ITERATIONS`] steps
 /// while hi − lo > [`SEARCH_RELATIVE_WIDTH`]·hi; t1, t2 at the thirds; f(t1) > f(t2) → lo = t1,
 /// else hi = t2 (ties and NaN shrink toward lo). Returns t = (lo + hi)/2.
-pub fn ternary_search(f: impl Fn(f64) -> f64, mut lo: f64, mut hi: f64) -> Search {
+pub fn ternary_search(f: impl Fn(f64) -> f64, lo: f64, hi: f64) -> Search {
+    ternary_search_to(f, lo, hi, SEARCH_RELATIVE_WIDTH)
+}
+
+/// [`ternary_search`] stopping when hi − lo ≤ `relative_width`·hi (the coarse moves of
+/// [`super::coarse_move`] search less finely).
+pub fn ternary_search_to(
+    f: impl Fn(f64) -> f64,
+    mut lo: f64,
+    mut hi: f64,
+    relative_width: f64,
+) -> Search {
     let (mut path, mut steps) = (0u32, 0u32);
     for i in 0..SEARCH_ITERATIONS {
-        if hi - lo <= SEARCH_RELATIVE_WIDTH * hi {
+        if hi - lo <= relative_width * hi {
             break;
         }
         let third = (hi - lo) / 3.0;

@@ -4,6 +4,9 @@
 
 use std::time::Instant;
 
+use super::coarse_move::{
+    coarse_pass, coarse_scales, TriangleTable, COARSE_PHASES, COARSE_SEARCH_RELATIVE_WIDTH,
+};
 use super::energy::{total_energy, triangle_at, uv_area, Energy};
 use super::fixation::pin_q;
 use super::height::HeightMap;
@@ -39,10 +42,32 @@ pub struct Progress {
 pub struct LevelRun {
     pub width: usize,
     pub height: usize,
-    /// Energy before the first pass (index 0) and after every pass.
+    /// Energy before the first pass (index 0) and after every texel pass.
     pub energy_per_pass: Vec<Energy>,
+    /// Texel passes.
     pub passes: usize,
+    /// Coarse passes ([`coarse_pass`]; 0 unless `coarse_moves` > 0).
+    pub coarse_passes: usize,
+    /// With coarse moves: the energy at the end of every sweep, after its coarse passes.
+    pub energy_after_coarse_moves: Vec<Energy>,
     pub seconds: f64,
+}
+
+impl LevelRun {
+    /// The energy before the first sweep and at the end of every sweep (after its coarse
+    /// moves, if any); `phases` texel passes per sweep.
+    pub fn energy_per_sweep(&self, phases: usize) -> Vec<Energy> {
+        let mut sweeps: Vec<Energy> = self
+            .energy_per_pass
+            .iter()
+            .step_by(phases.max(1))
+            .copied()
+            .collect();
+        for (sweep, e) in self.energy_after_coarse_moves.iter().enumerate() {
+            sweeps[sweep + 1] = *e;
+        }
+        sweeps
+    }
 }
 
 /// The result of [`solve`].
@@ -226,33 +251,62 @@ impl PassBackend for CpuPass {
 
 /// Run sweeps on one level from `offsets`: at most `sweeps`, stopping early when a sweep lowers
 /// the total energy by less than `tolerance` relatively. Energy recorded after every pass.
+/// A sweep is the texel passes of every phase, then, with `coarse_moves` > 0, the coarse
+/// passes of [`coarse_scales`] (r = 2, 4, …, each scale's four phases; f64 on the CPU
+/// whatever the backend).
 pub fn solve_level(
     backend: &mut dyn PassBackend,
     problem: &Problem,
     offsets: &mut [[f64; 2]],
     sweeps: usize,
     tolerance: Option<f64>,
+    coarse_moves: usize,
     mut on_sweep: impl FnMut(usize, &Energy),
 ) -> Result<LevelRun> {
     let start = Instant::now();
+    let scales = coarse_scales(&problem.mesh, coarse_moves);
+    let table = (!scales.is_empty()).then(|| TriangleTable::new(&problem.mesh));
     let mut energy_per_pass = vec![total_energy(problem, offsets)];
+    let mut energy_after_coarse_moves = Vec::new();
+    let mut coarse_passes = 0;
+    let mut before = energy_per_pass[0];
     for sweep in 0..sweeps {
-        let before = energy_per_pass.last().map_or(f64::INFINITY, Energy::total);
         for phase in sweep_phases(&problem.mesh) {
             backend.pass(problem, offsets, phase)?;
             energy_per_pass.push(total_energy(problem, offsets));
         }
-        let after = *energy_per_pass.last().expect("recorded");
+        let mut after = *energy_per_pass.last().expect("recorded");
+        if let Some(table) = &table {
+            for &r in &scales {
+                for phase in 0..COARSE_PHASES {
+                    coarse_pass(
+                        problem,
+                        table,
+                        offsets,
+                        r,
+                        phase,
+                        COARSE_SEARCH_RELATIVE_WIDTH,
+                    );
+                    coarse_passes += 1;
+                }
+            }
+            after = total_energy(problem, offsets);
+            energy_after_coarse_moves.push(after);
+        }
         on_sweep(sweep + 1, &after);
-        if tolerance.is_some_and(|tol| before - after.total() < tol * before.abs()) {
+        if tolerance.is_some_and(|tol| before.total() - after.total() < tol * before.total().abs())
+        {
             break;
         }
+        before = after;
     }
     Ok(LevelRun {
         width: problem.mesh.width,
         height: problem.mesh.height,
         passes: energy_per_pass.len() - 1,
         energy_per_pass,
+        coarse_passes,
+        energy_after_coarse_moves,
         seconds: start.elapsed().as_secs_f64(),
     })
 }
@@ -308,6 +362,7 @@ pub fn solve_with(
             &mut offsets,
             sweeps,
             options.tolerance,
+            options.coarse_moves,
             |sweep, energy| {
                 progress(&Progress {
                     level,
