@@ -36,6 +36,20 @@ fn cones_state(size: usize, sweeps: usize) -> (Problem, Vec<[f64; 2]>) {
     (problem, offsets)
 }
 
+/// The cones cut to 21×18 with a fixed border at scale `scale`: odd sizes, border nodes fixed.
+fn fixed_border_cones(scale: f64) -> Problem {
+    let mut opts = options(scale);
+    opts.border = Border::Fixed;
+    let map = HeightMap::new(
+        "cones 21x18",
+        21,
+        18,
+        procedural("cones", 21).unwrap().values[..21 * 18].to_vec(),
+    )
+    .unwrap();
+    Problem::new(&map, &opts).unwrap()
+}
+
 /// `offsets` with every node n of `block` moved by w_n δ.
 fn moved(offsets: &[[f64; 2]], block: &Block, delta: [f64; 2]) -> Vec<[f64; 2]> {
     let mut out = offsets.to_vec();
@@ -140,16 +154,7 @@ fn block_gradient_matches_central_differences() {
 #[test]
 fn blocks_of_one_phase_share_no_triangle_and_every_node_is_in_a_hat() {
     let periodic = Problem::new(&procedural("cones", 32).unwrap(), &options(0.08)).unwrap();
-    let mut fixed_options = options(0.08);
-    fixed_options.border = Border::Fixed;
-    let fixed_map = HeightMap::new(
-        "cones 21x18",
-        21,
-        18,
-        procedural("cones", 21).unwrap().values[..21 * 18].to_vec(),
-    )
-    .unwrap();
-    let fixed = Problem::new(&fixed_map, &fixed_options).unwrap();
+    let fixed = fixed_border_cones(0.08);
     for problem in [&periodic, &fixed] {
         let mesh = &problem.mesh;
         let table = TriangleTable::new(mesh);
@@ -219,19 +224,10 @@ fn every_triangle_touching_a_moving_node_is_in_its_block() {
 
 #[test]
 fn coarse_passes_never_raise_the_energy_fold_nothing_and_keep_pins() {
-    let mut fixed_options = options(0.1);
-    fixed_options.border = Border::Fixed;
-    let fixed_map = HeightMap::new(
-        "cones 21x18",
-        21,
-        18,
-        procedural("cones", 21).unwrap().values[..21 * 18].to_vec(),
-    )
-    .unwrap();
     for problem in [
         Problem::new(&procedural("tiles", 24).unwrap(), &options(0.15)).unwrap(),
         Problem::new(&procedural("cones", 32).unwrap(), &options(0.08)).unwrap(),
-        Problem::new(&fixed_map, &fixed_options).unwrap(),
+        fixed_border_cones(0.1),
     ] {
         let mesh = &problem.mesh;
         let table = TriangleTable::new(mesh);
