@@ -1,6 +1,6 @@
 //! Coarse moves: the per-texel descent of [`super::pass`] applied to smooth groups of texels,
 //! on the finest level's own energy. Not in the paper or the demo (like coarse-to-fine, see
-//! [`super::solve`]); it is what makes the fine level's slow, smooth error components converge.
+//! [`solve`](mod@super::solve)); it is what makes the fine level's slow, smooth error components converge.
 //!
 //! A texel step changes one offset; errors that are smooth over many texels shrink only a
 //! little per pass. A coarse move of scale r ≥ 2 moves every node n near a block centre c by
@@ -15,9 +15,10 @@
 //!    corners move along the same G, so the t² term G × G vanishes),
 //!    a(t) = a − t [(w_c − w_k) U_{k−1} × G + (w_c − w_{k−1}) G × U_k]; each pinned node's
 //!    barrier root ([`pin_root`] of the step w_n G) bounds it too;
-//! 2. the ternary search ([`ternary_search`]) of E along the line — a touched triangle's D(t) is
-//!    a quadratic in t and a(t) linear, so the search evaluates the polynomials
-//!    ([`LineTriangle`]);
+//! 2. a line search of E on the bracket — a golden-section search ([`golden_section_search`],
+//!    one evaluation per step where the texel step's ternary search needs two, to a relative
+//!    width of [`COARSE_SEARCH_RELATIVE_WIDTH`]); a touched triangle's D(t) is a quadratic in t
+//!    and a(t) linear, so each evaluation sums polynomials ([`LineTriangle`]);
 //! 3. the guard: the move is taken only if it lowers E.
 //!
 //! Blocks whose centres are 2r apart share no triangle (a hat's nodes lie within r − 1 of its
@@ -55,8 +56,8 @@ pub fn coarse_scales(mesh: &UnwarpMesh, count: usize) -> Vec<usize> {
         .collect()
 }
 
-/// The block centres of scale `r` and `phase` ∈ 0..[`COARSE_PHASES`]: (c.x, c.y) multiples of r with
-/// (c.x/r) mod 2 + 2 ((c.y/r) mod 2) = phase, row-major.
+/// The block centres of scale `r` and `phase` ∈ 0..[`COARSE_PHASES`]: (c.x, c.y) multiples of
+/// r with (c.x/r) mod 2 + 2 ((c.y/r) mod 2) = phase, row-major.
 pub fn block_centres(mesh: &UnwarpMesh, r: usize, phase: usize) -> Vec<(usize, usize)> {
     let (px, py) = (phase & 1, phase >> 1);
     let mut centres = Vec::new();
