@@ -543,13 +543,8 @@ fn results_do_not_depend_on_the_thread_count() {
         coarse_sweeps: 3,
         ..Default::default()
     };
-    let solve_in = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| solve(&map, &opts, |_| {}).unwrap())
-    };
+    let solve_in =
+        |threads: usize| common::in_pool(threads, || solve(&map, &opts, |_| {}).unwrap());
     let (one, two) = (solve_in(1), solve_in(2));
     assert_eq!(one.offsets, two.offsets);
     for (a, b) in one.levels.iter().zip(&two.levels) {

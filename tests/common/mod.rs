@@ -32,3 +32,12 @@ impl Rng {
         [1.0 - a - b, a, b]
     }
 }
+
+/// Run `f` in a rayon pool of `threads` threads (for the thread-count independence tests).
+pub fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a rayon pool")
+        .install(f)
+}
