@@ -835,7 +835,7 @@ fn box_qp(
     Ok(h)
 }
 
-/// Where each row of a square matrix has its non-zeros: row i's entries outside
+/// Where each row of a symmetric matrix has its non-zeros: row i's entries outside
 /// lo_i ..= hi_i are exactly 0, and the span contains the diagonal. A grid energy's JᵀJ is
 /// banded (a line or vertex couples only with its neighbours), so products over the spans
 /// cost O(n·band) instead of O(n²) and, taken in ascending column order, give exactly the
@@ -846,26 +846,32 @@ struct RowSpans {
 }
 
 impl RowSpans {
-    /// The spans of `a`'s rows, through its columns (contiguous in memory): column j has its
-    /// non-zeros in rows top_j ..= bottom_j, so row i's non-zeros lie in the columns j with
-    /// top_j ≤ i ≤ bottom_j. Exact spans for a symmetric matrix, wider ones (still holding
-    /// every non-zero) otherwise. Cost: the scans down to top_j and up to bottom_j, plus
-    /// O(n·band).
+    /// The spans of a symmetric matrix's rows from its columns' first non-zeros (columns are
+    /// contiguous in memory, and each scan stops at the first non-zero, about half the
+    /// matrix for a banded one): with top_j the first non-zero row of column j,
+    ///   lo_i = top_i,   hi_i = max(i, max{ j : top_j ≤ i }).
+    /// They hold every non-zero: A_ij ≠ 0 with j < i means A_ji ≠ 0, so top_i ≤ j; with
+    /// j > i, column j has a non-zero in row i, so top_j ≤ i. Exact for a banded matrix; for
+    /// another profile hi_i may be wider, which only adds exact zeros to the products.
     fn of(a: &DMatrix<f64>) -> RowSpans {
         let n = a.nrows();
-        let mut lo: Vec<usize> = (0..n).collect();
-        let mut hi: Vec<usize> = (0..n).collect();
-        for (j, column) in a.column_iter().enumerate() {
-            let column = column.as_slice();
-            let Some(top) = first_non_zero(column) else {
-                continue;
-            };
-            let bottom = last_non_zero(column).unwrap_or(top);
-            for i in top..=bottom {
-                lo[i] = lo[i].min(j);
-                hi[i] = hi[i].max(j);
-            }
+        let top: Vec<usize> = a
+            .column_iter()
+            .enumerate()
+            .map(|(j, column)| first_non_zero(column.as_slice()).unwrap_or(j))
+            .collect();
+        // reach[i]: the last column whose first non-zero is in row i (or i itself).
+        let mut reach: Vec<usize> = (0..n).collect();
+        for (j, &t) in top.iter().enumerate() {
+            reach[t] = reach[t].max(j);
         }
+        let mut hi = Vec::with_capacity(n);
+        let mut furthest = 0;
+        for (i, &r) in reach.iter().enumerate() {
+            furthest = furthest.max(r).max(i);
+            hi.push(furthest);
+        }
+        let lo = top.iter().enumerate().map(|(i, &t)| t.min(i)).collect();
         RowSpans { lo, hi }
     }
 }
@@ -887,20 +893,6 @@ fn first_non_zero(values: &[f64]) -> Option<usize> {
         .map(|k| index * SCAN_BLOCK + k)
 }
 
-/// Index of the last non-zero of `values`.
-fn last_non_zero(values: &[f64]) -> Option<usize> {
-    let non_zero = |block: &[f64]| block.iter().fold(false, |any, &v| any | (v != 0.0));
-    let mut end = values.len();
-    for block in values.rchunks(SCAN_BLOCK) {
-        let start = end - block.len();
-        if non_zero(block) {
-            return block.iter().rposition(|&v| v != 0.0).map(|k| start + k);
-        }
-        end = start;
-    }
-    None
-}
-
 /// The matrix A + λI of one damped step (λ = 0: A itself), with A's [`RowSpans`]; never
 /// formed, so a λ trial costs no n×n copy.
 struct Damped<'a> {
@@ -911,12 +903,15 @@ struct Damped<'a> {
 
 impl Damped<'_> {
     /// Entry (i, j) of A + λI.
+    ///
+    /// Read as A_ji, the same value (A is symmetric): consecutive j of a row are then
+    /// consecutive in A's column-major storage.
     #[inline]
     fn at(&self, i: usize, j: usize) -> f64 {
         if i == j {
-            self.a[(i, j)] + self.lambda
+            self.a[(j, i)] + self.lambda
         } else {
-            self.a[(i, j)]
+            self.a[(j, i)]
         }
     }
 

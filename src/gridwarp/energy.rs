@@ -70,7 +70,7 @@ pub fn rest_samples(rest: &RestFields, rest_grid: &Grid, k: usize, l: usize) -> 
 }
 
 /// Samples processed together by the sample loops: 8 f64, one 512-bit register.
-const LANES: usize = 8;
+pub(super) const LANES: usize = 8;
 
 /// The layout of a cell's samples in the lane loops: (C, S) = (column samples, stored row
 /// samples) per chunk of [`LANES`] samples. L ≤ 4: two column samples of S = 4 rows each
@@ -159,7 +159,8 @@ fn midpoints(n: usize) -> Vec<f64> {
 impl RestSamples {
     /// σ = √w R, o_s = ‖O_s‖ and o_t = ‖O_t‖ at the K×L midpoints of every rest cell
     /// (R at the nearest texel, ‖O_·‖ bilinear, exactly as [`Field::nearest`] and
-    /// [`Field::bilinear`] give them). Cell columns in parallel.
+    /// [`Field::bilinear`] give them). Cell columns in parallel (beyond twice
+    /// [`SAMPLES_PER_TASK`] samples).
     pub fn new(rest: &RestFields, rest_grid: &Grid, k: usize, l: usize) -> RestSamples {
         let (k, l) = (k.max(1), l.max(1));
         let (chunk_columns, stride) = chunk_layout(l);
@@ -206,10 +207,8 @@ impl RestSamples {
                 .collect(),
             active: Vec::new(),
         };
-        let chunks = out.sigma.par_chunks_mut(per_column);
-        let chunks = chunks.zip(out.o_s.par_chunks_mut(per_column));
-        let chunks = chunks.zip(out.o_t.par_chunks_mut(per_column));
-        chunks.enumerate().for_each(|(i, ((sigma, os), ot))| {
+        // Cell column i's samples.
+        let fill = |i: usize, sigma: &mut [f64], os: &mut [f64], ot: &mut [f64]| {
             let h = rest_grid.s[i + 1] - rest_grid.s[i];
             for j in 0..n {
                 let kj = rest_grid.t[j + 1] - rest_grid.t[j];
@@ -224,7 +223,24 @@ impl RestSamples {
                     }
                 }
             }
-        });
+        };
+        if m * n * k * l <= 2 * SAMPLES_PER_TASK {
+            // A small problem (as in [`for_each_task`]; a per-frame NAA energy's): on this
+            // thread.
+            let chunks = out.sigma.chunks_mut(per_column);
+            let chunks = chunks.zip(out.o_s.chunks_mut(per_column));
+            let chunks = chunks.zip(out.o_t.chunks_mut(per_column));
+            for (i, ((sigma, os), ot)) in chunks.enumerate() {
+                fill(i, sigma, os, ot);
+            }
+        } else {
+            let chunks = out.sigma.par_chunks_mut(per_column);
+            let chunks = chunks.zip(out.o_s.par_chunks_mut(per_column));
+            let chunks = chunks.zip(out.o_t.par_chunks_mut(per_column));
+            chunks
+                .enumerate()
+                .for_each(|(i, ((sigma, os), ot))| fill(i, sigma, os, ot));
+        }
         out.active = out
             .sigma
             .chunks_exact(padded_k * stride)
@@ -508,73 +524,167 @@ impl Chunk<'_> {
     }
 }
 
-/// The upper triangle of a 4×4 block, row by row: (0,0) (0,1) (0,2) (0,3) (1,1) … (3,3).
-const UPPER: [(usize, usize); 10] = [
-    (0, 0),
-    (0, 1),
-    (0, 2),
-    (0, 3),
-    (1, 1),
-    (1, 2),
-    (1, 3),
-    (2, 2),
-    (2, 3),
-    (3, 3),
-];
-
-/// Per-lane partial sums of a cell's F, Jᵀr and the upper triangle of JᵀJ: each lane
-/// accumulates its own samples (independent additions the compiler runs side by side in one
-/// vector register), and the lanes are added in lane order at the end of the cell.
-struct LaneSums {
-    energy: [f64; LANES],
-    jtr: [[f64; LANES]; 4],
-    jtj: [[f64; LANES]; 10],
+/// The upper triangle of an N×N block, row by row: (0,0) (0,1) … (0,N−1) (1,1) … (N−1,N−1);
+/// T = N(N+1)/2 entries (checked when evaluated, at compile time).
+const fn upper_triangle<const N: usize, const T: usize>() -> [(usize, usize); T] {
+    assert!(T == N * (N + 1) / 2, "T must be N(N+1)/2");
+    let mut out = [(0, 0); T];
+    let (mut p, mut k) = (0, 0);
+    while p < N {
+        let mut q = p;
+        while q < N {
+            out[k] = (p, q);
+            k += 1;
+            q += 1;
+        }
+        p += 1;
+    }
+    out
 }
 
-impl LaneSums {
-    fn new() -> Self {
+/// Per-lane partial sums of a cell's F, Jᵀr and the T = N(N+1)/2 upper-triangle entries of
+/// JᵀJ over N slots: each lane accumulates its own samples (independent additions the
+/// compiler runs side by side in one vector register per entry), and the lanes are added in
+/// lane order at the end of the cell: the axis-aligned energy's (N = 4: its 15 sums stay in
+/// registers while the cell's chunks stream by; [`cell_block_of`] sums the non-axis-aligned
+/// energy's 45, entry by entry).
+pub(super) struct LaneSums<const N: usize, const T: usize> {
+    energy: [f64; LANES],
+    jtr: [[f64; LANES]; N],
+    jtj: [[f64; LANES]; T],
+}
+
+impl<const N: usize, const T: usize> LaneSums<N, T> {
+    const UPPER: [(usize, usize); T] = upper_triangle::<N, T>();
+
+    pub(super) fn new() -> Self {
         LaneSums {
             energy: [0.0; LANES],
-            jtr: [[0.0; LANES]; 4],
-            jtj: [[0.0; LANES]; 10],
+            jtr: [[0.0; LANES]; N],
+            jtj: [[0.0; LANES]; T],
         }
     }
 
     /// F += r², Jᵀr += d r, JᵀJ += d dᵀ (upper triangle), one residual per lane: `r[lane]`
     /// with derivatives `d[p][lane]`, p the slot.
     #[inline(always)]
-    fn accumulate(&mut self, r: &[f64; LANES], d: &[[f64; LANES]; 4]) {
+    pub(super) fn accumulate(&mut self, r: &[f64; LANES], d: &[[f64; LANES]; N]) {
         for lane in 0..LANES {
             self.energy[lane] += r[lane] * r[lane];
             for (sum, d_p) in self.jtr.iter_mut().zip(d) {
                 sum[lane] += d_p[lane] * r[lane];
             }
-            for (sum, &(p, q)) in self.jtj.iter_mut().zip(&UPPER) {
+            for (sum, &(p, q)) in self.jtj.iter_mut().zip(&Self::UPPER) {
                 sum[lane] += d[p][lane] * d[q][lane];
             }
         }
     }
 
-    /// The cell's block: lanes summed in order, the lower triangle mirrored from the upper.
-    fn reduce(&self) -> LocalNormalEquations<4> {
-        let total = |lanes: &[f64; LANES]| lanes.iter().sum::<f64>();
+    /// The cell's block: lanes summed in order ([`lane_total`]), the lower triangle
+    /// mirrored from the upper.
+    pub(super) fn reduce(&self) -> LocalNormalEquations<N> {
         let mut block = LocalNormalEquations {
-            energy: total(&self.energy),
-            jtr: self.jtr.each_ref().map(total),
+            energy: lane_total(&self.energy),
+            jtr: self.jtr.each_ref().map(lane_total),
             ..Default::default()
         };
-        for (sum, &(p, q)) in self.jtj.iter().zip(&UPPER) {
-            block.jtj[p][q] = total(sum);
+        for (sum, &(p, q)) in self.jtj.iter().zip(&Self::UPPER) {
+            block.jtj[p][q] = lane_total(sum);
             block.jtj[q][p] = block.jtj[p][q];
         }
         block
     }
 }
 
-/// Samples per parallel task: enough work (tens of microseconds) to amortise handing a task
-/// to another thread; a problem of at most this many samples is evaluated on the calling
-/// thread. Depends on the problem size only, and results do not depend on it.
+/// The sum of per-lane partial sums, in lane order (the end of every cell's accumulation).
+#[inline(always)]
+pub(super) fn lane_total(lanes: &[f64; LANES]) -> f64 {
+    lanes.iter().sum()
+}
+
+/// The two residuals (axes s, t) of LANES samples, one sample per lane, and their
+/// derivatives in slot order: `r[axis][lane]`, `d[axis][slot][lane]`.
+#[derive(Clone, Copy)]
+pub(super) struct LaneResiduals<const N: usize> {
+    pub r: [[f64; LANES]; 2],
+    pub d: [[[f64; LANES]; N]; 2],
+}
+
+/// A cell's F, Jᵀr and JᵀJ (upper triangle, mirrored) from the residuals of its chunks of
+/// LANES samples, entry by entry: each entry a [`chunk_sum`] of products, so that its
+/// partial sums stay in two vector registers however many entries there are (N = 8: 45).
+#[inline(always)]
+pub(super) fn cell_block_of<const N: usize, const T: usize>(
+    chunks: &[LaneResiduals<N>],
+) -> LocalNormalEquations<N> {
+    let mut block = LocalNormalEquations {
+        energy: chunk_sum(chunks, |c, axis, lane| c.r[axis][lane] * c.r[axis][lane]),
+        ..Default::default()
+    };
+    for (p, jtr) in block.jtr.iter_mut().enumerate() {
+        *jtr = chunk_sum(chunks, |c, axis, lane| c.d[axis][p][lane] * c.r[axis][lane]);
+    }
+    for &(p, q) in &LaneSums::<N, T>::UPPER {
+        block.jtj[p][q] = chunk_sum(chunks, |c, axis, lane| {
+            c.d[axis][p][lane] * c.d[axis][q][lane]
+        });
+        block.jtj[q][p] = block.jtj[p][q];
+    }
+    block
+}
+
+/// Σ over the chunks, the axes and the lanes of `term(chunk, axis, lane)`: each lane keeps
+/// one partial sum per axis over the chunks in order (two independent chains of additions),
+/// then [`axes_total`] adds them. [`super::energy_naa`]'s energy-only evaluation sums r² in
+/// the same order, so that both give the same F bit for bit.
+#[inline(always)]
+pub(super) fn chunk_sum<const N: usize>(
+    chunks: &[LaneResiduals<N>],
+    term: impl Fn(&LaneResiduals<N>, usize, usize) -> f64,
+) -> f64 {
+    let mut sums = [[0.0; LANES]; 2];
+    for chunk in chunks {
+        for (axis, sums) in sums.iter_mut().enumerate() {
+            for (lane, sum) in sums.iter_mut().enumerate() {
+                *sum += term(chunk, axis, lane);
+            }
+        }
+    }
+    axes_total(&sums)
+}
+
+/// The total of per-axis, per-lane partial sums: per lane axis s + axis t, then the lanes in
+/// lane order.
+#[inline(always)]
+pub(super) fn axes_total([s, t]: &[[f64; LANES]; 2]) -> f64 {
+    lane_total(&std::array::from_fn(|lane| s[lane] + t[lane]))
+}
+
+/// Samples per parallel task ([`for_each_task`]): enough work (tens of microseconds) to
+/// amortise handing a task to another thread. Depends on the problem size only, and results
+/// do not depend on it.
 const SAMPLES_PER_TASK: usize = 4096;
+
+/// Fill `out` (one entry per cell of `samples_per_cell` samples) by `fill(first cell, part)`:
+/// in ⌈samples/`samples_per_task`⌉ parallel tasks of equal numbers of cells (±1), or on the
+/// calling thread if that makes at most two tasks (two tasks barely repay handing one to
+/// another thread and waking it). The split depends on the problem size only, and results
+/// do not depend on it (each entry is computed alone).
+pub(super) fn for_each_task<T: Send>(
+    out: &mut [T],
+    samples_per_cell: usize,
+    samples_per_task: usize,
+    fill: impl Fn(usize, &mut [T]) + Sync,
+) {
+    let tasks = (out.len() * samples_per_cell).div_ceil(samples_per_task.max(1));
+    if tasks <= 2 {
+        return fill(0, out);
+    }
+    let per_task = out.len().div_ceil(tasks);
+    out.par_chunks_mut(per_task)
+        .enumerate()
+        .for_each(|(t, part)| fill(t * per_task, part));
+}
 
 impl<'a> AaEnergy<'a> {
     /// Precompute the rest-point quantities of every sample ([`RestSamples`]): K×L midpoints
@@ -719,7 +829,7 @@ impl<'a> AaEnergy<'a> {
                 }
             }
         }
-        sums.iter().sum()
+        lane_total(&sums)
     }
 
     /// Cell `cell`'s F, JᵀJ and Jᵀr over its four slots.
@@ -733,7 +843,7 @@ impl<'a> AaEnergy<'a> {
             return LocalNormalEquations::default();
         }
         let warped = self.warped_cell(w, cell);
-        let mut sums = LaneSums::new();
+        let mut sums = LaneSums::<4, 10>::new();
         for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
             for b0 in (0..self.rest.stride).step_by(LANES / COLUMNS) {
                 let chunk = self.chunk::<COLUMNS>(w, cell, a0, b0);
@@ -828,15 +938,9 @@ impl<'a> AaEnergy<'a> {
     }
 
     /// Fill `out` (one entry per cell) by `fill(first cell, part)`, in parallel tasks of about
-    /// [`SAMPLES_PER_TASK`] samples (on this thread if there is only one).
+    /// [`SAMPLES_PER_TASK`] samples ([`for_each_task`]).
     fn per_cell<T: Send>(&self, out: &mut [T], fill: impl Fn(usize, &mut [T]) + Sync) {
-        let per_task = (SAMPLES_PER_TASK / (self.rest.k * self.rest.l)).max(1);
-        if out.len() <= per_task {
-            return fill(0, out);
-        }
-        out.par_chunks_mut(per_task)
-            .enumerate()
-            .for_each(|(t, part)| fill(t * per_task, part));
+        for_each_task(out, self.rest.k * self.rest.l, SAMPLES_PER_TASK, fill);
     }
 
     /// Visit every residual of cell `cell` at the grid `g` (σ ≠ 0 samples, in the order cell,

@@ -33,9 +33,12 @@
 //!   ∂r^s/∂P_c,k = σ [(∂φ_c/∂s) m_s,k + φ_c g_s,k],  m_s = J_D(p)ᵀ u_s,
 //!   g_s,k = u_s · (∂_k J_D(p)) W_s   (the sample moving: ∂_k J_D from the fields' gradients),
 //! ∂φ_c/∂s = (∂φ_c/∂α)/h_i; r^t likewise with ∂φ_c/∂t = (∂φ_c/∂β)/k_j and W_t. At most 8
-//! non-zeros per row, all among the cell's 8 slots (its corners' coordinates): JᵀJ and Jᵀr are
-//! accumulated per cell in an 8×8 block ([`crate::lm::LocalNormalEquations`]), cells in
+//! non-zeros per row, all among the cell's 8 slots (its corners' coordinates): F, Jᵀr and JᵀJ
+//! are accumulated per cell in an 8×8 block ([`crate::lm::LocalNormalEquations`]), cells in
 //! parallel, and the blocks scattered in cell order (deterministic for any number of threads).
+//! Inside a cell, samples are processed 8 at a time (one per lane); each of the 1 + 8 + 36
+//! entries is summed per lane and per axis over the cell's samples, then added in a fixed
+//! order ([`super::energy::cell_block_of`]), so the sums depend on the sample layout only.
 //!
 //! # Validity
 //! det(∂W/∂α, ∂W/∂β) is bilinear in (α, β) (∂W/∂α depends on β only, ∂W/∂β on α only), so it
@@ -46,10 +49,12 @@
 use std::time::Instant;
 
 use nalgebra::DMatrix;
-use rayon::prelude::*;
 
 use super::bounds::{foldover, loop_distance, merge, BoundOptions, Interval};
-use super::energy::{rest_samples, RestFields, RestSample};
+use super::energy::{
+    axes_total, cell_block_of, for_each_task, rest_samples, LaneResiduals, RestFields, RestSample,
+    LANES,
+};
 use super::field::{bilinear_formula, Axis, Field, Sample};
 use super::grid::Grid;
 use super::solve::{minimize_and_rest_energy, SolveOptions};
@@ -275,13 +280,10 @@ pub struct NaaEnergy<'a> {
     packed: Option<PackedJacobian>,
 }
 
-/// Samples of a cell processed together by the per-sample part of the evaluations (the
-/// warp, J_D and the residuals with their derivatives): 8 f64, one 512-bit register.
-const LANES: usize = 8;
-
 /// The rest samples and weight slopes of [`NaaEnergy`] structure-of-arrays: cell c's samples
-/// at c·P …, P = K·L rounded up to a multiple of [`LANES`], the padding with σ = 0 (never
-/// visited).
+/// at c·P …, P = K·L rounded up to a multiple of [`LANES`] (the samples of a cell processed
+/// together, 8 f64 in one 512-bit register), the padding with σ = 0 (its residuals and
+/// derivatives are exactly 0; the per-residual visits skip it).
 struct SampleLanes {
     padded: usize,
     alpha: Vec<f64>,
@@ -296,25 +298,29 @@ struct SampleLanes {
 impl SampleLanes {
     fn new(samples: &[RestSample], slopes: &[[f64; 4]], per_cell: usize) -> SampleLanes {
         let padded = per_cell.div_ceil(LANES) * LANES;
-        let spread = |f: &dyn Fn(usize) -> f64| -> Vec<f64> {
-            let mut out = vec![0.0; samples.len() / per_cell * padded];
-            for (n, v) in out.iter_mut().enumerate() {
-                let (cell, k) = (n / padded, n % padded);
-                if k < per_cell {
-                    *v = f(cell * per_cell + k);
-                }
-            }
-            out
-        };
-        SampleLanes {
+        let size = samples.len() / per_cell * padded;
+        let mut out = SampleLanes {
             padded,
-            alpha: spread(&|n| samples[n].alpha),
-            beta: spread(&|n| samples[n].beta),
-            sigma: spread(&|n| samples[n].sigma),
-            o_s: spread(&|n| samples[n].o_s),
-            o_t: spread(&|n| samples[n].o_t),
-            slopes: std::array::from_fn(|e| spread(&|n| slopes[n][e])),
+            alpha: vec![0.0; size],
+            beta: vec![0.0; size],
+            sigma: vec![0.0; size],
+            o_s: vec![0.0; size],
+            o_t: vec![0.0; size],
+            slopes: std::array::from_fn(|_| vec![0.0; size]),
+        };
+        for (n, (sample, slopes)) in samples.iter().zip(slopes).enumerate() {
+            // Sample k of cell c at c·P + k.
+            let at = n / per_cell * padded + n % per_cell;
+            out.alpha[at] = sample.alpha;
+            out.beta[at] = sample.beta;
+            out.sigma[at] = sample.sigma;
+            out.o_s[at] = sample.o_s;
+            out.o_t[at] = sample.o_t;
+            for (v, &slope) in out.slopes.iter_mut().zip(slopes) {
+                v[at] = slope;
+            }
         }
+        out
     }
 }
 
@@ -322,13 +328,6 @@ impl SampleLanes {
 #[inline(always)]
 fn lanes(v: &[f64], at: usize) -> &[f64; LANES] {
     v[at..at + LANES].try_into().expect("LANES entries")
-}
-
-/// The two residuals of LANES samples, and their derivatives in slot order:
-/// `r[axis][lane]`, `d[axis][slot][lane]`.
-struct ChunkResiduals {
-    r: [[f64; LANES]; 2],
-    d: [[[f64; LANES]; 8]; 2],
 }
 
 /// J_D = [D_s D_t] at a point with its derivatives along s and t: [`PackedJacobian`], or the
@@ -468,15 +467,24 @@ impl<'a> NaaEnergy<'a> {
     }
 
     /// The residuals of the LANES samples from `at` on with their derivatives in the slot
-    /// order of [`NaaEnergy::cell_unknowns`] (module docs, "Analytic Jacobian"). One simple
-    /// loop over the lanes: the compiler runs the lanes side by side in vector registers.
+    /// order of [`NaaEnergy::cell_unknowns`] (module docs, "Analytic Jacobian"), with u = q/‖q‖
+    /// folded into one factor per residual:
+    ///   ∂r/∂P_c,k = (∂φ_c/∂s) σm_k + φ_c σg_k,  σm = (σ/‖q‖) J_Dᵀ q,
+    ///   σg_k = (σ/‖q‖) q · (∂_k J_D) W_s   (σ/‖q‖ taken as 0 for q = 0),
+    /// and r^t likewise. One simple loop over the lanes: the compiler runs the lanes side by
+    /// side in vector registers.
     #[inline(always)]
-    fn chunk_residuals(&self, jac: &impl JacobianAt, warp: &CellWarp, at: usize) -> ChunkResiduals {
+    fn chunk_residuals(
+        &self,
+        jac: &impl JacobianAt,
+        warp: &CellWarp,
+        at: usize,
+    ) -> LaneResiduals<8> {
         let s = &self.lanes;
         let (alpha, beta, sigma) = (lanes(&s.alpha, at), lanes(&s.beta, at), lanes(&s.sigma, at));
         let (o_s, o_t) = (lanes(&s.o_s, at), lanes(&s.o_t, at));
         let [bs, bt, as_, at_] = s.slopes.each_ref().map(|v| lanes(v, at));
-        let mut out = ChunkResiduals {
+        let mut out = LaneResiduals {
             r: [[0.0; LANES]; 2],
             d: [[[0.0; LANES]; 8]; 2],
         };
@@ -497,21 +505,16 @@ impl<'a> NaaEnergy<'a> {
             for (axis, (w, dphi, o)) in axes.into_iter().enumerate() {
                 let q = image(&ds.value, &dt.value, w);
                 let length = norm(q);
-                let u = if length > 0.0 {
-                    q.map(|v| v / length)
-                } else {
-                    [0.0; 3]
-                };
-                // m = J_Dᵀ u; g_k = u · (∂_k J_D) w.
-                let m = [dot(ds.value, u), dot(dt.value, u)];
+                let factor = if length > 0.0 { sg / length } else { 0.0 };
+                let m = [factor * dot(ds.value, q), factor * dot(dt.value, q)];
                 let gk = [
-                    dot(u, image(&ds.ds, &dt.ds, w)),
-                    dot(u, image(&ds.dt, &dt.dt, w)),
+                    factor * dot(q, image(&ds.ds, &dt.ds, w)),
+                    factor * dot(q, image(&ds.dt, &dt.dt, w)),
                 ];
                 out.r[axis][lane] = sg * (length - o);
                 for c in 0..4 {
                     for k in 0..2 {
-                        out.d[axis][2 * c + k][lane] = sg * (dphi[c] * m[k] + phi[c] * gk[k]);
+                        out.d[axis][2 * c + k][lane] = dphi[c] * m[k] + phi[c] * gk[k];
                     }
                 }
             }
@@ -519,56 +522,144 @@ impl<'a> NaaEnergy<'a> {
         out
     }
 
-    /// Σ r² over cell `cell`'s residuals (σ ≠ 0 samples, in the order of
-    /// [`NaaEnergy::for_each_residual`]).
+    /// Σ r² over cell `cell`'s residuals: per-lane, per-axis sums over the cell's chunks (the
+    /// padding adding exactly 0), then per lane r^s² + r^t² and the lanes in lane order
+    /// ([`axes_total`]); the same sums, bit for bit, as the energy of
+    /// [`NaaEnergy::cell_block_with`] ([`super::energy::chunk_sum`]).
     #[inline(always)]
     fn cell_energy_with(&self, jac: &impl JacobianAt, g: &VertexGrid, cell: usize) -> f64 {
         let warp = self.cell_warp(g, cell);
         let first = cell * self.lanes.padded;
-        let mut e = 0.0;
+        let mut sums = [[0.0; LANES]; 2];
         for at in (first..first + self.lanes.padded).step_by(LANES) {
-            let [rs, rt] = self.chunk_values(jac, &warp, at);
-            let sigma = lanes(&self.lanes.sigma, at);
-            for lane in 0..LANES {
-                if sigma[lane] != 0.0 {
-                    e += rs[lane] * rs[lane];
-                    e += rt[lane] * rt[lane];
+            let r = self.chunk_values(jac, &warp, at);
+            for (sums, r) in sums.iter_mut().zip(&r) {
+                for lane in 0..LANES {
+                    sums[lane] += r[lane] * r[lane];
                 }
             }
         }
-        e
+        axes_total(&sums)
     }
 
-    /// [`NaaEnergy::cell_energy_with`] on the packed J_D if there is one.
+    /// Cell `cell`'s F, JᵀJ and Jᵀr over its eight slots: the residuals of its chunks into
+    /// `chunks` (a buffer reused from cell to cell), then their per-lane sums of the
+    /// 1 + 8 + 36 entries ([`cell_block_of`]).
     #[inline(always)]
-    fn cell_energy_baseline(&self, g: &VertexGrid, cell: usize) -> f64 {
-        match &self.packed {
-            Some(packed) => self.cell_energy_with(packed, g, cell),
-            None => self.cell_energy_with(&FieldJacobian(self.deformed), g, cell),
+    fn cell_block_with(
+        &self,
+        jac: &impl JacobianAt,
+        g: &VertexGrid,
+        cell: usize,
+        chunks: &mut Vec<LaneResiduals<8>>,
+    ) -> LocalNormalEquations<8> {
+        let warp = self.cell_warp(g, cell);
+        let first = cell * self.lanes.padded;
+        chunks.clear();
+        for at in (first..first + self.lanes.padded).step_by(LANES) {
+            chunks.push(self.chunk_residuals(jac, &warp, at));
+        }
+        cell_block_of::<8, 36>(chunks)
+    }
+
+    /// `out[c] = cell_energy(first + c)`.
+    #[inline(always)]
+    fn fill_energies_with(
+        &self,
+        jac: &impl JacobianAt,
+        g: &VertexGrid,
+        first: usize,
+        out: &mut [f64],
+    ) {
+        for (c, e) in out.iter_mut().enumerate() {
+            *e = self.cell_energy_with(jac, g, first + c);
         }
     }
 
-    /// [`NaaEnergy::cell_energy_baseline`] compiled with AVX-512 (same results bit for bit,
-    /// as [`NaaEnergy::cell_normal_equations_avx512`]).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn cell_energy_avx512(&self, g: &VertexGrid, cell: usize) -> f64 {
-        self.cell_energy_baseline(g, cell)
+    /// `out[c] = cell_block(first + c)`.
+    #[inline(always)]
+    fn fill_blocks_with(
+        &self,
+        jac: &impl JacobianAt,
+        g: &VertexGrid,
+        first: usize,
+        out: &mut [LocalNormalEquations<8>],
+    ) {
+        let mut chunks = Vec::with_capacity(self.lanes.padded / LANES);
+        for (c, block) in out.iter_mut().enumerate() {
+            *block = self.cell_block_with(jac, g, first + c, &mut chunks);
+        }
     }
 
-    /// Σ r² over cell `cell`'s residuals, AVX-512 if the CPU has it.
-    fn cell_energy(&self, g: &VertexGrid, cell: usize) -> f64 {
+    /// [`NaaEnergy::fill_energies_with`] on the packed J_D if there is one.
+    #[inline(always)]
+    fn fill_energies_baseline(&self, g: &VertexGrid, first: usize, out: &mut [f64]) {
+        match &self.packed {
+            Some(packed) => self.fill_energies_with(packed, g, first, out),
+            None => self.fill_energies_with(&FieldJacobian(self.deformed), g, first, out),
+        }
+    }
+
+    /// [`NaaEnergy::fill_blocks_with`] on the packed J_D if there is one.
+    #[inline(always)]
+    fn fill_blocks_baseline(
+        &self,
+        g: &VertexGrid,
+        first: usize,
+        out: &mut [LocalNormalEquations<8>],
+    ) {
+        match &self.packed {
+            Some(packed) => self.fill_blocks_with(packed, g, first, out),
+            None => self.fill_blocks_with(&FieldJacobian(self.deformed), g, first, out),
+        }
+    }
+
+    /// [`NaaEnergy::fill_energies_baseline`] compiled with AVX-512 (8 lanes in one register,
+    /// gathers for the texel reads): the same IEEE operations in the same order (Rust never
+    /// fuses a multiply and an add by itself), so the same results bit for bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn fill_energies_avx512(&self, g: &VertexGrid, first: usize, out: &mut [f64]) {
+        self.fill_energies_baseline(g, first, out)
+    }
+
+    /// [`NaaEnergy::fill_blocks_baseline`] compiled with AVX-512: the lane sums fit in
+    /// vector registers (same results bit for bit).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn fill_blocks_avx512(
+        &self,
+        g: &VertexGrid,
+        first: usize,
+        out: &mut [LocalNormalEquations<8>],
+    ) {
+        self.fill_blocks_baseline(g, first, out)
+    }
+
+    /// Cell energies `first..` into `out`, AVX-512 if the CPU has it.
+    fn fill_energies(&self, g: &VertexGrid, first: usize, out: &mut [f64]) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx512f") {
             // SAFETY: the CPU supports AVX-512F, checked just above.
-            return unsafe { self.cell_energy_avx512(g, cell) };
+            return unsafe { self.fill_energies_avx512(g, first, out) };
         }
-        self.cell_energy_baseline(g, cell)
+        self.fill_energies_baseline(g, first, out)
+    }
+
+    /// Cell blocks `first..` into `out`, AVX-512 if the CPU has it.
+    fn fill_blocks(&self, g: &VertexGrid, first: usize, out: &mut [LocalNormalEquations<8>]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU supports AVX-512F, checked just above.
+            return unsafe { self.fill_blocks_avx512(g, first, out) };
+        }
+        self.fill_blocks_baseline(g, first, out)
     }
 
     /// Visit every residual of cell `cell` = (i, j) at the vertices `g` (σ ≠ 0 samples, in
     /// the order sample, axis): `visit(r, ∂r/∂x)`, the derivatives in the slot order of
-    /// [`NaaEnergy::cell_unknowns`] (module docs, "Analytic Jacobian").
+    /// [`NaaEnergy::cell_unknowns`] (module docs, "Analytic Jacobian"). The lane loops'
+    /// formulas, one residual at a time; for the test helpers below.
     #[inline(always)]
     fn for_each_residual(&self, g: &VertexGrid, cell: usize, visit: impl FnMut(f64, &[f64; 8])) {
         match &self.packed {
@@ -632,33 +723,15 @@ impl<'a> NaaEnergy<'a> {
 
     /// One cell's energy and normal equations over its eight slots.
     pub fn cell_normal_equations(&self, g: &VertexGrid, cell: usize) -> LocalNormalEquations<8> {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F, checked just above.
-            return unsafe { self.cell_normal_equations_avx512(g, cell) };
-        }
-        self.cell_normal_equations_baseline(g, cell)
+        let mut block = [LocalNormalEquations::default()];
+        self.fill_blocks(g, cell, &mut block);
+        block[0]
     }
 
-    /// [`NaaEnergy::cell_normal_equations`] compiled with AVX-512: the 8×8 accumulation
-    /// fits in vector registers. Same IEEE operations in the same order as the baseline
-    /// (Rust never fuses a multiply and an add by itself): the same results bit for bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn cell_normal_equations_avx512(&self, g: &VertexGrid, cell: usize) -> LocalNormalEquations<8> {
-        self.cell_normal_equations_baseline(g, cell)
-    }
-
-    /// The accumulation itself: JᵀJ += d dᵀ, Jᵀr += d r, F += r² over the cell's residuals.
-    #[inline(always)]
-    fn cell_normal_equations_baseline(
-        &self,
-        g: &VertexGrid,
-        cell: usize,
-    ) -> LocalNormalEquations<8> {
-        let mut local = LocalNormalEquations::default();
-        self.for_each_residual(g, cell, |r, d| local.accumulate(r, d));
-        local
+    /// Fill `out` (one entry per cell) by `fill(first cell, part)`, in parallel tasks
+    /// ([`super::energy::for_each_task`]: the split depends on the problem size only).
+    fn per_cell<T: Send>(&self, out: &mut [T], fill: impl Fn(usize, &mut [T]) + Sync) {
+        for_each_task(out, self.lanes.padded, SAMPLES_PER_TASK, fill);
     }
 }
 
@@ -667,14 +740,16 @@ impl<'a> NaaEnergy<'a> {
 /// neighbouring texels instead of 24 scattered values. Same interpolation
 /// ([`super::field::interpolate`]), same values as sampling the fields one by one.
 struct PackedJacobian {
-    width: usize,
-    height: usize,
-    /// Texel (x, y) at y·width + x.
+    width: u32,
+    height: u32,
+    /// Texel (x, y) at y·width + x; its 6·width·height values are indexed by u32 (32-bit
+    /// index arithmetic in the lane loops).
     texels: Vec<[f64; 6]>,
 }
 
 impl PackedJacobian {
-    /// The interleaved fields, or None if the six do not share one resolution.
+    /// The interleaved fields, or None if the six do not share one resolution (or have more
+    /// than 2³² values in all).
     fn new(d: &DeformedJacobian) -> Option<PackedJacobian> {
         let fields = [&d.d_s.x, &d.d_s.y, &d.d_s.z, &d.d_t.x, &d.d_t.y, &d.d_t.z];
         let (width, height) = (fields[0].width, fields[0].height);
@@ -684,12 +759,13 @@ impl PackedJacobian {
         {
             return None;
         }
+        u32::try_from(6 * width * height).ok()?;
         let texels = (0..width * height)
             .map(|i| fields.map(|f| f.values[i]))
             .collect();
         Some(PackedJacobian {
-            width,
-            height,
+            width: width as u32,
+            height: height as u32,
             texels,
         })
     }
@@ -702,13 +778,13 @@ impl PackedJacobian {
         let texels = self.texels.as_flattened();
         // Component c of texel (column, row); the positions are always in range, so the
         // fallback is never taken (it only spares the loop a panic branch).
-        let texel = |row: usize, column: usize, c: usize| {
+        let texel = |row: u32, column: u32, c: u32| {
             texels
-                .get((row * self.width + column) * 6 + c)
+                .get(((row * self.width + column) * 6 + c) as usize)
                 .copied()
                 .unwrap_or(0.0)
         };
-        let at = |c: usize| {
+        let at = |c: u32| {
             bilinear_formula(
                 (x.frac, x.scale),
                 (y.frac, y.scale),
@@ -733,8 +809,8 @@ impl PackedJacobian {
 /// A coordinate's texel position on one axis: [`Axis::new`]'s lower, upper, frac and scale
 /// (the same values), computed with selects instead of branches.
 struct TexelAxis {
-    lower: usize,
-    upper: usize,
+    lower: u32,
+    upper: u32,
     frac: f64,
     scale: f64,
 }
@@ -743,13 +819,15 @@ struct TexelAxis {
 /// lower = ⌊u⌋, upper = lower + 1, frac = u − lower, scale = n; clamped to the first texel for
 /// u ≤ 0 (or NaN) and to the last for u ≥ n − 1, with frac = scale = 0.
 #[inline(always)]
-fn texel_axis(s: f64, n: usize) -> TexelAxis {
+fn texel_axis(s: f64, n: u32) -> TexelAxis {
     let u = s * n as f64 - 0.5;
     let last = n.saturating_sub(1);
     let inside = n > 1 && u > 0.0 && u < last as f64;
     let high = n > 1 && u >= last as f64;
-    // Truncation of u in [0, n − 1] (its floor inside the range).
-    let floor = u.max(0.0).min(last as f64) as u32 as usize;
+    // Truncation of u in [0, n − 1] (its floor inside the range), one vector instruction.
+    // SAFETY: max(0) (which also sends NaN to 0) and min(n − 1) leave a finite value in
+    // [0, n − 1], which a u32 holds (n is a u32).
+    let floor: u32 = unsafe { u.max(0.0).min(last as f64).to_int_unchecked() };
     let lower = if inside {
         floor
     } else if high {
@@ -770,13 +848,18 @@ fn texel_axis(s: f64, n: usize) -> TexelAxis {
 ///   W(α, β) = P00 + α e_α + β e_β + αβ τ,  e_α = P10 − P00,  e_β = P01 − P00,
 ///   τ = P11 − P10 − P01 + P00 (the twist; exactly 0 on a rectangle, so that an axis-aligned
 ///   grid reproduces the AA sample points and slopes bit for bit).
+/// The slopes W_s = (∂W/∂α)/h = e_α/h + β τ/h and W_t = e_β/k + α τ/k take the quotients
+/// once per cell (on a rectangle β·0 adds exactly 0: the AA slopes e_α/h, e_β/k).
 struct CellWarp {
     p00: [f64; 2],
     e_a0: [f64; 2],
     e_b0: [f64; 2],
     twist: [f64; 2],
-    h: f64,
-    k: f64,
+    /// e_α/h, τ/h, e_β/k, τ/k.
+    e_a0_h: [f64; 2],
+    twist_h: [f64; 2],
+    e_b0_k: [f64; 2],
+    twist_k: [f64; 2],
 }
 
 /// One sample point of a [`CellWarp`]: p = W(α, β), W_s = (∂W/∂α)/h, W_t = (∂W/∂β)/k.
@@ -791,28 +874,30 @@ impl CellWarp {
     fn new([p00, p10, p01, p11]: [[f64; 2]; 4], h: f64, k: f64) -> CellWarp {
         let e_a0 = sub(p10, p00); // ∂W/∂α at β = 0
         let e_b0 = sub(p01, p00); // ∂W/∂β at α = 0
+        let twist = sub(sub(p11, p10), e_b0);
+        let divide = |v: [f64; 2], by: f64| [v[0] / by, v[1] / by];
         CellWarp {
             p00,
             e_a0,
             e_b0,
-            twist: sub(sub(p11, p10), e_b0),
-            h,
-            k,
+            twist,
+            e_a0_h: divide(e_a0, h),
+            twist_h: divide(twist, h),
+            e_b0_k: divide(e_b0, k),
+            twist_k: divide(twist, k),
         }
     }
 
-    /// W, W_s and W_t at (α, β): ∂W/∂α = e_α + β τ, ∂W/∂β = e_β + α τ.
+    /// W, W_s = e_α/h + β τ/h and W_t = e_β/k + α τ/k at (α, β).
     #[inline(always)]
     fn at(&self, al: f64, be: f64) -> WarpedPoint {
-        let w_a = add(self.e_a0, scale(be, self.twist));
-        let w_b = add(self.e_b0, scale(al, self.twist));
         WarpedPoint {
             pos: add(
                 add(self.p00, scale(al, self.e_a0)),
                 add(scale(be, self.e_b0), scale(al * be, self.twist)),
             ),
-            w_s: [w_a[0] / self.h, w_a[1] / self.h],
-            w_t: [w_b[0] / self.k, w_b[1] / self.k],
+            w_s: add(self.e_a0_h, scale(be, self.twist_h)),
+            w_t: add(self.e_b0_k, scale(al, self.twist_k)),
         }
     }
 }
@@ -862,15 +947,14 @@ impl Residuals for NaaEnergy<'_> {
         if !g.is_valid() {
             return f64::INFINITY;
         }
-        let per_cell: Vec<f64> = (0..self.cells())
-            .into_par_iter()
-            .with_min_len(CELLS_PER_TASK)
-            .map(|cell| self.cell_energy(&g, cell))
-            .collect();
+        let mut per_cell = vec![0.0; self.cells()];
+        self.per_cell(&mut per_cell, |first, out| {
+            self.fill_energies(&g, first, out)
+        });
         per_cell.iter().sum()
     }
 
-    /// F, JᵀJ and Jᵀr: each cell's 8×8 block in parallel, scattered in cell order
+    /// F, JᵀJ and Jᵀr: each cell's 8×8 block (cells in parallel), scattered in cell order
     /// (deterministic for any number of threads). At a folded grid: F = +∞ and zero JᵀJ, Jᵀr
     /// (the solver rejects such a starting point).
     fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
@@ -882,22 +966,19 @@ impl Residuals for NaaEnergy<'_> {
                 ..NormalEquations::zeros(n)
             };
         }
-        let blocks: Vec<([Option<usize>; 8], LocalNormalEquations<8>)> = (0..self.cells())
-            .into_par_iter()
-            .with_min_len(CELLS_PER_TASK)
-            .map(|cell| {
-                (
-                    self.cell_unknowns(&g, cell),
-                    self.cell_normal_equations(&g, cell),
-                )
-            })
+        let mut blocks = vec![LocalNormalEquations::default(); self.cells()];
+        self.per_cell(&mut blocks, |first, out| self.fill_blocks(&g, first, out));
+        let slots: Vec<[Option<usize>; 8]> = (0..self.cells())
+            .map(|c| self.cell_unknowns(&g, c))
             .collect();
-        NormalEquations::assemble(n, blocks.iter().map(|(s, b)| (s, b)))
+        NormalEquations::assemble(n, slots.iter().zip(&blocks))
     }
 }
 
-/// Cells per parallel task (as in the axis-aligned energy; results do not depend on it).
-const CELLS_PER_TASK: usize = 4;
+/// Samples per parallel task ([`super::energy::for_each_task`]): tens of microseconds of work,
+/// enough to amortise handing a task to another thread (a sample costs a few times an
+/// axis-aligned one; results do not depend on it).
+const SAMPLES_PER_TASK: usize = 2048;
 
 /// Foldover interval of one coordinate: between the midpoints to the previous neighbours along
 /// that axis (with [`super::bounds::FOLDOVER_MARGIN`]); frozen at the current value if those

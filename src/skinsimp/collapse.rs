@@ -97,8 +97,9 @@ fn collapse_loop(
 /// re-queue the edges around the kept vertex.
 fn greedy(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usize) + Send)) {
     let wanted = state.alive_count.saturating_sub(target);
-    let (entries, candidates) = state.scored_edges(None);
-    let mut queue = Queue::new(entries, candidates);
+    let mut scored = ScoredEdges::default();
+    state.scored_edges(None, &mut scored);
+    let mut queue = Queue::new(scored.entries, scored.candidates);
     let mut scratch = Scratch::new(state.alive.len());
     while state.alive_count > target {
         let Some((entry, cached)) = queue.pop(|e| state.is_current(e)) else {
@@ -132,17 +133,20 @@ fn passes(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usi
     // `changed[v]`: a collapse of the last pass moved, removed or took faces from `v`.
     let mut changed = vec![false; state.alive.len()];
     let mut order = PassOrder::default();
-    let mut last: Option<(Vec<Entry>, Vec<Option<Scored>>)> = None;
+    // This pass's scores and the last one's (if any), their buffers swapped from pass to pass.
+    let (mut scored, mut last) = (ScoredEdges::default(), ScoredEdges::default());
+    let mut have_last = false;
     while state.alive_count > target {
-        let reuse = last.as_ref().map(|(entries, candidates)| Reuse {
-            entries,
-            candidates,
+        let reuse = have_last.then(|| Reuse {
+            entries: &last.entries,
+            candidates: &last.candidates,
             changed: &changed,
         });
-        let (entries, mut candidates) = state.scored_edges(reuse.as_ref());
+        state.scored_edges(reuse.as_ref(), &mut scored);
+        let (entries, candidates) = (&scored.entries, &mut scored.candidates);
         changed.fill(false);
         let goal = state.alive_count - target;
-        let stop = order.start(&entries, goal);
+        let stop = order.start(entries, goal);
         // The least a pass does before its cost bound applies (so that the passes do not
         // dwindle to one collapse each near the target).
         let least = (goal / 10).max(wanted / 100);
@@ -171,8 +175,19 @@ fn passes(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usi
         if done == 0 {
             break;
         }
-        last = Some((entries, candidates));
+        std::mem::swap(&mut scored, &mut last);
+        have_last = true;
     }
+}
+
+/// The output of [`State::scored_edges`]: every edge's entry and candidate, ordered by
+/// `(a, b)`, and the per-block buffers they are gathered from (kept, so that the passes of
+/// [`passes`] reuse their memory rather than allocate and fault in tens of MB per pass).
+#[derive(Default)]
+struct ScoredEdges {
+    entries: Vec<Entry>,
+    candidates: Vec<Option<Scored>>,
+    blocks: Vec<(Vec<Entry>, Vec<Option<Scored>>)>,
 }
 
 /// The scores of the last pass of [`passes`] (ordered by `(a, b)`, as
@@ -367,9 +382,9 @@ struct Star {
     /// `(n, faces on (v, n))`, neighbours in the order they are first met.
     list: Vec<(u32, EdgeFaces)>,
     stamp: u32,
-    /// `seen[x] == stamp`: `x` is a neighbour, at `list[index[x]]`.
-    seen: Vec<u32>,
-    index: Vec<u32>,
+    /// `mark[x] = [stamp, i]`: `x` is a neighbour, at `list[i]`, when `stamp` is the current
+    /// one (the two side by side: one cache line per neighbour).
+    mark: Vec<[u32; 2]>,
 }
 
 impl Star {
@@ -377,8 +392,7 @@ impl Star {
         Star {
             list: Vec::new(),
             stamp: 0,
-            seen: vec![0; n],
-            index: vec![0; n],
+            mark: vec![[0; 2]; n],
         }
     }
 
@@ -392,19 +406,19 @@ impl Star {
                 if x == v {
                     continue;
                 }
-                if self.seen[x] != self.stamp {
-                    self.seen[x] = self.stamp;
-                    self.index[x] = self.list.len() as u32;
+                let mark = &mut self.mark[x];
+                if mark[0] != self.stamp {
+                    *mark = [self.stamp, self.list.len() as u32];
                     self.list.push((x as u32, EdgeFaces::default()));
                 }
-                self.list[self.index[x] as usize].1.push(f);
+                self.list[mark[1] as usize].1.push(f);
             }
         }
     }
 
     /// Whether `x` is a neighbour.
     fn contains(&self, x: u32) -> bool {
-        self.seen[x as usize] == self.stamp
+        self.mark[x as usize][0] == self.stamp
     }
 
     /// Whether the vertex is on the boundary: some edge of it is in exactly one alive face.
@@ -646,35 +660,36 @@ impl<'a> State<'a> {
     }
 
     /// Every edge of the alive faces with its cost and candidate ([`State::score`], or kept
-    /// from the last pass by `reuse`), ordered by `(a, b)`; computed in parallel over blocks
-    /// of vertices, each with its own buffers.
-    fn scored_edges(&self, reuse: Option<&Reuse>) -> (Vec<Entry>, Vec<Option<Scored>>) {
+    /// from the last pass by `reuse`), ordered by `(a, b)`, into `out`; computed in parallel
+    /// over blocks of vertices, each into its own buffers (`out`'s, kept from call to call).
+    fn scored_edges(&self, reuse: Option<&Reuse>, out: &mut ScoredEdges) {
         const BLOCK: usize = 4096;
         let n = self.alive.len();
-        let blocks: Vec<(Vec<Entry>, Vec<Option<Scored>>)> = (0..n.div_ceil(BLOCK))
-            .into_par_iter()
-            .map(|k| {
+        out.blocks.resize_with(n.div_ceil(BLOCK), Default::default);
+        out.blocks
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(k, (entries, candidates))| {
                 let vertices = k * BLOCK..((k + 1) * BLOCK).min(n);
                 let mut cursor = reuse.map_or(0, |r| r.first_of(vertices.start));
-                let (mut fan, mut out) = (Vec::new(), (Vec::new(), Vec::new()));
+                let mut fan = Vec::new();
+                entries.clear();
+                candidates.clear();
                 for a in vertices {
                     self.edges_above(a, &mut fan, |b, on_edge| {
                         let kept = reuse.and_then(|r| r.keep(&mut cursor, (a, b), self.costly()));
                         let (entry, scored) = kept.unwrap_or_else(|| self.score(a, b, on_edge));
-                        out.0.push(entry);
-                        out.1.push(scored);
+                        entries.push(entry);
+                        candidates.push(scored);
                     });
                 }
-                out
-            })
-            .collect();
-        blocks
-            .into_iter()
-            .fold(Default::default(), |mut all, block| {
-                all.0.extend(block.0);
-                all.1.extend(block.1);
-                all
-            })
+            });
+        out.entries.clear();
+        out.candidates.clear();
+        for (entries, candidates) in &mut out.blocks {
+            out.entries.extend_from_slice(entries);
+            out.candidates.append(candidates);
+        }
     }
 
     /// Call `visit(b, faces on (a, b))` for the edges `(a, b)`, `b > a`, of vertex `a` (faces in
