@@ -684,8 +684,12 @@ impl<'a> State<'a> {
                     });
                 }
             });
+        // Reserved at once: growing block by block would copy (and fault in) tens of MB.
+        let total = out.blocks.iter().map(|(entries, _)| entries.len()).sum();
         out.entries.clear();
         out.candidates.clear();
+        out.entries.reserve(total);
+        out.candidates.reserve(total);
         for (entries, candidates) in &mut out.blocks {
             out.entries.extend_from_slice(entries);
             out.candidates.append(candidates);
