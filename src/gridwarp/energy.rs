@@ -426,7 +426,7 @@ struct Chunk<'c> {
 
 /// The first LANES entries of `v` from `at`, as a fixed-size array (index checks once).
 #[inline(always)]
-fn lanes<T>(v: &[T], at: usize) -> &[T; LANES] {
+pub(super) fn lanes<T>(v: &[T], at: usize) -> &[T; LANES] {
     v[at..at + LANES].try_into().expect("LANES entries")
 }
 

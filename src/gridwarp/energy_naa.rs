@@ -52,8 +52,8 @@ use nalgebra::DMatrix;
 
 use super::bounds::{foldover, loop_distance, merge, BoundOptions, Interval};
 use super::energy::{
-    axes_total, cell_block_of, for_each_task, rest_samples, LaneResiduals, RestFields, RestSample,
-    LANES,
+    axes_total, cell_block_of, for_each_task, lanes, rest_samples, LaneResiduals, RestFields,
+    RestSample, LANES,
 };
 use super::field::{bilinear_formula, Axis, Field, Sample};
 use super::grid::Grid;
@@ -322,12 +322,6 @@ impl SampleLanes {
         }
         out
     }
-}
-
-/// The first LANES entries of `v` from `at`, as a fixed-size array (index checks once).
-#[inline(always)]
-fn lanes(v: &[f64], at: usize) -> &[f64; LANES] {
-    v[at..at + LANES].try_into().expect("LANES entries")
 }
 
 /// J_D = [D_s D_t] at a point with its derivatives along s and t: [`PackedJacobian`], or the
