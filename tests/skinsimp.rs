@@ -790,21 +790,26 @@ fn thread_count_does_not_change_the_result() {
     }
 }
 
-/// The greedy schedule's collapse sequence is pinned: an FNV-1a hash of the records (kept,
-/// removed, rest position, weights, cost, UV map and new UVs, bit for bit) of the 10k-triangle
-/// tube to 10 % of its vertices, measured before the queue and the neighbourhood scans were
-/// made faster (issue #6 speed targets); the speed-ups must not change a single bit.
+/// The collapse sequences are pinned: an FNV-1a hash of the records (kept, removed, rest
+/// position, weights, cost, UV map and new UVs, bit for bit) of the 10k-triangle tube to 10 %
+/// of its vertices. The greedy hashes were measured before the queue and the neighbourhood
+/// scans were made faster, the passes hashes before the passes stopped copying their scores
+/// and sorting every edge (issue #6 speed targets); the speed-ups must not change a single bit.
 #[test]
-fn greedy_collapse_sequence_is_unchanged() {
+fn collapse_sequences_are_unchanged() {
     let model = skinned_tube(50, 99);
-    for (method, poses, want) in [
-        (Method::Rest, 1, 0xdc85_58a1_d21b_130bu64),
-        (Method::Full, 8, 0x916a_1978_ceb6_c7ef),
+    for (schedule, method, poses, want) in [
+        (Schedule::Greedy, Method::Rest, 1, 0xdc85_58a1_d21b_130bu64),
+        (Schedule::Greedy, Method::Full, 8, 0x916a_1978_ceb6_c7ef),
+        (Schedule::Passes, Method::Rest, 1, 0xb793_5d3d_123e_c7d4),
+        (Schedule::Passes, Method::Mohr, 8, 0xe8eb_525d_8e2d_8776),
+        (Schedule::Passes, Method::Full, 8, 0xa8f2_4a3c_4745_3bcf),
     ] {
         let sets = select_poses(&model, &PoseSelection::Uniform(poses)).unwrap();
         let input = skinned_input(&model, &sets.training).unwrap();
         let options = Options {
             method,
+            schedule,
             target_vertices: input.mesh.positions.len() / 10,
             ..Options::default()
         };
@@ -829,8 +834,9 @@ fn greedy_collapse_sequence_is_unchanged() {
                 .iter()
                 .fold(h, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
         });
-        println!("{method:?}: {} records, hash {hash:#018x}", h.records.len());
-        assert_eq!(hash, want, "{method:?}: {} records", h.records.len());
+        let case = format!("{schedule:?} {method:?}: {} records", h.records.len());
+        println!("{case}, hash {hash:#018x}");
+        assert_eq!(hash, want, "{case}");
     }
 }
 

@@ -30,7 +30,7 @@
 //! and sorts all edges once per pass, as meshoptimizer does.
 //!
 //! **Cost of one step** (issue #6 speed targets): the neighbourhood of a collapse is scanned in
-//! O(valence) with reusable per-vertex stamps ([`Star`]) instead of sorted neighbour lists;
+//! O(valence) with reusable per-vertex stamps ([`Stars`]) instead of sorted neighbour lists;
 //! face lists are merged, not re-sorted; nothing is allocated per collapse; a costly candidate
 //! (skinned Full/Mohr) is kept with its queue entry so that the popped edge is not evaluated a
 //! second time; the rest-pose method queues edges by the QEM value alone
@@ -99,7 +99,8 @@ fn greedy(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usi
     let wanted = state.alive_count.saturating_sub(target);
     let mut scored = ScoredEdges::default();
     state.scored_edges(None, &mut scored);
-    let mut queue = Queue::new(scored.entries, scored.candidates);
+    let (entries, candidates) = scored.into_flat();
+    let mut queue = Queue::new(entries, candidates);
     let mut scratch = Scratch::new(state.alive.len());
     while state.alive_count > target {
         let Some((entry, cached)) = queue.pop(|e| state.is_current(e)) else {
@@ -138,30 +139,30 @@ fn passes(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usi
     let mut have_last = false;
     while state.alive_count > target {
         let reuse = have_last.then(|| Reuse {
-            entries: &last.entries,
-            candidates: &last.candidates,
+            blocks: &last.blocks,
             changed: &changed,
         });
         state.scored_edges(reuse.as_ref(), &mut scored);
-        let (entries, candidates) = (&scored.entries, &mut scored.candidates);
         changed.fill(false);
         let goal = state.alive_count - target;
-        let stop = order.start(entries, goal);
+        let stop = order.start(&scored.blocks, goal);
         // The least a pass does before its cost bound applies (so that the passes do not
         // dwindle to one collapse each near the target).
         let least = (goal / 10).max(wanted / 100);
         merged.fill(false);
         let mut done = 0;
-        for index in &mut order {
-            let (entry, cached) = (entries[index], candidates[index].take());
-            if state.alive_count <= target || !entry.cost.is_finite() {
+        for (cost, a, b) in &mut order {
+            if state.alive_count <= target || !cost.is_finite() {
                 break;
             }
-            if entry.cost > stop && done > least {
+            if cost > stop && done > least {
                 break;
             }
-            let (a, b) = (entry.a as usize, entry.b as usize);
-            if merged[a] || merged[b] || !state.try_collapse(a, b, cached, &mut scratch) {
+            if merged[a] || merged[b] {
+                continue;
+            }
+            let cached = scored.take_candidate(a, b);
+            if !state.try_collapse(a, b, cached, &mut scratch) {
                 continue;
             }
             merged[a] = true;
@@ -180,64 +181,107 @@ fn passes(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usi
     }
 }
 
-/// The output of [`State::scored_edges`]: every edge's entry and candidate, ordered by
-/// `(a, b)`, and the per-block buffers they are gathered from (kept, so that the passes of
-/// [`passes`] reuse their memory rather than allocate and fault in tens of MB per pass).
+/// Vertices per block of [`State::scored_edges`] (the unit of its parallel work).
+const BLOCK: usize = 4096;
+
+/// The output of [`State::scored_edges`]: every edge's entry and candidate, in blocks of
+/// [`BLOCK`] vertices, each block's edges ordered by `(a, b)` (so all of them are, block after
+/// block). The blocks are used where they are, not gathered into one list: the passes of
+/// [`passes`] reuse their memory rather than copy (and fault in) tens of MB per pass.
 #[derive(Default)]
 struct ScoredEdges {
-    entries: Vec<Entry>,
-    candidates: Vec<Option<Scored>>,
-    blocks: Vec<(Vec<Entry>, Vec<Option<Scored>>)>,
+    blocks: Vec<ScoredBlock>,
 }
 
-/// The scores of the last pass of [`passes`] (ordered by `(a, b)`, as
-/// [`State::scored_edges`] makes them) and the vertices its collapses changed: an edge with
-/// neither endpoint changed has the same faces, UVs, wedges and quadrics at its ends, so the
-/// same entry (and candidate, unless a try took it).
+/// The edges `(a, b)` whose first endpoint `a` is in one block of vertices, ordered by
+/// `(a, b)`: `entries[i]` and `candidates[i]` are those of the same edge. Only a costly method
+/// ([`State::costly`]) has candidates; for the others `candidates` stays empty (rather than
+/// hold one `None` per edge).
+#[derive(Default)]
+struct ScoredBlock {
+    entries: Vec<Entry>,
+    candidates: Vec<Option<Scored>>,
+}
+
+impl ScoredEdges {
+    /// The candidate of edge `(a, b)`, taken (a pass tries each edge once); `None` without
+    /// one. Found by a binary search of the block of `a` (costly methods only: the others
+    /// have no candidates to search).
+    fn take_candidate(&mut self, a: usize, b: usize) -> Option<Scored> {
+        let block = &mut self.blocks[a / BLOCK];
+        if block.candidates.is_empty() {
+            return None;
+        }
+        let key = (a as u32, b as u32);
+        let i = block.entries.partition_point(|e| (e.a, e.b) < key);
+        block.candidates.get_mut(i)?.take()
+    }
+
+    /// Every entry and candidate in one list each, ordered by `(a, b)`, the candidates `None`
+    /// where there are none (for the queue of [`greedy`]).
+    fn into_flat(self) -> (Vec<Entry>, Vec<Option<Scored>>) {
+        let total = self.blocks.iter().map(|b| b.entries.len()).sum();
+        let (mut entries, mut candidates) = (Vec::with_capacity(total), Vec::with_capacity(total));
+        for mut block in self.blocks {
+            let missing = block.entries.len() - block.candidates.len();
+            entries.append(&mut block.entries);
+            candidates.append(&mut block.candidates);
+            candidates.extend(std::iter::repeat_with(|| None).take(missing));
+        }
+        (entries, candidates)
+    }
+}
+
+/// The scores of the last pass of [`passes`] (in the blocks [`State::scored_edges`] made) and
+/// the vertices its collapses changed: an edge with neither endpoint changed has the same
+/// faces, UVs, wedges and quadrics at its ends, so the same entry (and candidate, unless a try
+/// took it).
 struct Reuse<'p> {
-    entries: &'p [Entry],
-    candidates: &'p [Option<Scored>],
+    blocks: &'p [ScoredBlock],
     changed: &'p [bool],
 }
 
 impl Reuse<'_> {
-    /// The index of the first entry with first endpoint `a` or after.
-    fn first_of(&self, a: usize) -> usize {
-        self.entries.partition_point(|e| (e.a as usize) < a)
-    }
-
-    /// The kept score of edge `(a, b)`, if it can be kept: the edges are asked for in `(a, b)`
-    /// order, `cursor` walking the last pass's entries along.
+    /// The kept score of edge `(a, b)`, if it can be kept: the edges of block `block` are asked
+    /// for in `(a, b)` order, `cursor` walking the last pass's entries of that block along
+    /// (the blocks cover the same vertices from pass to pass).
     fn keep(
         &self,
+        block: usize,
         cursor: &mut usize,
         (a, b): (usize, usize),
         costly: bool,
     ) -> Option<(Entry, Option<Scored>)> {
+        let ScoredBlock {
+            entries,
+            candidates,
+        } = &self.blocks[block];
         let key = (a as u32, b as u32);
-        while self.entries.get(*cursor).is_some_and(|e| (e.a, e.b) < key) {
+        while entries.get(*cursor).is_some_and(|e| (e.a, e.b) < key) {
             *cursor += 1;
         }
         let i = *cursor;
-        let same_edge = self.entries.get(i).is_some_and(|e| (e.a, e.b) == key);
+        let same_edge = entries.get(i).is_some_and(|e| (e.a, e.b) == key);
         if !same_edge || self.changed[a] || self.changed[b] {
             return None;
         }
         // A costly method's candidate is kept with its entry, unless a try took it.
-        let candidate = self.candidates[i].clone();
-        (!costly || candidate.is_some()).then(|| (self.entries[i], candidate))
+        let candidate = candidates.get(i).cloned().flatten();
+        (!costly || candidate.is_some()).then(|| (entries[i], candidate))
     }
 }
 
-/// The order of one pass of [`passes`]: the entries by `(cost, a, b)`, sorted in two parts
-/// (those up to the pass's stopping cost when the pass starts, the others when reached).
+/// The order of one pass of [`passes`]: the edges by `(cost, a, b)`, sorted in parts: those
+/// up to the pass's stopping cost when the pass starts, then, only if the pass goes on past
+/// them, the next smallest keys in parts of growing size ([`PassOrder::sort_next_part`]).
 ///
-/// Entries come ordered by `(a, b)` ([`State::scored_edges`]), so a key of the cost's
-/// [`f64::total_cmp`] rank ([`cost_rank`]) and the entry's index orders them by
-/// `(cost, a, b)`: a plain sort of `u128`s, with no comparison closure.
+/// An edge's key is its cost's [`f64::total_cmp`] rank ([`cost_rank`]) and its ends
+/// ([`edge_key`]): the keys order the edges by `(cost, a, b)` in a plain sort of `u128`s, with
+/// no comparison closure, and hold all a pass needs of an edge (its cost comes back from its
+/// rank, [`rank_cost`]), so that the pass does not look up the entries at random.
 #[derive(Default)]
 struct PassOrder {
-    /// `cost rank << 64 | index`, sorted up to `sorted`.
+    /// `cost rank << 64 | a << 32 | b`, sorted up to `sorted`.
     keys: Vec<u128>,
     /// Keys before this are sorted; the others all come after them.
     sorted: usize,
@@ -246,24 +290,21 @@ struct PassOrder {
 }
 
 impl PassOrder {
-    /// Start a pass over `entries` wanting `goal` collapses: its stopping cost, `1.5 ×` the
-    /// cost of the `goal`-th cheapest entry (the last if fewer; ∞ if none), with the keys up
-    /// to it sorted.
-    fn start(&mut self, entries: &[Entry], goal: usize) -> f64 {
+    /// Start a pass over the entries of `blocks` wanting `goal` collapses: its stopping cost,
+    /// `1.5 ×` the cost of the `goal`-th cheapest entry (the last if fewer; ∞ if none), with
+    /// the keys up to it sorted.
+    fn start(&mut self, blocks: &[ScoredBlock], goal: usize) -> f64 {
         self.keys.clear();
-        self.keys.extend(
-            entries
-                .iter()
-                .enumerate()
-                .map(|(i, e)| u128::from(cost_rank(e.cost)) << 64 | i as u128),
-        );
+        for block in blocks {
+            self.keys.extend(block.entries.iter().map(edge_key));
+        }
         (self.at, self.sorted) = (0, 0);
         if self.keys.is_empty() {
             return f64::INFINITY;
         }
         let k = goal.min(self.keys.len() - 1);
         self.keys.select_nth_unstable(k);
-        let stop = 1.5 * entries[key_index(self.keys[k])].cost;
+        let stop = 1.5 * key_edge(self.keys[k]).0;
         let bound = u128::from(cost_rank(stop)) << 64 | u128::from(u64::MAX);
         // Those above the k-th whose cost ranks at most `stop`'s join the first part.
         let mut head = k + 1;
@@ -279,26 +320,56 @@ impl PassOrder {
     }
 }
 
-impl Iterator for PassOrder {
-    type Item = usize;
+impl PassOrder {
+    /// The fewest keys [`PassOrder::sort_next_part`] sorts at once.
+    const MIN_PART: usize = 1024;
 
-    /// The index of the next entry in `(cost, a, b)` order.
-    fn next(&mut self) -> Option<usize> {
+    /// Sort the next part of the keys: the smallest `max(MIN_PART, sorted)` of those not
+    /// sorted yet (all of them if fewer), picked by a selection, O(n), and sorted alone. A
+    /// pass that goes on past its first part usually stops soon after (at the first edge of
+    /// infinite cost, or once it has done its least), so sorting every remaining key — many of
+    /// them of infinite cost — would be wasted; the parts double, so a pass that does go on
+    /// costs about a sort all the same. Keys are distinct (no two edges share `(a, b)`), so
+    /// the order is exactly a full sort's.
+    fn sort_next_part(&mut self) {
+        let rest = &mut self.keys[self.sorted..];
+        let part = self.sorted.max(Self::MIN_PART);
+        if part < rest.len() {
+            rest.select_nth_unstable(part);
+            rest[..part].sort_unstable();
+            self.sorted += part;
+        } else {
+            rest.sort_unstable();
+            self.sorted = self.keys.len();
+        }
+    }
+}
+
+impl Iterator for PassOrder {
+    type Item = (f64, usize, usize);
+
+    /// The next edge `(cost, a, b)` in that order.
+    fn next(&mut self) -> Option<(f64, usize, usize)> {
         if self.at == self.keys.len() {
             return None;
         }
         if self.at == self.sorted {
-            self.keys[self.sorted..].sort_unstable();
-            self.sorted = self.keys.len();
+            self.sort_next_part();
         }
         self.at += 1;
-        Some(key_index(self.keys[self.at - 1]))
+        Some(key_edge(self.keys[self.at - 1]))
     }
 }
 
-/// The entry index of a [`PassOrder`] key.
-fn key_index(key: u128) -> usize {
-    key as u64 as usize
+/// The [`PassOrder`] key of `entry`.
+fn edge_key(entry: &Entry) -> u128 {
+    u128::from(cost_rank(entry.cost)) << 64 | u128::from(entry.a) << 32 | u128::from(entry.b)
+}
+
+/// The edge `(cost, a, b)` of a [`PassOrder`] key.
+fn key_edge(key: u128) -> (f64, usize, usize) {
+    let cost = rank_cost((key >> 64) as u64);
+    (cost, (key >> 32) as u32 as usize, key as u32 as usize)
 }
 
 /// `x`'s rank in [`f64::total_cmp`]'s order as an unsigned integer: the bits with the sign
@@ -312,10 +383,20 @@ fn cost_rank(x: f64) -> u64 {
     }
 }
 
+/// The number of rank `rank` ([`cost_rank`]'s inverse, bit for bit).
+fn rank_cost(rank: u64) -> f64 {
+    f64::from_bits(if rank >> 63 == 1 {
+        rank & !(1 << 63)
+    } else {
+        !rank
+    })
+}
+
 /// Joint matrices per pose, `[pose][joint]`.
 type PoseMats = Vec<Vec<Matrix4<f64>>>;
-/// Vertex positions per pose, `[pose][vertex]`.
-type PosePoints = Vec<Vec<Point3<f64>>>;
+/// Vertex positions per pose, `[pose][vertex]`, borrowed (not copied: each set is a few MB
+/// per million triangles).
+type PosePoints<'p> = Vec<&'p [Point3<f64>]>;
 /// Faces, UV faces and UVs.
 type CleanFaces = (Vec<[u32; 3]>, Vec<[u32; 3]>, Vec<Point2<f64>>);
 
@@ -323,25 +404,29 @@ type CleanFaces = (Vec<[u32; 3]>, Vec<[u32; 3]>, Vec<Point2<f64>>);
 /// `Option<Box<_>>` keeps those small).
 type Scored = Box<(Mode, Candidate)>;
 
-/// Buffers reused by every collapse (the serial part of the loop allocates nothing per step).
+/// Buffers reused by every collapse (the serial part of the loop allocates per step only what
+/// its record keeps: the UV map and the new UVs).
 struct Scratch {
     /// The stars of the two endpoints.
-    star_a: Star,
-    star_b: Star,
+    stars: Stars,
     /// Opposite vertices of the faces removed by the last collapse.
     opposite: Vec<u32>,
-    /// A face list, swapped with the kept vertex's when a collapse merges the two lists.
+    /// A face list, swapped with the kept vertex's when a collapse merges the two lists (the
+    /// larger of the two old lists is kept, so that merges seldom have to grow it).
     faces: Vec<u32>,
+    /// The memory of a skinned candidate's positions in the check poses ([`State::pose`]),
+    /// handed back after the flip check or the collapse has read them.
+    posed: Vec<Point3<f64>>,
 }
 
 impl Scratch {
     /// Buffers for a mesh of `n` vertices.
     fn new(n: usize) -> Scratch {
         Scratch {
-            star_a: Star::new(n),
-            star_b: Star::new(n),
+            stars: Stars::new(n),
             opposite: Vec::new(),
             faces: Vec::new(),
+            posed: Vec::new(),
         }
     }
 }
@@ -374,56 +459,73 @@ fn insert_sorted(out: &mut Vec<u32>, x: u32) {
     }
 }
 
-/// The star of a vertex `v`: its distinct neighbours, each with the alive faces on the edge
-/// `(v, n)` (in face order), found in O(valence) without sorting ([`Star::gather`]): a
-/// neighbour's index in the list is remembered per vertex, valid while its stamp is the
-/// current one (so nothing is cleared between stars).
-struct Star {
-    /// `(n, faces on (v, n))`, neighbours in the order they are first met.
-    list: Vec<(u32, EdgeFaces)>,
-    stamp: u32,
-    /// `mark[x] = [stamp, i]`: `x` is a neighbour, at `list[i]`, when `stamp` is the current
-    /// one (the two side by side: one cache line per neighbour).
-    mark: Vec<[u32; 2]>,
+/// The stars of the two endpoints of an edge, side 0 (`a`) and side 1 (`b`). The star of a
+/// vertex `v`: its distinct neighbours, each with the alive faces on the edge `(v, n)` (in
+/// face order), found in O(valence) without sorting ([`Stars::gather`]): a neighbour's index
+/// in the side's list is remembered per vertex, valid while its stamp is the side's current
+/// one (so nothing is cleared between stars).
+///
+/// The two sides' marks of a vertex lie side by side, so that asking whether a neighbour of
+/// `a` is one of `b` (the link condition) reads the cache line that gathering `a`'s star has
+/// just loaded, rather than a line of another array.
+struct Stars {
+    /// Per side, `(n, faces on (v, n))`, neighbours in the order they are first met.
+    lists: [Vec<(u32, EdgeFaces)>; 2],
+    /// Per side, the current stamp.
+    stamps: [u32; 2],
+    /// `mark[x][side] = [stamp, i]`: `x` is a neighbour of the side's vertex, at
+    /// `lists[side][i]`, when `stamp` is the side's current one.
+    mark: Vec<[[u32; 2]; 2]>,
 }
 
-impl Star {
-    fn new(n: usize) -> Star {
-        Star {
-            list: Vec::new(),
-            stamp: 0,
-            mark: vec![[0; 2]; n],
+impl Stars {
+    fn new(n: usize) -> Stars {
+        Stars {
+            lists: [Vec::new(), Vec::new()],
+            stamps: [0; 2],
+            mark: vec![[[0; 2]; 2]; n],
         }
     }
 
-    /// The star of `v` over `vertex_faces[v]` (sorted, so each edge's faces are in face order).
-    fn gather(&mut self, v: usize, vertex_faces: &[u32], faces: &[[u32; 3]]) {
-        self.list.clear();
-        self.stamp += 1;
+    /// The star of `v` on `side` over `vertex_faces[v]` (sorted, so each edge's faces are in
+    /// face order).
+    fn gather(&mut self, side: usize, v: usize, vertex_faces: &[u32], faces: &[[u32; 3]]) {
+        let list = &mut self.lists[side];
+        list.clear();
+        self.stamps[side] += 1;
+        let stamp = self.stamps[side];
         for &f in vertex_faces {
             for x in faces[f as usize] {
                 let x = x as usize;
                 if x == v {
                     continue;
                 }
-                let mark = &mut self.mark[x];
-                if mark[0] != self.stamp {
-                    *mark = [self.stamp, self.list.len() as u32];
-                    self.list.push((x as u32, EdgeFaces::default()));
+                let mark = &mut self.mark[x][side];
+                if mark[0] != stamp {
+                    *mark = [stamp, list.len() as u32];
+                    list.push((x as u32, EdgeFaces::default()));
                 }
-                self.list[mark[1] as usize].1.push(f);
+                list[mark[1] as usize].1.push(f);
             }
         }
     }
 
-    /// Whether `x` is a neighbour.
-    fn contains(&self, x: u32) -> bool {
-        self.mark[x as usize][0] == self.stamp
+    /// The neighbours of the star on `side`, with the faces on their edges.
+    fn list(&self, side: usize) -> &[(u32, EdgeFaces)] {
+        &self.lists[side]
     }
 
-    /// Whether the vertex is on the boundary: some edge of it is in exactly one alive face.
-    fn on_boundary(&self) -> bool {
-        self.list.iter().any(|(_, on_edge)| on_edge.count == 1)
+    /// Whether `x` is a neighbour in the star on `side`.
+    fn contains(&self, side: usize, x: u32) -> bool {
+        self.mark[x as usize][side][0] == self.stamps[side]
+    }
+
+    /// Whether the vertex of `side` is on the boundary: some edge of it is in exactly one
+    /// alive face.
+    fn on_boundary(&self, side: usize) -> bool {
+        self.lists[side]
+            .iter()
+            .any(|(_, on_edge)| on_edge.count == 1)
     }
 }
 
@@ -549,13 +651,14 @@ impl<'a> State<'a> {
             Deformation::Frames { frames } => (false, frames[0].clone(), 0),
         };
         let identities = vec![Matrix4::identity(); joint_count];
+        let training_sets: PosePoints = training.iter().map(Vec::as_slice).collect();
         let (quad_mats, quad_positions): (PoseMats, PosePoints) =
             match (&input.deformation, options.method) {
                 (Deformation::Skinned { .. }, Method::Rest) => {
-                    (vec![identities.clone()], vec![rest.clone()])
+                    (vec![identities.clone()], vec![&rest])
                 }
-                (Deformation::Skinned { joints, .. }, _) => (joints.clone(), training.clone()),
-                (Deformation::Frames { .. }, _) => (Vec::new(), training.clone()),
+                (Deformation::Skinned { joints, .. }, _) => (joints.clone(), training_sets.clone()),
+                (Deformation::Frames { .. }, _) => (Vec::new(), training_sets.clone()),
             };
         let quad_poses = quad_positions.len();
         let quadrics = vertex_quadrics(&faces, &special, &quad_positions, options.boundary_weight);
@@ -566,14 +669,10 @@ impl<'a> State<'a> {
             let mats = std::iter::once(identities)
                 .chain(joints.iter().cloned())
                 .collect();
-            (
-                mats,
-                std::iter::once(rest.clone())
-                    .chain(training.iter().cloned())
-                    .collect(),
-            )
+            let sets = std::iter::once(&rest[..]).chain(training_sets.iter().copied());
+            (mats, sets.collect())
         } else {
-            (Vec::new(), training.clone())
+            (Vec::new(), training_sets.clone())
         };
         let check_poses = check_sets.len();
         let mut check_pos = vec![Point3::origin(); n * check_poses];
@@ -594,7 +693,7 @@ impl<'a> State<'a> {
                     Cow::Borrowed(&quadrics)
                 } else if reduces {
                     let w = options.boundary_weight;
-                    Cow::Owned(vertex_quadrics(&faces, &special, &training, w))
+                    Cow::Owned(vertex_quadrics(&faces, &special, &training_sets, w))
                 } else {
                     Cow::Borrowed(&[]) // never read: no vertex is reduced
                 };
@@ -660,40 +759,33 @@ impl<'a> State<'a> {
     }
 
     /// Every edge of the alive faces with its cost and candidate ([`State::score`], or kept
-    /// from the last pass by `reuse`), ordered by `(a, b)`, into `out`; computed in parallel
-    /// over blocks of vertices, each into its own buffers (`out`'s, kept from call to call).
+    /// from the last pass by `reuse`), in blocks of [`BLOCK`] vertices ordered by `(a, b)`,
+    /// into `out`; computed in parallel over the blocks, each into its own buffers (`out`'s,
+    /// kept from call to call).
     fn scored_edges(&self, reuse: Option<&Reuse>, out: &mut ScoredEdges) {
-        const BLOCK: usize = 4096;
         let n = self.alive.len();
         out.blocks.resize_with(n.div_ceil(BLOCK), Default::default);
+        let costly = self.costly();
         out.blocks
             .par_iter_mut()
             .enumerate()
-            .for_each(|(k, (entries, candidates))| {
+            .for_each(|(k, block)| {
                 let vertices = k * BLOCK..((k + 1) * BLOCK).min(n);
-                let mut cursor = reuse.map_or(0, |r| r.first_of(vertices.start));
+                let mut cursor = 0;
                 let mut fan = Vec::new();
-                entries.clear();
-                candidates.clear();
+                block.entries.clear();
+                block.candidates.clear();
                 for a in vertices {
                     self.edges_above(a, &mut fan, |b, on_edge| {
-                        let kept = reuse.and_then(|r| r.keep(&mut cursor, (a, b), self.costly()));
+                        let kept = reuse.and_then(|r| r.keep(k, &mut cursor, (a, b), costly));
                         let (entry, scored) = kept.unwrap_or_else(|| self.score(a, b, on_edge));
-                        entries.push(entry);
-                        candidates.push(scored);
+                        block.entries.push(entry);
+                        if costly {
+                            block.candidates.push(scored);
+                        }
                     });
                 }
             });
-        // Reserved at once: growing block by block would copy (and fault in) tens of MB.
-        let total = out.blocks.iter().map(|(entries, _)| entries.len()).sum();
-        out.entries.clear();
-        out.candidates.clear();
-        out.entries.reserve(total);
-        out.candidates.reserve(total);
-        for (entries, candidates) in &mut out.blocks {
-            out.entries.extend_from_slice(entries);
-            out.candidates.append(candidates);
-        }
     }
 
     /// Call `visit(b, faces on (a, b))` for the edges `(a, b)`, `b > a`, of vertex `a` (faces in
@@ -741,8 +833,9 @@ impl<'a> State<'a> {
             Some((m, c)) if m == mode => c,
             _ => self.evaluate(a, b, mode),
         };
-        self.pose(&mut candidate);
+        self.pose(&mut candidate, &mut scratch.posed);
         let Some(uv_plan) = self.valid(a, b, mode, on_edge, &candidate, scratch) else {
+            scratch.posed = candidate.posed;
             return false;
         };
         self.collapse(a, b, candidate, uv_plan, scratch);
@@ -783,19 +876,20 @@ impl<'a> State<'a> {
     /// ones evaluated in parallel; the queue order does not depend on the push order
     /// ([`super::queue`]).
     fn requeue_around(&self, a: usize, queue: &mut Queue<Scored>, scratch: &mut Scratch) {
-        let star = &mut scratch.star_a;
-        star.gather(a, &self.vertex_faces[a], &self.faces);
+        let stars = &mut scratch.stars;
+        stars.gather(0, a, &self.vertex_faces[a], &self.faces);
         let score = |&(n, on_edge): &(u32, EdgeFaces)| {
             let n = n as usize;
             self.score(a.min(n), a.max(n), on_edge)
         };
         if self.costly() {
-            let scored: Vec<(Entry, Option<Scored>)> = star.list.par_iter().map(score).collect();
+            let scored: Vec<(Entry, Option<Scored>)> =
+                stars.list(0).par_iter().map(score).collect();
             for (entry, s) in scored {
                 queue.push(entry, s);
             }
         } else {
-            for edge in &star.list {
+            for edge in stars.list(0) {
                 let (entry, s) = score(edge);
                 queue.push(entry, s);
             }
@@ -882,23 +976,23 @@ impl<'a> State<'a> {
 
     /// Fill a skinned candidate's positions in the check poses, v_c = Σ_k w_k M_k^c v̂ (linear
     /// blend skinning), needed only by the flip check of an edge popped from the queue, not by
-    /// every queued cost. Frame inputs already have them.
-    fn pose(&self, candidate: &mut Candidate) {
+    /// every queued cost; in the memory of `buffer` ([`Scratch::posed`], taken). Frame inputs
+    /// already have them.
+    fn pose(&self, candidate: &mut Candidate, buffer: &mut Vec<Point3<f64>>) {
         if !self.skinned {
             return;
         }
         let h = candidate.rest.to_homogeneous();
-        candidate.posed = self
-            .check_mats
-            .iter()
-            .map(|mats| {
-                let mut sum = nalgebra::Vector4::zeros();
-                for (k, w) in candidate.weights.pairs() {
-                    sum += (mats[k as usize] * h) * w;
-                }
-                Point3::new(sum.x, sum.y, sum.z)
-            })
-            .collect();
+        let mut posed = std::mem::take(buffer);
+        posed.clear();
+        posed.extend(self.check_mats.iter().map(|mats| {
+            let mut sum = nalgebra::Vector4::zeros();
+            for (k, w) in candidate.weights.pairs() {
+                sum += (mats[k as usize] * h) * w;
+            }
+            Point3::new(sum.x, sum.y, sum.z)
+        }));
+        candidate.posed = posed;
     }
 
     /// Alive faces containing both `a` and `b`, in face order (found in the shorter of the
@@ -942,37 +1036,32 @@ impl<'a> State<'a> {
         if on_edge.count == 0 || on_edge.count > 2 {
             return None;
         }
-        let (star_a, star_b) = (&mut scratch.star_a, &mut scratch.star_b);
-        star_a.gather(a, &self.vertex_faces[a], &self.faces);
-        star_b.gather(b, &self.vertex_faces[b], &self.faces);
-        if !self.link_condition(a, b, on_edge.faces(), star_a, star_b) {
+        let stars = &mut scratch.stars;
+        stars.gather(0, a, &self.vertex_faces[a], &self.faces);
+        stars.gather(1, b, &self.vertex_faces[b], &self.faces);
+        if !self.link_condition(a, b, on_edge.faces(), stars) {
             return None;
         }
-        if on_edge.count == 2 && star_a.on_boundary() && star_b.on_boundary() {
+        if on_edge.count == 2 && stars.on_boundary(0) && stars.on_boundary(1) {
             return None;
         }
-        let plan = self.uv_plan(a, b, mode, on_edge, candidate);
-        self.flip_free(a, b, candidate).then_some(plan)
+        if !self.flip_free(a, b, candidate) {
+            return None;
+        }
+        Some(self.uv_plan(a, b, mode, on_edge, candidate))
     }
 
-    /// Condition 2 of the module docs, with the stars of `a` and `b`.
-    fn link_condition(
-        &self,
-        a: usize,
-        b: usize,
-        on_edge: &[u32],
-        star_a: &Star,
-        star_b: &Star,
-    ) -> bool {
-        let common = star_a
-            .list
+    /// Condition 2 of the module docs, with the stars of `a` (side 0) and `b` (side 1).
+    fn link_condition(&self, a: usize, b: usize, on_edge: &[u32], stars: &Stars) -> bool {
+        let common = stars
+            .list(0)
             .iter()
-            .filter(|&&(x, _)| star_b.contains(x))
+            .filter(|&&(x, _)| stars.contains(1, x))
             .count();
         if common != on_edge.len() {
             return false;
         }
-        let in_both = |o: u32| star_a.contains(o) && star_b.contains(o);
+        let in_both = |o: u32| stars.contains(0, o) && stars.contains(1, o);
         let opposite = |f: u32| -> u32 {
             self.faces[f as usize]
                 .iter()
@@ -1047,6 +1136,16 @@ impl<'a> State<'a> {
         self.wedges[v] = out;
     }
 
+    /// [`State::refresh_wedges`] of `v` after it lost faces: a vertex with one wedge keeps it
+    /// while it has faces left (all its faces had that UV), so only one with several wedges (on
+    /// a UV seam) or without faces needs its faces scanned again.
+    fn wedges_after_losing_faces(&mut self, v: usize) {
+        if self.wedges[v].len() == 1 && !self.vertex_faces[v].is_empty() {
+            return;
+        }
+        self.refresh_wedges(v);
+    }
+
     /// Apply a collapse's UV `map` (old → new index) at the merged vertex `a` of each of its
     /// faces, and recompute its wedges ([`State::refresh_wedges`]) on the way.
     fn remap_uvs(&mut self, a: usize, map: &[(u32, u32)]) {
@@ -1111,7 +1210,10 @@ impl<'a> State<'a> {
             return plan;
         }
         let sides = self.uv_sides(a, b, on_edge).unwrap_or_default();
+        // Allocated at their final lengths (they go into the record as they are).
+        let n = sides.pairs().len();
         if let Mode::Keep(k) = mode {
+            plan.map.reserve_exact(n);
             for &(ua, ub) in sides.pairs() {
                 plan.map.push(if k == 0 { (ub, ua) } else { (ua, ub) });
             }
@@ -1124,6 +1226,8 @@ impl<'a> State<'a> {
         } else {
             0.5
         };
+        plan.map.reserve_exact(2 * n);
+        plan.new_uvs.reserve_exact(n);
         for (k, &(ua, ub)) in sides.pairs().iter().enumerate() {
             let uv = self.uvs[ua as usize].coords * (1.0 - t) + self.uvs[ub as usize].coords * t;
             let new = (self.uvs.len() + k) as u32;
@@ -1209,12 +1313,17 @@ impl<'a> State<'a> {
         let alive = |f: &&u32| self.face_alive[**f as usize];
         let mut merged = std::mem::take(&mut scratch.faces);
         let faces_a = &self.vertex_faces[a];
+        merged.clear();
+        merged.reserve(faces_a.len() + faces_b.len());
         merge_sorted(
             faces_a.iter().filter(alive),
             faces_b.iter().filter(alive),
             &mut merged,
         );
         scratch.faces = std::mem::replace(&mut self.vertex_faces[a], merged);
+        if faces_b.capacity() > scratch.faces.capacity() {
+            scratch.faces = faces_b;
+        }
         self.remap_uvs(a, &plan.map);
         // The faces on the edge also leave their opposite vertices' lists.
         for &x in opposite.iter() {
@@ -1222,7 +1331,7 @@ impl<'a> State<'a> {
             self.vertex_faces[x as usize].retain(|&f| alive[f as usize]);
         }
         for &x in &scratch.opposite {
-            self.refresh_wedges(x as usize);
+            self.wedges_after_losing_faces(x as usize);
         }
         self.wedges[b].clear();
         self.uvs.extend_from_slice(&plan.new_uvs);
@@ -1231,6 +1340,7 @@ impl<'a> State<'a> {
         self.version[b] += 1;
         self.alive_count -= 1;
         let frames = if self.skinned {
+            scratch.posed = candidate.posed;
             Vec::new()
         } else {
             candidate.posed
@@ -1383,7 +1493,7 @@ fn locked_vertices(faces: &[[u32; 3]], records: &[EdgeRecord], n: usize) -> Vec<
 fn vertex_quadrics(
     faces: &[[u32; 3]],
     special: &[[bool; 3]],
-    positions: &[Vec<Point3<f64>>],
+    positions: &[&[Point3<f64>]],
     boundary_weight: f64,
 ) -> Vec<Quadric> {
     let mut per_pose: Vec<Vec<Quadric>> = positions
@@ -1393,7 +1503,10 @@ fn vertex_quadrics(
     if let [only] = &mut per_pose[..] {
         return std::mem::take(only);
     }
-    let (p, n) = (positions.len(), positions.first().map_or(0, Vec::len));
+    let (p, n) = (
+        positions.len(),
+        positions.first().map_or(0, |set| set.len()),
+    );
     let mut out = vec![Quadric::default(); n * p];
     for (j, q) in per_pose.into_iter().enumerate() {
         for (i, x) in q.into_iter().enumerate() {
