@@ -9,7 +9,12 @@
 //!   rest-pose runs with both schedules (exact greedy, the default, and meshoptimizer-style
 //!   passes, [`Schedule`]). The 1M full-method run only with `SKINSIMP_BENCH_1M_FULL=1`.
 //!
-//! Run: `cargo bench --bench skinsimp`.
+//! With `--features meshopt-comparison`, the single-threaded rows are followed by meshoptimizer's
+//! own `meshopt_simplify` (C++, the `meshopt` crate) on the same welded mesh, f32 positions, to
+//! 10 % of the triangles, timed in the same way at the same moment: a ratio that does not
+//! depend on how fast this (shared, noisy) machine happens to be.
+//!
+//! Run: `cargo bench --bench skinsimp` (`-- nothing` skips the criterion groups).
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -104,8 +109,51 @@ fn single_runs(_: &mut Criterion) {
                     rate(best)
                 );
             }
+            #[cfg(feature = "meshopt-comparison")]
+            meshopt_runs(&input);
         }
     }
+}
+
+/// meshoptimizer's `meshopt_simplify` on the same mesh (positions rounded to f32, the UV seams'
+/// split vertices as its index buffer has them) to 10 % of its triangles, no target error
+/// (1.0: the whole extent), single-threaded as it is: first run and best of [`WARM_RUNS`].
+#[cfg(feature = "meshopt-comparison")]
+fn meshopt_runs(input: &Input) {
+    let bytes: Vec<u8> = input
+        .mesh
+        .positions
+        .iter()
+        .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32])
+        .flat_map(f32::to_le_bytes)
+        .collect();
+    let vertices = meshopt::VertexDataAdapter::new(&bytes, 12, 0).expect("vertex data");
+    let indices: Vec<u32> = input.mesh.faces.iter().flatten().copied().collect();
+    let triangles = input.mesh.faces.len();
+    let mut kept = 0;
+    let seconds: Vec<f64> = (0..WARM_RUNS)
+        .map(|_| {
+            let start = Instant::now();
+            let out = meshopt::simplify(
+                &indices,
+                &vertices,
+                indices.len() / 10,
+                1.0,
+                meshopt::SimplifyOptions::empty(),
+                None,
+            );
+            let s = start.elapsed().as_secs_f64();
+            kept = out.len() / 3;
+            s
+        })
+        .collect();
+    let (first, best) = (seconds[0], seconds.iter().copied().fold(f64::MAX, f64::min));
+    let rate = |s: f64| triangles as f64 / s / 1e6;
+    println!(
+        "meshoptimizer's meshopt_simplify (meshopt crate), 1 thread, same mesh: {triangles} → {kept} triangles: first run {first:.3} s ({:.3} M triangles/s), best of {WARM_RUNS} {best:.3} s ({:.3} M triangles/s)",
+        rate(first),
+        rate(best)
+    );
 }
 
 /// GPU group (issue #6, GPU section): on the ≈ 100k-triangle tube with 8 training poses,
