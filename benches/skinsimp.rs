@@ -58,6 +58,23 @@ fn bench_poses(c: &mut Criterion) {
     group.finish();
 }
 
+/// The wall times of [`WARM_RUNS`] calls of `run`: the first (cold) and the best.
+fn first_and_best(mut run: impl FnMut()) -> (f64, f64) {
+    let seconds: Vec<f64> = (0..WARM_RUNS)
+        .map(|_| {
+            let start = Instant::now();
+            run();
+            start.elapsed().as_secs_f64()
+        })
+        .collect();
+    (seconds[0], seconds.iter().copied().fold(f64::MAX, f64::min))
+}
+
+/// Millions of input triangles per second.
+fn rate(triangles: usize, seconds: f64) -> f64 {
+    triangles as f64 / seconds / 1e6
+}
+
 /// Single timed runs of the large cases, printed with triangles per second.
 fn single_runs(_: &mut Criterion) {
     let mut cases = vec![
@@ -81,7 +98,7 @@ fn single_runs(_: &mut Criterion) {
             method.name(),
             h.input_vertices(),
             h.input_vertices() - h.records.len(),
-            triangles as f64 / s / 1e6
+            rate(triangles, s)
         );
         // Single-threaded, for the meshoptimizer comparison, with both schedules.
         if method == Method::Rest {
@@ -94,15 +111,10 @@ fn single_runs(_: &mut Criterion) {
             // meshoptimizer's figure) does. Both are printed.
             for schedule in [Schedule::Greedy, Schedule::Passes] {
                 let o = Options { schedule, ..o };
-                let seconds: Vec<f64> = (0..WARM_RUNS)
-                    .map(|_| {
-                        let start = Instant::now();
-                        black_box(pool.install(|| simplify(&input, &o).expect("simplify")));
-                        start.elapsed().as_secs_f64()
-                    })
-                    .collect();
-                let (first, best) = (seconds[0], seconds.iter().copied().fold(f64::MAX, f64::min));
-                let rate = |s: f64| triangles as f64 / s / 1e6;
+                let (first, best) = first_and_best(|| {
+                    black_box(pool.install(|| simplify(&input, &o).expect("simplify")));
+                });
+                let rate = |s: f64| rate(triangles, s);
                 println!(
                     "skinsimp single run, 1 thread: {triangles} triangles, rest method, {schedule:?} schedule: first run {first:.2} s ({:.3} M triangles/s), best of {WARM_RUNS} {best:.2} s ({:.3} M triangles/s); meshoptimizer ≈ 1.7, target ≥ 0.34",
                     rate(first),
@@ -131,24 +143,18 @@ fn meshopt_runs(input: &Input) {
     let indices: Vec<u32> = input.mesh.faces.iter().flatten().copied().collect();
     let triangles = input.mesh.faces.len();
     let mut kept = 0;
-    let seconds: Vec<f64> = (0..WARM_RUNS)
-        .map(|_| {
-            let start = Instant::now();
-            let out = meshopt::simplify(
-                &indices,
-                &vertices,
-                indices.len() / 10,
-                1.0,
-                meshopt::SimplifyOptions::empty(),
-                None,
-            );
-            let s = start.elapsed().as_secs_f64();
-            kept = out.len() / 3;
-            s
-        })
-        .collect();
-    let (first, best) = (seconds[0], seconds.iter().copied().fold(f64::MAX, f64::min));
-    let rate = |s: f64| triangles as f64 / s / 1e6;
+    let (first, best) = first_and_best(|| {
+        let out = meshopt::simplify(
+            &indices,
+            &vertices,
+            indices.len() / 10,
+            1.0,
+            meshopt::SimplifyOptions::empty(),
+            None,
+        );
+        kept = out.len() / 3;
+    });
+    let rate = |s: f64| rate(triangles, s);
     println!(
         "meshoptimizer's meshopt_simplify (meshopt crate), 1 thread, same mesh: {triangles} → {kept} triangles: first run {first:.3} s ({:.3} M triangles/s), best of {WARM_RUNS} {best:.3} s ({:.3} M triangles/s)",
         rate(first),
