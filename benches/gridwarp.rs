@@ -9,6 +9,8 @@
 //!   separately (`gridwarp_aa_rest_samples`), and the printed line also gives the time of one
 //!   `solve_frame` that builds them itself.
 //! - Non-axis-aligned: 48, 192 and 288 unknowns ((M−2)(N−2)·2, fixed border) on the saddle.
+//! - Non-axis-aligned again with the second-order model JᵀJ + Σ r∇²r (`NaaModel::Newton`,
+//!   `gridwarp_naa_frame_newton`), 8×8 samples.
 //! - Each at 8×8 midpoint samples per cell (the default) and 4×4. The paper does not give its
 //!   sample count; the printed line gives the final energy re-evaluated with 8×8 samples so the
 //!   two can be compared at equal quality.
@@ -18,7 +20,9 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use reparam::gridwarp::energy_naa::{solve_naa_frame, DeformedJacobian, NaaEnergy, VertexGrid};
+use reparam::gridwarp::energy_naa::{
+    solve_naa_frame, DeformedJacobian, NaaEnergy, NaaModel, VertexGrid,
+};
 use reparam::gridwarp::scene::{analytic_scene, disc_rigidity, partials_of, plane_stretch};
 use reparam::gridwarp::{
     solve_frame, solve_frame_with_rest_samples, AaEnergy, Grid, RestSamples, SolveOptions,
@@ -174,6 +178,39 @@ fn bench_naa(c: &mut Criterion) {
             print_once(&format!("naa {name}"), &once.lm, once.rest_energy, judged);
             group.bench_function(name, |b| b.iter(|| black_box(solve().unwrap())));
         }
+    }
+    group.finish();
+    // The same solves with the second-order model JᵀJ + Σ r∇²r (`NaaModel::Newton`), 8×8.
+    let mut group = c.benchmark_group("gridwarp_naa_frame_newton");
+    group.sample_size(10);
+    for (m, n) in NAA_SIZES {
+        let grid = Grid::uniform(m, n);
+        let vertices = VertexGrid::from_grid(&grid);
+        let options = SolveOptions {
+            naa_model: NaaModel::Newton,
+            ..options(8)
+        };
+        let solve = || {
+            solve_naa_frame(
+                &fields.rest,
+                &grid,
+                &deformed,
+                &vertices,
+                &vertices,
+                (0, 1),
+                &options,
+            )
+        };
+        let once = solve().unwrap();
+        let judged = NaaEnergy::new(&fields.rest, &grid, &deformed, 8, 8).energy(&once.lm.x);
+        let name = format!("{}_unknowns_8x8_samples", once.lm.x.len());
+        print_once(
+            &format!("naa newton {name}"),
+            &once.lm,
+            once.rest_energy,
+            judged,
+        );
+        group.bench_function(name, |b| b.iter(|| black_box(solve().unwrap())));
     }
     group.finish();
 }

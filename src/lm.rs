@@ -23,7 +23,7 @@
 //!    stop with [`StopCode::NoProgress`]; max_i |h_i| ≤ epsx: stop with [`StopCode::SmallStep`]
 //!    at x, without evaluating x + h.
 //! 2. **Predicted decrease** of the undamped model: pred = m(0) − m(h) = −hᵀ(2g + A h)
-//!    (≥ λ‖h‖² > 0 in exact arithmetic). If rounding makes it ≤ 0 the trial counts as rejected.
+//!    (≥ λ‖h‖² > 0 in exact arithmetic for A ⪰ 0). If it is ≤ 0 the trial counts as rejected.
 //! 3. **Trial point** x_t = x + h, snapped exactly onto every bound the step reaches (so bounds
 //!    hold bit for bit); F_t = F(x_t) via [`Residuals::energy`].
 //! 4. **Rejected** (F_t ≥ F or not finite, e.g. a folded grid cell): λ ← 2νλ, ν ← 2ν, back to 1.
@@ -59,6 +59,13 @@
 //! without this test even tight tolerances would end by λ overflow (code 7) after a string of
 //! wasted evaluations. As λ grows the proposed step shrinks below epsx instead, and the run
 //! stops there.
+//!
+//! # Other model Hessians
+//! A problem may hand over a symmetric A other than JᵀJ, e.g. JᵀJ + Σ r_k∇²r_k (the exact ½∇²F,
+//! [`crate::gridwarp::NaaModel::Newton`]; ALGLIB's exact-Hessian protocol plays this role).
+//! It may be indefinite, and nothing above changes: where A + λI is not positive definite the
+//! box QP's factorisation fails or pred ≤ 0, which counts as a rejected trial (λ grows until
+//! A + λI is positive definite on the free variables).
 //!
 //! # Differences from ALGLIB `minlm`, on purpose
 //! - Step and gradient tests use the max-norm, not the Euclidean norm; the energy test is
@@ -117,7 +124,10 @@ pub trait Residuals {
 pub struct NormalEquations {
     /// F(x) = Σ r_k².
     pub energy: f64,
-    /// JᵀJ, n×n, symmetric positive semi-definite.
+    /// JᵀJ, n×n, symmetric positive semi-definite; or, in its place, a symmetric model
+    /// Hessian of ½F that may be indefinite (e.g. JᵀJ + Σ r∇²r,
+    /// [`crate::gridwarp::NaaModel::Newton`]): a damped trial whose matrix is not positive
+    /// definite fails its box QP or predicts no decrease, and counts as a rejected trial.
     pub jtj: DMatrix<f64>,
     /// Jᵀr, n (half the gradient of F).
     pub jtr: DVector<f64>,

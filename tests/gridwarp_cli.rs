@@ -52,9 +52,25 @@ fn json(stdout: &str) -> serde_json::Value {
 
 #[test]
 fn naa_scene_reports_every_frame_and_lowers_the_energy() {
+    for (flag, model) in [(None, "GaussNewton"), (Some("--newton"), "Newton")] {
+        naa_scene_with_model(flag, model);
+    }
+}
+
+#[test]
+fn newton_without_the_naa_variant_is_an_error() {
+    let (ok, _, stderr) = reparam(&["gridwarp", "--scene", "plane", "--newton"]);
+    assert!(!ok);
+    assert!(
+        stderr.contains("--newton") && stderr.contains("--variant naa"),
+        "{stderr}"
+    );
+}
+
+fn naa_scene_with_model(flag: Option<&str>, model: &str) {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
-    let (ok, stdout, stderr) = reparam(&[
+    let mut args = vec![
         "gridwarp",
         "--scene",
         "plane",
@@ -69,10 +85,13 @@ fn naa_scene_reports_every_frame_and_lowers_the_energy() {
         "--out",
         out,
         "--json",
-    ]);
+    ];
+    args.extend(flag);
+    let (ok, stdout, stderr) = reparam(&args);
     assert!(ok, "{stderr}");
     let v = json(&stdout);
     assert_eq!(v["variant"], "naa");
+    assert_eq!(v["naa_model"], model);
     let roi = &v["rois"][0];
     assert_eq!(roi["vertices"].as_array().unwrap().len(), 2);
     for f in roi["frames"].as_array().unwrap() {

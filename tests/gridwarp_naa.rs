@@ -146,6 +146,65 @@ fn analytic_jacobian_matches_central_differences() {
 }
 
 #[test]
+fn newton_model_is_the_derivative_of_the_gradient() {
+    // NaaModel::Newton hands LM JᵀJ + S, S = Σ r∇²r = ½∇²F. With component fields linear in
+    // (s, t) (reproduced exactly by bilinear interpolation inside the texel-centre range, and
+    // with a zero mixed derivative ∂_s∂_t J_D, the one term the model leaves out), it must
+    // equal the central difference of the exact gradient Jᵀr = ½∇F column by column.
+    // Truncation error ≈ step²·|∂³F| ≈ 1e-10·O(10); rounding ≈ 1e-16·|Jᵀr|/step ≈ 1e-11:
+    // 1e-7 (relative to 1 + |entry|) is far above both and far below the size of S (checked
+    // ≥ 1e-2 below), so a missing or wrong term of S fails.
+    let n = 64;
+    let rest = RestFields {
+        o_s: Field::from_fn(n, n, |s, t| 1.0 + 0.2 * s - 0.1 * t),
+        o_t: Field::from_fn(n, n, |s, t| 0.9 + 0.3 * t + 0.05 * s),
+        rigidity: disc_rigidity(n, &[(0.5, 0.5, 0.3)], 0.3),
+    };
+    let frame = DeformedJacobian {
+        d_s: VectorField::from_fn(n, n, |s, t| {
+            [1.4 + 0.6 * s + 0.4 * t, 0.2 - 0.3 * t, 0.5 * s]
+        }),
+        d_t: VectorField::from_fn(n, n, |s, t| {
+            [0.1 * s - 0.2 * t, 0.8 - 0.3 * s + 0.5 * t, 0.3 + 0.4 * t]
+        }),
+    };
+    let grid = Grid::new(vec![0.0, 0.3, 0.55, 1.0], vec![0.0, 0.45, 0.7, 1.0]).unwrap();
+    let mut newton = NaaEnergy::new(&rest, &grid, &frame, 4, 3).with_model(NaaModel::Newton);
+    let mut gauss_newton = NaaEnergy::new(&rest, &grid, &frame, 4, 3);
+    let x = vec![0.32, 0.42, 0.28, 0.73, 0.57, 0.47, 0.52, 0.68];
+    let model = newton.normal_equations(&x);
+    let gn = gauss_newton.normal_equations(&x);
+    // Same F and Jᵀr bit for bit: only the model Hessian differs.
+    assert_eq!(model.energy, gn.energy);
+    assert_eq!(model.jtr, gn.jtr);
+    assert!(
+        (&model.jtj - &model.jtj.transpose()).abs().max() == 0.0,
+        "symmetric"
+    );
+    let step = 1e-5;
+    for col in 0..x.len() {
+        let (mut xp, mut xm) = (x.clone(), x.clone());
+        xp[col] += step;
+        xm[col] -= step;
+        let (gp, gm) = (
+            gauss_newton.normal_equations(&xp).jtr,
+            gauss_newton.normal_equations(&xm).jtr,
+        );
+        for row in 0..x.len() {
+            let fd = (gp[row] - gm[row]) / (2.0 * step);
+            assert!(
+                (fd - model.jtj[(row, col)]).abs() < 1e-7 * (1.0 + fd.abs()),
+                "row {row} col {col}: {fd} vs {} (Gauss–Newton {})",
+                model.jtj[(row, col)],
+                gn.jtj[(row, col)]
+            );
+        }
+    }
+    let s = (&model.jtj - &gn.jtj).abs().max();
+    assert!(s > 1e-2, "S is not trivially small here: {s}");
+}
+
+#[test]
 fn the_notes_counterexample_is_inside_its_boxes_but_has_infinite_energy() {
     // The notes' cell P00=(−0.1,−0.1), P10=(1,−1), P01=(−1,0.1), P11=(1,1) on [−1, 1]², mapped
     // onto the cell (1, 1) = [0.25, 0.5]² of a uniform 5×5 grid: centre 0.375, half-width 0.125.
@@ -239,12 +298,24 @@ fn solves_keep_every_cell_unfolded_and_lower_the_energy() {
     let rest = flat_rest(64, rigidity);
     let frames: Vec<_> = [1.8, 2.5].iter().map(|&s| bent_stretch(64, s)).collect();
     for sliding in [false, true] {
-        unfolded_and_lower(&rest, &grid, &frames, sliding);
+        for naa_model in [NaaModel::GaussNewton, NaaModel::Newton] {
+            let options = SolveOptions {
+                naa_model,
+                ..Default::default()
+            };
+            unfolded_and_lower(&rest, &grid, &frames, &options, sliding);
+        }
     }
 }
 
-fn unfolded_and_lower(rest: &RestFields, grid: &Grid, frames: &[DeformedJacobian], sliding: bool) {
-    let solutions = naa_sequence(rest, grid, frames, &SolveOptions::default(), sliding);
+fn unfolded_and_lower(
+    rest: &RestFields,
+    grid: &Grid,
+    frames: &[DeformedJacobian],
+    options: &SolveOptions,
+    sliding: bool,
+) {
+    let solutions = naa_sequence(rest, grid, frames, options, sliding);
     for s in &solutions {
         assert_unfolded(&s.vertices);
         assert!(
@@ -292,24 +363,78 @@ fn results_are_bit_identical_with_one_and_two_threads() {
     let grid = grid_from_rigidity(&rigidity, 0.5);
     let rest = flat_rest(64, rigidity);
     let frames = vec![bent_stretch(64, 2.0)];
-    let options = SolveOptions {
-        samples: (4, 4),
-        lm: LmOptions::default(),
-        ..Default::default()
-    };
-    let run = |threads| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| naa_sequence(&rest, &grid, &frames, &options, true))
-    };
-    let (a, b) = (run(1), run(2));
-    for (x, y) in a.iter().zip(&b) {
-        assert!(x.lm.iterations > 0);
-        assert_eq!(x.vertices, y.vertices);
-        assert_eq!(x.lm.energy.to_bits(), y.lm.energy.to_bits());
+    for naa_model in [NaaModel::GaussNewton, NaaModel::Newton] {
+        let options = SolveOptions {
+            samples: (4, 4),
+            lm: LmOptions::default(),
+            naa_model,
+            ..Default::default()
+        };
+        let run = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| naa_sequence(&rest, &grid, &frames, &options, true))
+        };
+        let (a, b) = (run(1), run(2));
+        for (x, y) in a.iter().zip(&b) {
+            assert!(x.lm.iterations > 0);
+            assert_eq!(x.vertices, y.vertices, "{naa_model:?}");
+            assert_eq!(x.lm.energy.to_bits(), y.lm.energy.to_bits());
+        }
     }
+}
+
+#[test]
+fn newton_model_reaches_the_gauss_newton_minimum_in_fewer_iterations() {
+    // The saddle (the paper's nonaa-saddle scene), 6×6 lines (32 unknowns), 4×4 samples. Both
+    // models run LM to the default stop (relative energy change ≤ 1e-12); Gauss–Newton
+    // converges linearly with a ratio ≲ 0.5 here, so it stops within ≈ 1e-12·F of the minimum,
+    // and Newton closer: the final energies agree to 1e-9 relative (a different local
+    // minimum would differ by far more), in fewer Jacobian evaluations.
+    let scene = scene::analytic_scene("saddle", 2).unwrap();
+    let fields = scene.fields(64);
+    let surface = &scene.frames[1];
+    let frame = DeformedJacobian::from_partials(64, |s, t| scene::partials_of(&**surface, s, t));
+    let grid = Grid::uniform(6, 6);
+    let start = VertexGrid::from_grid(&grid);
+    let solve = |naa_model| {
+        let options = SolveOptions {
+            samples: (4, 4),
+            naa_model,
+            ..Default::default()
+        };
+        solve_naa_frame(
+            &fields.rest,
+            &grid,
+            &frame,
+            &start,
+            &start,
+            (0, 1),
+            &options,
+        )
+        .unwrap()
+    };
+    let (gn, newton) = (solve(NaaModel::GaussNewton), solve(NaaModel::Newton));
+    for s in [&gn, &newton] {
+        assert_eq!(s.lm.stop, reparam::lm::StopCode::RelativeEnergyChange);
+        assert!(s.lm.energy < 0.5 * s.rest_energy);
+        assert!(s.lm.accepted_energies.windows(2).all(|w| w[1] < w[0]));
+        assert_unfolded(&s.vertices);
+    }
+    assert!(
+        (gn.lm.energy - newton.lm.energy).abs() <= 1e-9 * gn.lm.energy,
+        "{} vs {}",
+        gn.lm.energy,
+        newton.lm.energy
+    );
+    assert!(
+        newton.lm.jacobian_evaluations < gn.lm.jacobian_evaluations,
+        "Newton {} vs Gauss–Newton {} Jacobians",
+        newton.lm.jacobian_evaluations,
+        gn.lm.jacobian_evaluations
+    );
 }
 
 #[test]

@@ -19,8 +19,8 @@ use reparam::gridwarp::remap::check_disjoint;
 use reparam::gridwarp::rigidity::{parse_discs, rigidity_from_texture, AutoRigidityOptions};
 use reparam::gridwarp::scene::{analytic_scene, disc_rigidity, partials_of, AnalyticScene, SCENES};
 use reparam::gridwarp::{
-    grid_from_rigidity, solve_naa_sequence, solve_sequence, AtlasRemap, Grid, Remap, SolveOptions,
-    VertexGrid, Warped,
+    grid_from_rigidity, solve_naa_sequence, solve_sequence, AtlasRemap, Grid, NaaModel, Remap,
+    SolveOptions, VertexGrid, Warped,
 };
 use reparam::gridwarp::{DeformedFields, Field, RestFields};
 use reparam::lm::{LmOptions, LmReport, StopCode};
@@ -106,6 +106,10 @@ pub struct GridwarpArgs {
     /// The paper's LM settings (all tolerances 0, 100 iterations) instead of the practical ones.
     #[arg(long)]
     pub paper: bool,
+    /// Non-axis-aligned variant only: LM on the model JᵀJ + Σ r∇²r (the residuals' curvature
+    /// too) instead of Gauss–Newton's JᵀJ; usually far fewer iterations.
+    #[arg(long)]
+    pub newton: bool,
     /// Output folder.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
@@ -133,6 +137,7 @@ impl Default for GridwarpArgs {
             samples: 8,
             smoothness: None,
             paper: false,
+            newton: false,
             out: PathBuf::from("out"),
             json: false,
         }
@@ -200,6 +205,9 @@ pub struct CombinedFrame {
 pub struct GridwarpResult {
     pub scene: String,
     pub variant: Variant,
+    /// LM's model Hessian for the non-axis-aligned variant (`--newton`; the axis-aligned one
+    /// always uses Gauss–Newton).
+    pub naa_model: NaaModel,
     pub rois: Vec<RoiResult>,
     pub combined: Vec<CombinedFrame>,
     /// The frame the render pictures show (the most stretched one before the warp).
@@ -240,6 +248,11 @@ fn solve_options(args: &GridwarpArgs) -> SolveOptions {
         },
         smoothness: args.smoothness,
         looping: false,
+        naa_model: if args.newton {
+            NaaModel::Newton
+        } else {
+            NaaModel::GaussNewton
+        },
     }
 }
 
@@ -247,6 +260,11 @@ fn check_sizes(args: &GridwarpArgs) -> Result<()> {
     if args.size < 2 || args.samples == 0 || args.frames == 0 {
         return Err(Error::InvalidArgument(
             "--size must be ≥ 2, --samples ≥ 1 and --frames ≥ 1".into(),
+        ));
+    }
+    if args.newton && args.variant == Variant::Aa {
+        return Err(Error::InvalidArgument(
+            "--newton applies to the non-axis-aligned variant only (add --variant naa)".into(),
         ));
     }
     Ok(())
@@ -291,6 +309,7 @@ pub fn solve_scene(args: &GridwarpArgs) -> Result<GridwarpResult> {
     Ok(GridwarpResult {
         scene: args.scene.clone(),
         variant: args.variant,
+        naa_model: solve_options(args).naa_model,
         combined: combine(std::slice::from_ref(&roi)),
         rois: vec![roi],
         pictured_frame: pictured,
@@ -602,6 +621,7 @@ fn solve_meshes(args: &GridwarpArgs) -> Result<GridwarpResult> {
     Ok(GridwarpResult {
         scene: stem,
         variant: args.variant,
+        naa_model: solve_options(args).naa_model,
         combined: combine(&results),
         rois: results,
         pictured_frame: pictured,

@@ -542,6 +542,9 @@ const fn upper_triangle<const N: usize, const T: usize>() -> [(usize, usize); T]
     out
 }
 
+/// The (p, q), p ≤ q, of an 8×8 block in the order of [`LaneSums`]'s JᵀJ entries.
+pub(super) const UPPER_8: [(usize, usize); 36] = upper_triangle::<8, 36>();
+
 /// Per-lane partial sums of a cell's F, Jᵀr and the T = N(N+1)/2 upper-triangle entries of
 /// JᵀJ over N slots: each lane accumulates its own samples (independent additions the
 /// compiler runs side by side in one vector register per entry), and the lanes are added in
@@ -555,7 +558,7 @@ pub(super) struct LaneSums<const N: usize, const T: usize> {
 }
 
 impl<const N: usize, const T: usize> LaneSums<N, T> {
-    const UPPER: [(usize, usize); T] = upper_triangle::<N, T>();
+    pub(super) const UPPER: [(usize, usize); T] = upper_triangle::<N, T>();
 
     pub(super) fn new() -> Self {
         LaneSums {

@@ -15,6 +15,7 @@
 //! | starting grid from R (Algorithm 1) | §4 | [`grid`] |
 //! | axis-aligned energy, analytic Jacobian | §5.1, appendix A | [`energy`] |
 //! | non-axis-aligned energy (bilinear cells), analytic Jacobian | §8 | [`energy_naa`] |
+//! | its optional second-order model JᵀJ + Σ r∇²r ([`NaaModel::Newton`]) | — | `energy_naa/curvature.rs` |
 //! | foldover / smoothness / looping bounds and their merge | §5.2 | [`bounds`] |
 //! | bound-constrained Levenberg–Marquardt, warm start | §5.3, §7 | [`solve`], [`crate::lm`] |
 //! | remapping F_s, F_t and inverses, inverse bilinear lookup, boundary blending, several ROIs | §6, §8, §10.2 | [`remap`] |
@@ -38,7 +39,9 @@ pub mod scene;
 pub mod solve;
 
 pub use energy::{AaEnergy, DeformedFields, RestFields, RestSamples};
-pub use energy_naa::{solve_naa_frame, DeformedJacobian, NaaEnergy, NaaFrameSolution, VertexGrid};
+pub use energy_naa::{
+    solve_naa_frame, DeformedJacobian, NaaEnergy, NaaFrameSolution, NaaModel, VertexGrid,
+};
 pub use field::Field;
 pub use grid::{grid_from_rigidity, Grid};
 pub use remap::{AtlasRemap, Remap, RemapOptions, Warped};

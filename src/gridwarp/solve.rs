@@ -6,13 +6,16 @@ use std::time::Instant;
 
 use super::bounds::{frame_bounds, BoundOptions};
 use super::energy::{AaEnergy, DeformedFields, RestFields, RestSamples};
-use super::energy_naa::{solve_naa_frame, DeformedJacobian, NaaFrameSolution, VertexGrid};
+use super::energy_naa::{
+    solve_naa_frame, DeformedJacobian, NaaFrameSolution, NaaModel, VertexGrid,
+};
 use super::grid::Grid;
 use crate::error::Result;
 use crate::lm::{minimize, Bounds, LmOptions, LmReport, Residuals};
 
 /// Options of a gridwarp solve. Defaults: 8×8 midpoint samples per cell, the practical LM
-/// preset ([`LmOptions::default`]), no smoothness bound, no looping.
+/// preset ([`LmOptions::default`]), no smoothness bound, no looping, the Gauss–Newton model for
+/// the non-axis-aligned energy.
 #[derive(Clone, Debug, Default)]
 pub struct SolveOptions {
     /// Midpoint-rule samples per cell (K, L); (0, 0) means the default 8×8.
@@ -22,6 +25,9 @@ pub struct SolveOptions {
     pub smoothness: Option<f64>,
     /// Treat the sequence as a loop (needs `smoothness`).
     pub looping: bool,
+    /// The non-axis-aligned energy's model Hessian ([`NaaModel`]; the AA energy always uses
+    /// Gauss–Newton).
+    pub naa_model: NaaModel,
 }
 
 impl SolveOptions {

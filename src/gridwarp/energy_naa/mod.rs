@@ -40,11 +40,17 @@
 //! entries is summed per lane and per axis over the cell's samples, then added in a fixed
 //! order ([`super::energy::cell_block_of`]), so the sums depend on the sample layout only.
 //!
+//! # Model Hessian
+//! LM's model uses JᵀJ by default (Gauss–Newton, the paper's); [`NaaModel::Newton`] adds
+//! S = Σ r∇²r, computed per cell like JᵀJ ([`curvature`]).
+//!
 //! # Validity
 //! det(∂W/∂α, ∂W/∂β) is bilinear in (α, β) (∂W/∂α depends on β only, ∂W/∂β on α only), so it
 //! is positive over the whole cell iff it is positive at the cell's 4 corners. A vertex grid with any corner
 //! determinant ≤ 0 has energy +∞ (a rejected LM trial). The per-coordinate foldover boxes of
 //! [`naa_bounds`] are not sufficient for this (the notes' counterexample), hence the check.
+
+mod curvature;
 
 use std::time::Instant;
 
@@ -278,6 +284,20 @@ pub struct NaaEnergy<'a> {
     lanes: SampleLanes,
     /// The six components of J_D interleaved per texel, when they share one resolution.
     packed: Option<PackedJacobian>,
+    /// What [`Residuals::normal_equations`] returns as "JᵀJ": see [`NaaModel`].
+    model: NaaModel,
+}
+
+/// The model Hessian the NAA energy hands to LM in place of JᵀJ.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum NaaModel {
+    /// JᵀJ: Gauss–Newton, the paper's (ALGLIB's Jacobian-only protocol). The default.
+    #[default]
+    GaussNewton,
+    /// JᵀJ + S, S = Σ r∇²r ([`curvature`]): the norm's curvature too, so far fewer iterations
+    /// where the fit leaves large residuals (ALGLIB's exact-Hessian protocol, in spirit). May be
+    /// indefinite: LM then damps more.
+    Newton,
 }
 
 /// The rest samples and weight slopes of [`NaaEnergy`] structure-of-arrays: cell c's samples
@@ -388,7 +408,14 @@ impl<'a> NaaEnergy<'a> {
             deformed,
             lanes: SampleLanes::new(&samples, &weight_slopes, per_cell),
             packed: PackedJacobian::new(deformed),
+            model: NaaModel::GaussNewton,
         }
+    }
+
+    /// Use `model` as LM's model Hessian ([`NaaModel`]; default Gauss–Newton).
+    pub fn with_model(mut self, model: NaaModel) -> Self {
+        self.model = model;
+        self
     }
 
     /// Let the non-corner border vertices slide along their edges (see the module docs).
@@ -553,7 +580,16 @@ impl<'a> NaaEnergy<'a> {
         for at in (first..first + self.lanes.padded).step_by(LANES) {
             chunks.push(self.chunk_residuals(jac, &warp, at));
         }
-        cell_block_of::<8, 36>(chunks)
+        let mut block = cell_block_of::<8, 36>(chunks);
+        if self.model == NaaModel::Newton {
+            let s = self.cell_curvature(jac, &warp, first, chunks);
+            for (row, s_row) in block.jtj.iter_mut().zip(&s) {
+                for (entry, s) in row.iter_mut().zip(s_row) {
+                    *entry += s;
+                }
+            }
+        }
+        block
     }
 
     /// `out[c] = cell_energy(first + c)`.
@@ -722,10 +758,16 @@ impl<'a> NaaEnergy<'a> {
         block[0]
     }
 
-    /// Fill `out` (one entry per cell) by `fill(first cell, part)`, in parallel tasks
-    /// ([`super::energy::for_each_task`]: the split depends on the problem size only).
-    fn per_cell<T: Send>(&self, out: &mut [T], fill: impl Fn(usize, &mut [T]) + Sync) {
-        for_each_task(out, self.lanes.padded, SAMPLES_PER_TASK, fill);
+    /// Fill `out` (one entry per cell) by `fill(first cell, part)`, in parallel tasks of
+    /// `samples_per_task` samples ([`super::energy::for_each_task`]: the split depends on the
+    /// problem size only).
+    fn per_cell<T: Send>(
+        &self,
+        out: &mut [T],
+        samples_per_task: usize,
+        fill: impl Fn(usize, &mut [T]) + Sync,
+    ) {
+        for_each_task(out, self.lanes.padded, samples_per_task, fill);
     }
 }
 
@@ -942,7 +984,7 @@ impl Residuals for NaaEnergy<'_> {
             return f64::INFINITY;
         }
         let mut per_cell = vec![0.0; self.cells()];
-        self.per_cell(&mut per_cell, |first, out| {
+        self.per_cell(&mut per_cell, ENERGY_SAMPLES_PER_TASK, |first, out| {
             self.fill_energies(&g, first, out)
         });
         per_cell.iter().sum()
@@ -961,7 +1003,9 @@ impl Residuals for NaaEnergy<'_> {
             };
         }
         let mut blocks = vec![LocalNormalEquations::default(); self.cells()];
-        self.per_cell(&mut blocks, |first, out| self.fill_blocks(&g, first, out));
+        self.per_cell(&mut blocks, BLOCK_SAMPLES_PER_TASK, |first, out| {
+            self.fill_blocks(&g, first, out)
+        });
         let slots: Vec<[Option<usize>; 8]> = (0..self.cells())
             .map(|c| self.cell_unknowns(&g, c))
             .collect();
@@ -969,10 +1013,16 @@ impl Residuals for NaaEnergy<'_> {
     }
 }
 
-/// Samples per parallel task ([`super::energy::for_each_task`]): tens of microseconds of work,
-/// enough to amortise handing a task to another thread (a sample costs a few times an
-/// axis-aligned one; results do not depend on it).
-const SAMPLES_PER_TASK: usize = 2048;
+/// Samples per parallel task of an energy-only evaluation ([`super::energy::for_each_task`]):
+/// tens of microseconds of work (≈ 15 ns a sample here), enough to amortise handing a task to
+/// another thread. Results do not depend on it.
+const ENERGY_SAMPLES_PER_TASK: usize = 2048;
+
+/// Samples per parallel task of a normal-equations evaluation: a sample's residuals, 16
+/// derivatives and 2 × 45 products cost about three times its energy (≈ 45 ns), so a task of
+/// the same tens of microseconds holds a quarter of the samples. With 8×8 samples the
+/// 48-unknown problem (35 cells, 2,240 samples) is thus split over the threads too.
+const BLOCK_SAMPLES_PER_TASK: usize = 512;
 
 /// Foldover interval of one coordinate: between the midpoints to the previous neighbours along
 /// that axis (with [`super::bounds::FOLDOVER_MARGIN`]); frozen at the current value if those
@@ -1080,7 +1130,8 @@ pub fn solve_naa_frame(
     }
     let (k, l) = options.samples_per_cell();
     let mut energy = NaaEnergy::new(rest, rest_grid, deformed, k, l)
-        .with_sliding_border(previous.sliding_border);
+        .with_sliding_border(previous.sliding_border)
+        .with_model(options.naa_model);
     let bound_options = options.bound_options(frame, frames);
     let bounds = naa_frame_bounds(previous, first, &bound_options);
     let rest_x = energy.rest_vertices().to_unknowns();
