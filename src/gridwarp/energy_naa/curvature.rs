@@ -41,6 +41,17 @@ struct LaneCoefficients {
     kappa: [f64; LANES],
 }
 
+/// [f(0), …, f(LANES − 1)] by a plain loop, always inlined (so that it is compiled with its
+/// caller's AVX-512, unlike an outlined `std::array::from_fn`).
+#[inline(always)]
+fn lanewise(f: impl Fn(usize) -> f64) -> [f64; LANES] {
+    let mut out = [0.0; LANES];
+    for (lane, v) in out.iter_mut().enumerate() {
+        *v = f(lane);
+    }
+    out
+}
+
 impl NaaEnergy<'_> {
     /// Add the r∇²r of the LANES samples from `at` on (both axes) to `sums`, given their
     /// residuals and derivatives `chunk` ([`NaaEnergy::chunk_residuals`]): first the per-sample
@@ -61,23 +72,13 @@ impl NaaEnergy<'_> {
         let [bs, bt, as_, at_] = s.slopes.each_ref().map(|v| lanes(v, at));
         // φ_c and φ'_c per lane (the same weights as the Jacobian's): corners 00, 10, 01, 11.
         let phi: [[f64; LANES]; 4] = [
-            std::array::from_fn(|l| (1.0 - alpha[l]) * (1.0 - beta[l])),
-            std::array::from_fn(|l| alpha[l] * (1.0 - beta[l])),
-            std::array::from_fn(|l| (1.0 - alpha[l]) * beta[l]),
-            std::array::from_fn(|l| alpha[l] * beta[l]),
+            lanewise(|l| (1.0 - alpha[l]) * (1.0 - beta[l])),
+            lanewise(|l| alpha[l] * (1.0 - beta[l])),
+            lanewise(|l| (1.0 - alpha[l]) * beta[l]),
+            lanewise(|l| alpha[l] * beta[l]),
         ];
-        let dphi_ds: [[f64; LANES]; 4] = [
-            std::array::from_fn(|l| -bs[l]),
-            *bs,
-            std::array::from_fn(|l| -bt[l]),
-            *bt,
-        ];
-        let dphi_dt: [[f64; LANES]; 4] = [
-            std::array::from_fn(|l| -as_[l]),
-            std::array::from_fn(|l| -at_[l]),
-            *as_,
-            *at_,
-        ];
+        let dphi_ds: [[f64; LANES]; 4] = [lanewise(|l| -bs[l]), *bs, lanewise(|l| -bt[l]), *bt];
+        let dphi_dt: [[f64; LANES]; 4] = [lanewise(|l| -as_[l]), lanewise(|l| -at_[l]), *as_, *at_];
         let coefficients = self.chunk_coefficients(jac, warp, at);
         for (axis, (k, dphi)) in coefficients.iter().zip([dphi_ds, dphi_dt]).enumerate() {
             let d = &chunk.d[axis];
@@ -98,8 +99,10 @@ impl NaaEnergy<'_> {
                     }
                 }
             }
-            let kappa_d: [[f64; LANES]; 8] =
-                std::array::from_fn(|a| std::array::from_fn(|lane| k.kappa[lane] * d[a][lane]));
+            let mut kappa_d = [[0.0; LANES]; 8];
+            for (kappa_d, d) in kappa_d.iter_mut().zip(d) {
+                *kappa_d = lanewise(|lane| k.kappa[lane] * d[lane]);
+            }
             // Entry e = (a, b), a ≤ b, in the order of UPPER_8 (row by row).
             let mut e = 0;
             for (a, kappa_d_a) in kappa_d.iter().enumerate() {
