@@ -35,6 +35,11 @@
 //! (skinned Full/Mohr) is kept with its queue entry so that the popped edge is not evaluated a
 //! second time; the rest-pose method queues edges by the QEM value alone
 //! ([`super::cost::rest_position`]) and chooses the weights only for the edge it collapses.
+//! The faces and UV wedges of every vertex are lists in one flat arena ([`super::lists`]), not
+//! one heap block each. [`Schedule::Passes`] tries edges in cost order, all over the mesh, so
+//! nearly every try starts with cache misses; it knows the next edges, though, and prefetches
+//! their data a few tries ahead, in steps (vertex data, then face lists, then faces, then
+//! the faces' vertices: [`State::prefetch_vertices`] and the following).
 //! None of this changes a bit of the greedy result (a test pins the records' hash).
 
 use std::borrow::Cow;
@@ -47,6 +52,7 @@ use super::cost::{
     reduce_weights, rest_position, rest_value, Candidates, EdgeProblem,
 };
 use super::hierarchy::{CollapseRecord, Hierarchy};
+use super::lists::{prefetch, Lists};
 use super::quadric::{edge_constraint, unit_normal, Quadric};
 use super::queue::{Entry, Queue};
 use super::weights::{largest_support, Weights, MAX_CANDIDATES};
@@ -142,6 +148,8 @@ fn passes(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usi
             blocks: &last.blocks,
             changed: &changed,
         });
+        // The lists of the vertices in vertex order again, as the scoring reads them.
+        state.vertex_faces.compact();
         state.scored_edges(reuse.as_ref(), &mut scored);
         changed.fill(false);
         let goal = state.alive_count - target;
@@ -151,7 +159,24 @@ fn passes(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usi
         let least = (goal / 10).max(wanted / 100);
         merged.fill(false);
         let mut done = 0;
-        for (cost, a, b) in &mut order {
+        while let Some((cost, a, b)) = order.next() {
+            // Ask for the data of the edges a few places ahead (only a hint: it changes nothing),
+            // from the second step on only for those not skipped (so far) in this pass.
+            if let Some((x, y)) = order.ahead(PREFETCH_VERTICES) {
+                prefetch(&merged[x]);
+                prefetch(&merged[y]);
+                state.prefetch_vertices(x, y);
+            }
+            let unmerged = |d| order.ahead(d).filter(|&(x, y)| !merged[x] && !merged[y]);
+            if let Some((x, y)) = unmerged(PREFETCH_LISTS) {
+                state.prefetch_lists(x, y);
+            }
+            if let Some((x, y)) = unmerged(PREFETCH_FACES) {
+                state.prefetch_faces(x, y);
+            }
+            if let Some((x, y)) = unmerged(PREFETCH_NEIGHBOURS) {
+                state.prefetch_neighbours(x, y, &scratch.stars);
+            }
             if state.alive_count <= target || !cost.is_finite() {
                 break;
             }
@@ -180,6 +205,16 @@ fn passes(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usi
         have_last = true;
     }
 }
+
+/// How many edges ahead of its try [`passes`] asks for an edge's vertex data
+/// ([`State::prefetch_vertices`]), then (once that has arrived) for its face lists
+/// ([`State::prefetch_lists`]), then for its faces ([`State::prefetch_faces`]), then for
+/// the data of their vertices ([`State::prefetch_neighbours`]): each step reads what the one
+/// before brought in.
+const PREFETCH_VERTICES: usize = 32;
+const PREFETCH_LISTS: usize = 16;
+const PREFETCH_FACES: usize = 8;
+const PREFETCH_NEIGHBOURS: usize = 4;
 
 /// Vertices per block of [`State::scored_edges`] (the unit of its parallel work).
 const BLOCK: usize = 4096;
@@ -324,6 +359,16 @@ impl PassOrder {
     /// The fewest keys [`PassOrder::sort_next_part`] sorts at once.
     const MIN_PART: usize = 1024;
 
+    /// The edge `(a, b)` `d ≥ 1` places after the last one handed out, if already sorted (only
+    /// a hint of what comes: for [`passes`] to prefetch).
+    fn ahead(&self, d: usize) -> Option<(usize, usize)> {
+        let i = self.at + d - 1;
+        (i < self.sorted).then(|| {
+            let (_, a, b) = key_edge(self.keys[i]);
+            (a, b)
+        })
+    }
+
     /// Sort the next part of the keys: the smallest `max(MIN_PART, sorted)` of those not
     /// sorted yet (all of them if fewer), picked by a selection, O(n), and sorted alone. A
     /// pass that goes on past its first part usually stops soon after (at the first edge of
@@ -411,8 +456,7 @@ struct Scratch {
     stars: Stars,
     /// Opposite vertices of the faces removed by the last collapse.
     opposite: Vec<u32>,
-    /// A face list, swapped with the kept vertex's when a collapse merges the two lists (the
-    /// larger of the two old lists is kept, so that merges seldom have to grow it).
+    /// A list buffer: the merged face list of a collapse, the wedges of a vertex.
     faces: Vec<u32>,
     /// The memory of a skinned candidate's positions in the check poses ([`State::pose`]),
     /// handed back after the flip check or the collapse has read them.
@@ -508,6 +552,11 @@ impl Stars {
                 list[mark[1] as usize].1.push(f);
             }
         }
+    }
+
+    /// Prefetch ([`prefetch`]) the marks of `x`.
+    fn prefetch(&self, x: usize) {
+        prefetch(&self.mark[x]);
     }
 
     /// The neighbours of the star on `side`, with the faces on their edges.
@@ -614,11 +663,12 @@ struct State<'a> {
     faces: Vec<[u32; 3]>,
     uv_faces: Vec<[u32; 3]>,
     face_alive: Vec<bool>,
-    vertex_faces: Vec<Vec<u32>>,
+    /// The alive faces of each vertex, sorted (in face order), in one arena ([`Lists`]).
+    vertex_faces: Lists,
     /// The distinct UV indices (wedges) of each vertex over its alive faces, sorted; kept up to
     /// date by [`State::collapse`] so that [`State::wedges_covered`] costs O(wedges), not
     /// O(valence) (empty without UVs).
-    wedges: Vec<Vec<u32>>,
+    wedges: Lists,
     alive: Vec<bool>,
     version: Vec<u32>,
     locked: Vec<bool>,
@@ -736,7 +786,7 @@ impl<'a> State<'a> {
             face_alive: vec![true; faces.len()],
             faces,
             uv_faces,
-            wedges: vec![Vec::new(); n],
+            wedges: Lists::empty(n),
             vertex_faces,
             alive: vec![true; n],
             version: vec![0; n],
@@ -746,10 +796,57 @@ impl<'a> State<'a> {
             records: Vec::new(),
             start,
         };
+        let mut scratch = Vec::new();
         for v in 0..n {
-            state.refresh_wedges(v);
+            state.refresh_wedges(v, &mut scratch);
         }
         state
+    }
+
+    /// Prefetch ([`prefetch`]) the per-vertex data a try of edge `(a, b)` reads first.
+    fn prefetch_vertices(&self, a: usize, b: usize) {
+        for v in [a, b] {
+            self.vertex_faces.prefetch_span(v);
+            self.wedges.prefetch_span(v);
+            prefetch(&self.quadrics[v * self.quad_poses]);
+            prefetch(&self.rest[v]);
+            prefetch(&self.locked[v]);
+        }
+    }
+
+    /// Prefetch ([`prefetch`]) the face lists of `a` and `b`.
+    fn prefetch_lists(&self, a: usize, b: usize) {
+        self.vertex_faces.prefetch_items(a);
+        self.vertex_faces.prefetch_items(b);
+    }
+
+    /// Prefetch ([`prefetch`]) the faces of `a` and `b`.
+    fn prefetch_faces(&self, a: usize, b: usize) {
+        for v in [a, b] {
+            for &f in self.vertex_faces.get(v) {
+                prefetch(&self.faces[f as usize]);
+            }
+        }
+    }
+
+    /// Prefetch ([`prefetch`]) what a try of edge `(a, b)` reads of each face around `a` and
+    /// `b` and of its vertices: UV corners, alive flag, positions in the check poses, marks in
+    /// `stars`.
+    fn prefetch_neighbours(&self, a: usize, b: usize, stars: &Stars) {
+        let c = self.check_poses;
+        for v in [a, b] {
+            for &f in self.vertex_faces.get(v) {
+                let f = f as usize;
+                if let Some(uv) = self.uv_faces.get(f) {
+                    prefetch(uv);
+                }
+                prefetch(&self.face_alive[f]);
+                for x in self.faces[f] {
+                    prefetch(&self.check_pos[x as usize * c]);
+                    stars.prefetch(x as usize);
+                }
+            }
+        }
     }
 
     /// Whether `entry` was computed with the endpoints' current versions.
@@ -797,7 +894,7 @@ impl<'a> State<'a> {
         mut visit: impl FnMut(usize, EdgeFaces),
     ) {
         fan.clear();
-        for &f in &self.vertex_faces[a] {
+        for &f in self.vertex_faces.get(a) {
             fan.extend(
                 self.faces[f as usize]
                     .iter()
@@ -877,7 +974,7 @@ impl<'a> State<'a> {
     /// ([`super::queue`]).
     fn requeue_around(&self, a: usize, queue: &mut Queue<Scored>, scratch: &mut Scratch) {
         let stars = &mut scratch.stars;
-        stars.gather(0, a, &self.vertex_faces[a], &self.faces);
+        stars.gather(0, a, self.vertex_faces.get(a), &self.faces);
         let score = |&(n, on_edge): &(u32, EdgeFaces)| {
             let n = n as usize;
             self.score(a.min(n), a.max(n), on_edge)
@@ -998,13 +1095,13 @@ impl<'a> State<'a> {
     /// Alive faces containing both `a` and `b`, in face order (found in the shorter of the
     /// two face lists).
     fn faces_on_edge(&self, a: usize, b: usize) -> EdgeFaces {
-        let (short, other) = if self.vertex_faces[a].len() <= self.vertex_faces[b].len() {
+        let (short, other) = if self.vertex_faces.get(a).len() <= self.vertex_faces.get(b).len() {
             (a, b)
         } else {
             (b, a)
         };
         let mut out = EdgeFaces::default();
-        for &f in &self.vertex_faces[short] {
+        for &f in self.vertex_faces.get(short) {
             if self.faces[f as usize].contains(&(other as u32)) {
                 out.push(f);
             }
@@ -1014,7 +1111,7 @@ impl<'a> State<'a> {
 
     /// Whether an alive face has exactly the vertices `{x, y, z}`.
     fn has_face(&self, x: usize, y: usize, z: usize) -> bool {
-        self.vertex_faces[x].iter().any(|&f| {
+        self.vertex_faces.get(x).iter().any(|&f| {
             let t = self.faces[f as usize];
             t.contains(&(y as u32)) && t.contains(&(z as u32))
         })
@@ -1037,8 +1134,8 @@ impl<'a> State<'a> {
             return None;
         }
         let stars = &mut scratch.stars;
-        stars.gather(0, a, &self.vertex_faces[a], &self.faces);
-        stars.gather(1, b, &self.vertex_faces[b], &self.faces);
+        stars.gather(0, a, self.vertex_faces.get(a), &self.faces);
+        stars.gather(1, b, self.vertex_faces.get(b), &self.faces);
         if !self.link_condition(a, b, on_edge.faces(), stars) {
             return None;
         }
@@ -1115,7 +1212,7 @@ impl<'a> State<'a> {
 
     /// Whether every UV wedge of `v` appears at `v` on a face of the edge (`end` 0: `v = a`).
     fn wedges_covered(&self, v: usize, sides: &[(u32, u32)], end: usize) -> bool {
-        self.wedges[v].iter().all(|&u| {
+        self.wedges.get(v).iter().all(|&u| {
             sides
                 .iter()
                 .any(|s| if end == 0 { s.0 == u } else { s.1 == u })
@@ -1123,38 +1220,36 @@ impl<'a> State<'a> {
     }
 
     /// Recompute the sorted distinct UV indices of `v` over its alive faces (empty without
-    /// UVs), in place.
-    fn refresh_wedges(&mut self, v: usize) {
+    /// UVs); `out` is a buffer.
+    fn refresh_wedges(&mut self, v: usize, out: &mut Vec<u32>) {
         if self.uv_faces.is_empty() {
             return;
         }
-        let mut out = std::mem::take(&mut self.wedges[v]);
         out.clear();
-        for &f in &self.vertex_faces[v] {
-            insert_sorted(&mut out, self.corner_uv(f, v));
+        for &f in self.vertex_faces.get(v) {
+            insert_sorted(out, self.corner_uv(f, v));
         }
-        self.wedges[v] = out;
+        self.wedges.replace(v, out);
     }
 
     /// [`State::refresh_wedges`] of `v` after it lost faces: a vertex with one wedge keeps it
     /// while it has faces left (all its faces had that UV), so only one with several wedges (on
     /// a UV seam) or without faces needs its faces scanned again.
-    fn wedges_after_losing_faces(&mut self, v: usize) {
-        if self.wedges[v].len() == 1 && !self.vertex_faces[v].is_empty() {
+    fn wedges_after_losing_faces(&mut self, v: usize, out: &mut Vec<u32>) {
+        if self.wedges.get(v).len() == 1 && !self.vertex_faces.get(v).is_empty() {
             return;
         }
-        self.refresh_wedges(v);
+        self.refresh_wedges(v, out);
     }
 
     /// Apply a collapse's UV `map` (old → new index) at the merged vertex `a` of each of its
     /// faces, and recompute its wedges ([`State::refresh_wedges`]) on the way.
-    fn remap_uvs(&mut self, a: usize, map: &[(u32, u32)]) {
+    fn remap_uvs(&mut self, a: usize, map: &[(u32, u32)], out: &mut Vec<u32>) {
         if self.uv_faces.is_empty() {
             return;
         }
-        let mut out = std::mem::take(&mut self.wedges[a]);
         out.clear();
-        for &f in &self.vertex_faces[a] {
+        for &f in self.vertex_faces.get(a) {
             let k = self.faces[f as usize]
                 .iter()
                 .position(|&x| x as usize == a)
@@ -1163,9 +1258,9 @@ impl<'a> State<'a> {
             if let Some(&(_, new)) = map.iter().find(|m| m.0 == *u) {
                 *u = new;
             }
-            insert_sorted(&mut out, *u);
+            insert_sorted(out, *u);
         }
-        self.wedges[a] = out;
+        self.wedges.replace(a, out);
     }
 
     /// Condition 4 of the module docs: how the edge may collapse for the UVs. `Free` when both
@@ -1243,7 +1338,7 @@ impl<'a> State<'a> {
     fn flip_free(&self, a: usize, b: usize, candidate: &Candidate) -> bool {
         let c = self.check_poses;
         for &v in &[a, b] {
-            for &f in &self.vertex_faces[v] {
+            for &f in self.vertex_faces.get(v) {
                 let t = self.faces[f as usize];
                 if t.contains(&(a as u32)) && t.contains(&(b as u32)) {
                     continue;
@@ -1290,10 +1385,9 @@ impl<'a> State<'a> {
             self.quadrics[a * p + j].add_assign(&qb);
         }
         // `a` keeps its alive faces and takes `b`'s others; the faces on the edge die.
-        let faces_b = std::mem::take(&mut self.vertex_faces[b]);
         let opposite = &mut scratch.opposite;
         opposite.clear();
-        for &f in &faces_b {
+        for &f in self.vertex_faces.get(b) {
             let t = &mut self.faces[f as usize];
             if t.contains(&(a as u32)) {
                 self.face_alive[f as usize] = false;
@@ -1311,29 +1405,23 @@ impl<'a> State<'a> {
             }
         }
         let alive = |f: &&u32| self.face_alive[**f as usize];
-        let mut merged = std::mem::take(&mut scratch.faces);
-        let faces_a = &self.vertex_faces[a];
-        merged.clear();
-        merged.reserve(faces_a.len() + faces_b.len());
         merge_sorted(
-            faces_a.iter().filter(alive),
-            faces_b.iter().filter(alive),
-            &mut merged,
+            self.vertex_faces.get(a).iter().filter(alive),
+            self.vertex_faces.get(b).iter().filter(alive),
+            &mut scratch.faces,
         );
-        scratch.faces = std::mem::replace(&mut self.vertex_faces[a], merged);
-        if faces_b.capacity() > scratch.faces.capacity() {
-            scratch.faces = faces_b;
-        }
-        self.remap_uvs(a, &plan.map);
+        self.vertex_faces.replace(a, &scratch.faces);
+        self.vertex_faces.clear(b);
+        self.remap_uvs(a, &plan.map, &mut scratch.faces);
         // The faces on the edge also leave their opposite vertices' lists.
         for &x in opposite.iter() {
             let alive = &self.face_alive;
-            self.vertex_faces[x as usize].retain(|&f| alive[f as usize]);
+            self.vertex_faces.retain(x as usize, |f| alive[f as usize]);
         }
         for &x in &scratch.opposite {
-            self.wedges_after_losing_faces(x as usize);
+            self.wedges_after_losing_faces(x as usize, &mut scratch.faces);
         }
-        self.wedges[b].clear();
+        self.wedges.clear(b);
         self.uvs.extend_from_slice(&plan.new_uvs);
         self.alive[b] = false;
         self.version[a] += 1;
@@ -1409,19 +1497,14 @@ fn clean_faces(mesh: &crate::mesh::TriMesh) -> CleanFaces {
     (faces, uv_faces, uvs)
 }
 
-/// The faces of every vertex, in face order (each list allocated once, at its length).
-fn vertex_face_lists(faces: &[[u32; 3]], n: usize) -> Vec<Vec<u32>> {
-    let mut count = vec![0usize; n];
-    for &v in faces.iter().flatten() {
-        count[v as usize] += 1;
-    }
-    let mut lists: Vec<Vec<u32>> = count.into_iter().map(Vec::with_capacity).collect();
-    for (f, t) in faces.iter().enumerate() {
-        for &v in t {
-            lists[v as usize].push(f as u32);
-        }
-    }
-    lists
+/// The faces of every vertex, in face order.
+fn vertex_face_lists(faces: &[[u32; 3]], n: usize) -> Lists {
+    Lists::from_pairs(n, || {
+        faces
+            .iter()
+            .enumerate()
+            .flat_map(|(f, t)| t.map(|v| (v, f as u32)))
+    })
 }
 
 /// One side of an edge: its ends `lo ≤ hi` and where it lies, `3 f + e` (local edge `e` of

@@ -30,6 +30,7 @@ pub mod glb;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod hierarchy;
+mod lists;
 pub mod picture;
 pub mod poses;
 pub mod quadric;
