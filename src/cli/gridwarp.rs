@@ -107,7 +107,8 @@ pub struct GridwarpArgs {
     #[arg(long)]
     pub paper: bool,
     /// Non-axis-aligned variant only: LM on the model JᵀJ + Σ r∇²r (the residuals' curvature
-    /// too) instead of Gauss–Newton's JᵀJ; usually far fewer iterations.
+    /// too) instead of Gauss–Newton's JᵀJ: far fewer iterations on most scenes, more on some
+    /// (the worm).
     #[arg(long)]
     pub newton: bool,
     /// Output folder.

@@ -1,4 +1,4 @@
-//! The second-order term of the non-axis-aligned model Hessian, opt-in ([`NaaModel::Newton`]):
+//! The second-order term of the non-axis-aligned model Hessian, opt-in ([`super::NaaModel::Newton`]):
 //! S = Σ_k r_k ∇²r_k, added to JᵀJ so that each LM step minimises the quadratic model
 //! F + 2gᵀh + hᵀ(JᵀJ + S)h of F = Σ r² (exactly ½∇²F = JᵀJ + S), not the Gauss–Newton one.
 //!
@@ -6,8 +6,9 @@
 //! The NAA residual r = σ(‖q‖ − o), q = J_D(p) W, is a norm: its curvature (I − uuᵀ)/‖q‖ is
 //! large wherever ‖q‖ is far from o, and Gauss–Newton (JᵀJ alone) drops it. On the saddle the
 //! accepted steps then shrink the energy gap by a near-constant factor (linear convergence, tens
-//! of iterations at 192 and 288 unknowns). With S the iteration counts fall (see the bench). The
-//! paper uses ALGLIB's Jacobian-only protocol, so this model is an option, not the default; LM
+//! of iterations at 192 and 288 unknowns). With S the iteration counts fall on the saddle, bump
+//! and plane, not on the worm ([`super::NaaModel::Newton`] lists them; bench
+//! `gridwarp_naa_frame_newton`). The paper uses ALGLIB's Jacobian-only protocol, so this model is an option, not the default; LM
 //! needs no change for it: a trial whose damped model is not positive definite fails its box QP
 //! or predicts no decrease, and both count as a rejected trial (λ grows).
 //!
