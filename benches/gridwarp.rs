@@ -10,7 +10,8 @@
 //!   `solve_frame` that builds them itself.
 //! - Non-axis-aligned: 48, 192 and 288 unknowns ((M−2)(N−2)·2, fixed border) on the saddle.
 //! - Non-axis-aligned again with the second-order model JᵀJ + Σ r∇²r (`NaaModel::Newton`,
-//!   `gridwarp_naa_frame_newton`), 8×8 samples.
+//!   `gridwarp_naa_frame_newton`) and with the per-iteration choice between the two models
+//!   (`NaaModel::Adaptive`, `gridwarp_naa_frame_adaptive`), 8×8 samples.
 //! - Each at 8×8 midpoint samples per cell (the default) and 4×4. The paper does not give its
 //!   sample count; the printed line gives the final energy re-evaluated with 8×8 samples so the
 //!   two can be compared at equal quality.
@@ -180,39 +181,45 @@ fn bench_naa(c: &mut Criterion) {
         }
     }
     group.finish();
-    // The same solves with the second-order model JᵀJ + Σ r∇²r (`NaaModel::Newton`), 8×8.
-    let mut group = c.benchmark_group("gridwarp_naa_frame_newton");
-    group.sample_size(10);
-    for (m, n) in NAA_SIZES {
-        let grid = Grid::uniform(m, n);
-        let vertices = VertexGrid::from_grid(&grid);
-        let options = SolveOptions {
-            naa_model: NaaModel::Newton,
-            ..options(8)
-        };
-        let solve = || {
-            solve_naa_frame(
-                &fields.rest,
-                &grid,
-                &deformed,
-                &vertices,
-                &vertices,
-                (0, 1),
-                &options,
-            )
-        };
-        let once = solve().unwrap();
-        let judged = NaaEnergy::new(&fields.rest, &grid, &deformed, 8, 8).energy(&once.lm.x);
-        let name = format!("{}_unknowns_8x8_samples", once.lm.x.len());
-        print_once(
-            &format!("naa newton {name}"),
-            &once.lm,
-            once.rest_energy,
-            judged,
-        );
-        group.bench_function(name, |b| b.iter(|| black_box(solve().unwrap())));
+    // The same solves with the second-order model JᵀJ + Σ r∇²r (`NaaModel::Newton`) and with
+    // the per-iteration choice between the two (`NaaModel::Adaptive`), 8×8.
+    for (group_name, model) in [
+        ("gridwarp_naa_frame_newton", NaaModel::Newton),
+        ("gridwarp_naa_frame_adaptive", NaaModel::Adaptive),
+    ] {
+        let mut group = c.benchmark_group(group_name);
+        group.sample_size(10);
+        for (m, n) in NAA_SIZES {
+            let grid = Grid::uniform(m, n);
+            let vertices = VertexGrid::from_grid(&grid);
+            let options = SolveOptions {
+                naa_model: model,
+                ..options(8)
+            };
+            let solve = || {
+                solve_naa_frame(
+                    &fields.rest,
+                    &grid,
+                    &deformed,
+                    &vertices,
+                    &vertices,
+                    (0, 1),
+                    &options,
+                )
+            };
+            let once = solve().unwrap();
+            let judged = NaaEnergy::new(&fields.rest, &grid, &deformed, 8, 8).energy(&once.lm.x);
+            let name = format!("{}_unknowns_8x8_samples", once.lm.x.len());
+            print_once(
+                &format!("naa {model:?} {name}"),
+                &once.lm,
+                once.rest_energy,
+                judged,
+            );
+            group.bench_function(name, |b| b.iter(|| black_box(solve().unwrap())));
+        }
+        group.finish();
     }
-    group.finish();
 }
 
 criterion_group!(benches, bench_aa, bench_aa_gpu, bench_naa);

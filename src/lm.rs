@@ -67,6 +67,13 @@
 //! box QP's factorisation fails or pred ≤ 0, which counts as a rejected trial (λ grows until
 //! A + λI is positive definite on the free variables).
 //!
+//! A problem may instead offer S = Σ r_k∇²r_k apart ([`Residuals::curvature`]); LM then picks
+//! the model per iteration by NL2SOL's rule (Dennis, Gay & Welsch, ACM TOMS 7(3), 1981, §3):
+//! it starts with A = JᵀJ, and after each accepted step h (actual decrease F − F_t) it compares
+//! the predicted decreases of both models for that h, pred_GN = −hᵀ(2g + JᵀJ h) and
+//! pred_S = pred_GN − hᵀSh, and uses A = JᵀJ + S for the next step iff |F − F_t − pred_S| <
+//! |F − F_t − pred_GN|. The gain ratio ρ stays that of the model the step was computed with.
+//!
 //! # Differences from ALGLIB `minlm`, on purpose
 //! - Step and gradient tests use the max-norm, not the Euclidean norm; the energy test is
 //!   relative to F alone, not to max(|F|, |F_t|, 1) (the grid-warp energies are ≪ 1).
@@ -117,6 +124,12 @@ pub trait Residuals {
     fn energy(&mut self, x: &[f64]) -> f64;
     /// F(x), JᵀJ (n×n) and Jᵀr (n) at x. Only called at x₀ and at accepted points.
     fn normal_equations(&mut self, x: &[f64]) -> NormalEquations;
+    /// S = Σ_k r_k ∇²r_k at x (n×n, symmetric), if the problem offers it for an adaptive model
+    /// (module docs, "Other model Hessians"); called right after
+    /// [`Residuals::normal_equations`] at the same x. The default: None (Gauss–Newton only).
+    fn curvature(&mut self, _x: &[f64]) -> Option<DMatrix<f64>> {
+        None
+    }
 }
 
 /// F, JᵀJ and Jᵀr at one point.
@@ -457,10 +470,13 @@ pub fn minimize(
 
     let mut damping = Damping::initial(&ne.jtj);
     let mut ne = ne;
+    let mut curvature = problem.curvature(&run.x);
+    let mut second_order = false;
     loop {
+        let model = model_hessian(&ne, curvature.as_ref().filter(|_| second_order));
         let (x_new, energy_new, rho) = match accepted_step(
             problem,
-            &ne,
+            &model,
             &mut run,
             &lower,
             &upper,
@@ -471,6 +487,10 @@ pub fn minimize(
             Trial::SmallStep => return Ok(run.finish(StopCode::SmallStep)),
             Trial::NoProgress => return Ok(run.finish(StopCode::NoProgress)),
         };
+        if let Some(s) = &curvature {
+            second_order =
+                second_order_predicts_better(&ne, s, &run.x, &x_new, run.energy - energy_new);
+        }
         let relative_change = relative_energy_change(run.energy, energy_new);
         run.x = x_new;
         run.energy = energy_new;
@@ -492,12 +512,43 @@ pub fn minimize(
         }
 
         ne = problem.normal_equations(&run.x);
+        curvature = problem.curvature(&run.x);
         run.jacobian_evaluations += 1;
         check_normal_equations(&ne, n, "an accepted point")?;
         if small_gradient(&ne.jtr, &run.x, &lower, &upper, options.epsg) {
             return Ok(run.finish(StopCode::SmallGradient));
         }
     }
+}
+
+/// The normal equations with the model Hessian A: JᵀJ, or JᵀJ + S given `curvature` S.
+fn model_hessian<'a>(
+    ne: &'a NormalEquations,
+    curvature: Option<&DMatrix<f64>>,
+) -> std::borrow::Cow<'a, NormalEquations> {
+    match curvature {
+        None => std::borrow::Cow::Borrowed(ne),
+        Some(s) => std::borrow::Cow::Owned(NormalEquations {
+            energy: ne.energy,
+            jtj: &ne.jtj + s,
+            jtr: ne.jtr.clone(),
+        }),
+    }
+}
+
+/// NL2SOL's model choice (module docs, "Other model Hessians"): whether JᵀJ + S predicted the
+/// actual decrease of the step x → x_new better than JᵀJ did.
+fn second_order_predicts_better(
+    ne: &NormalEquations,
+    s: &DMatrix<f64>,
+    x: &[f64],
+    x_new: &[f64],
+    actual: f64,
+) -> bool {
+    let h = DVector::from_iterator(x.len(), x_new.iter().zip(x).map(|(a, b)| a - b));
+    let gauss_newton = predicted_decrease(&ne.jtj, &ne.jtr, &h);
+    let second_order = gauss_newton - h.dot(&(s * &h));
+    (actual - second_order).abs() < (actual - gauss_newton).abs()
 }
 
 /// The state of a run, turned into an [`LmReport`] when it stops.

@@ -52,17 +52,21 @@ fn json(stdout: &str) -> serde_json::Value {
 
 #[test]
 fn naa_scene_reports_every_frame_and_lowers_the_energy() {
-    for (flag, model) in [(None, "GaussNewton"), (Some("--newton"), "Newton")] {
+    for (flag, model) in [
+        (None, "GaussNewton"),
+        (Some("newton"), "Newton"),
+        (Some("adaptive"), "Adaptive"),
+    ] {
         naa_scene_with_model(flag, model);
     }
 }
 
 #[test]
-fn newton_without_the_naa_variant_is_an_error() {
-    let (ok, _, stderr) = reparam(&["gridwarp", "--scene", "plane", "--newton"]);
+fn naa_model_without_the_naa_variant_is_an_error() {
+    let (ok, _, stderr) = reparam(&["gridwarp", "--scene", "plane", "--naa-model", "newton"]);
     assert!(!ok);
     assert!(
-        stderr.contains("--newton") && stderr.contains("--variant naa"),
+        stderr.contains("--naa-model") && stderr.contains("--variant naa"),
         "{stderr}"
     );
 }
@@ -86,7 +90,9 @@ fn naa_scene_with_model(flag: Option<&str>, model: &str) {
         out,
         "--json",
     ];
-    args.extend(flag);
+    if let Some(flag) = flag {
+        args.extend(["--naa-model", flag]);
+    }
     let (ok, stdout, stderr) = reparam(&args);
     assert!(ok, "{stderr}");
     let v = json(&stdout);

@@ -202,6 +202,18 @@ fn newton_model_is_the_derivative_of_the_gradient() {
     }
     let s = (&model.jtj - &gn.jtj).abs().max();
     assert!(s > 1e-2, "S is not trivially small here: {s}");
+    // The adaptive model hands LM JᵀJ and S apart: the same matrices, summed in another
+    // order (per cell then over cells, against over cells then added): 1e-12 relative.
+    let mut adaptive = NaaEnergy::new(&rest, &grid, &frame, 4, 3).with_model(NaaModel::Adaptive);
+    let apart = adaptive.normal_equations(&x);
+    assert_eq!(apart.jtj, gn.jtj);
+    let curvature = adaptive
+        .curvature(&x)
+        .expect("S after the normal equations");
+    let scale = model.jtj.abs().max();
+    assert!((&apart.jtj + curvature - &model.jtj).abs().max() <= 1e-12 * scale);
+    assert!(adaptive.curvature(&x).is_none(), "handed over once");
+    assert!(gauss_newton.curvature(&x).is_none());
 }
 
 #[test]
@@ -298,7 +310,7 @@ fn solves_keep_every_cell_unfolded_and_lower_the_energy() {
     let rest = flat_rest(64, rigidity);
     let frames: Vec<_> = [1.8, 2.5].iter().map(|&s| bent_stretch(64, s)).collect();
     for sliding in [false, true] {
-        for naa_model in [NaaModel::GaussNewton, NaaModel::Newton] {
+        for naa_model in [NaaModel::GaussNewton, NaaModel::Newton, NaaModel::Adaptive] {
             let options = SolveOptions {
                 naa_model,
                 ..Default::default()
@@ -363,7 +375,7 @@ fn results_are_bit_identical_with_one_and_two_threads() {
     let grid = grid_from_rigidity(&rigidity, 0.5);
     let rest = flat_rest(64, rigidity);
     let frames = vec![bent_stretch(64, 2.0)];
-    for naa_model in [NaaModel::GaussNewton, NaaModel::Newton] {
+    for naa_model in [NaaModel::GaussNewton, NaaModel::Newton, NaaModel::Adaptive] {
         let options = SolveOptions {
             samples: (4, 4),
             lm: LmOptions::default(),
@@ -387,7 +399,7 @@ fn results_are_bit_identical_with_one_and_two_threads() {
 }
 
 #[test]
-fn newton_model_reaches_the_gauss_newton_minimum_in_fewer_iterations() {
+fn second_order_models_reach_the_gauss_newton_minimum_in_fewer_iterations() {
     // The saddle (the paper's nonaa-saddle scene), 6×6 lines (32 unknowns), 4×4 samples. Both
     // models run LM to the default stop (relative energy change ≤ 1e-12); Gauss–Newton
     // converges linearly with a ratio ≲ 0.5 here, so it stops within ≈ 1e-12·F of the minimum,
@@ -416,8 +428,12 @@ fn newton_model_reaches_the_gauss_newton_minimum_in_fewer_iterations() {
         )
         .unwrap()
     };
-    let (gn, newton) = (solve(NaaModel::GaussNewton), solve(NaaModel::Newton));
-    for s in [&gn, &newton] {
+    let (gn, newton, adaptive) = (
+        solve(NaaModel::GaussNewton),
+        solve(NaaModel::Newton),
+        solve(NaaModel::Adaptive),
+    );
+    for s in [&gn, &newton, &adaptive] {
         assert_eq!(s.lm.stop, reparam::lm::StopCode::RelativeEnergyChange);
         assert!(s.lm.energy < 0.5 * s.rest_energy);
         assert!(s.lm.accepted_energies.windows(2).all(|w| w[1] < w[0]));
@@ -433,6 +449,19 @@ fn newton_model_reaches_the_gauss_newton_minimum_in_fewer_iterations() {
         newton.lm.jacobian_evaluations < gn.lm.jacobian_evaluations,
         "Newton {} vs Gauss–Newton {} Jacobians",
         newton.lm.jacobian_evaluations,
+        gn.lm.jacobian_evaluations
+    );
+    // The adaptive model switches to JᵀJ + S once it predicts better, as it does here.
+    assert!(
+        (gn.lm.energy - adaptive.lm.energy).abs() <= 1e-9 * gn.lm.energy,
+        "{} vs {}",
+        gn.lm.energy,
+        adaptive.lm.energy
+    );
+    assert!(
+        adaptive.lm.jacobian_evaluations < gn.lm.jacobian_evaluations,
+        "adaptive {} vs Gauss–Newton {} Jacobians",
+        adaptive.lm.jacobian_evaluations,
         gn.lm.jacobian_evaluations
     );
 }

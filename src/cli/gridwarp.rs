@@ -41,6 +41,28 @@ pub enum Variant {
     Naa,
 }
 
+/// LM's model Hessian for the non-axis-aligned variant ([`NaaModel`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum Model {
+    /// JᵀJ (Gauss–Newton), the paper's.
+    #[default]
+    GaussNewton,
+    /// JᵀJ + Σ r∇²r: far fewer iterations on most scenes, more on some (the worm).
+    Newton,
+    /// The better predicting of the two, chosen per iteration (NL2SOL's rule).
+    Adaptive,
+}
+
+impl From<Model> for NaaModel {
+    fn from(model: Model) -> NaaModel {
+        match model {
+            Model::GaussNewton => NaaModel::GaussNewton,
+            Model::Newton => NaaModel::Newton,
+            Model::Adaptive => NaaModel::Adaptive,
+        }
+    }
+}
+
 /// Seed §10.2 boundary blending: `auto` = on for mesh inputs whose ROI is smaller than the
 /// texture (the seam would show on the surface), off for the built-in scenes (their ROI is the
 /// whole surface).
@@ -106,11 +128,10 @@ pub struct GridwarpArgs {
     /// The paper's LM settings (all tolerances 0, 100 iterations) instead of the practical ones.
     #[arg(long)]
     pub paper: bool,
-    /// Non-axis-aligned variant only: LM on the model JᵀJ + Σ r∇²r (the residuals' curvature
-    /// too) instead of Gauss–Newton's JᵀJ: far fewer iterations on most scenes, more on some
-    /// (the worm).
-    #[arg(long)]
-    pub newton: bool,
+    /// Non-axis-aligned variant only: LM's model Hessian, Gauss–Newton's JᵀJ (the paper's),
+    /// JᵀJ + Σ r∇²r (the residuals' curvature too), or the better of the two per iteration.
+    #[arg(long, value_enum, default_value_t = Model::GaussNewton)]
+    pub naa_model: Model,
     /// Output folder.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
@@ -138,7 +159,7 @@ impl Default for GridwarpArgs {
             samples: 8,
             smoothness: None,
             paper: false,
-            newton: false,
+            naa_model: Model::GaussNewton,
             out: PathBuf::from("out"),
             json: false,
         }
@@ -206,7 +227,7 @@ pub struct CombinedFrame {
 pub struct GridwarpResult {
     pub scene: String,
     pub variant: Variant,
-    /// LM's model Hessian for the non-axis-aligned variant (`--newton`; the axis-aligned one
+    /// LM's model Hessian for the non-axis-aligned variant (`--naa-model`; the axis-aligned one
     /// always uses Gauss–Newton).
     pub naa_model: NaaModel,
     pub rois: Vec<RoiResult>,
@@ -249,11 +270,7 @@ fn solve_options(args: &GridwarpArgs) -> SolveOptions {
         },
         smoothness: args.smoothness,
         looping: false,
-        naa_model: if args.newton {
-            NaaModel::Newton
-        } else {
-            NaaModel::GaussNewton
-        },
+        naa_model: args.naa_model.into(),
     }
 }
 
@@ -263,9 +280,9 @@ fn check_sizes(args: &GridwarpArgs) -> Result<()> {
             "--size must be ≥ 2, --samples ≥ 1 and --frames ≥ 1".into(),
         ));
     }
-    if args.newton && args.variant == Variant::Aa {
+    if args.naa_model != Model::GaussNewton && args.variant == Variant::Aa {
         return Err(Error::InvalidArgument(
-            "--newton applies to the non-axis-aligned variant only (add --variant naa)".into(),
+            "--naa-model applies to the non-axis-aligned variant only (add --variant naa)".into(),
         ));
     }
     Ok(())

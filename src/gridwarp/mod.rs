@@ -15,7 +15,7 @@
 //! | starting grid from R (Algorithm 1) | §4 | [`grid`] |
 //! | axis-aligned energy, analytic Jacobian | §5.1, appendix A | [`energy`] |
 //! | non-axis-aligned energy (bilinear cells), analytic Jacobian | §8 | [`energy_naa`] |
-//! | its optional second-order model JᵀJ + Σ r∇²r ([`NaaModel::Newton`]) | — | `energy_naa/curvature.rs` |
+//! | its optional second-order model JᵀJ + Σ r∇²r ([`NaaModel::Newton`], [`NaaModel::Adaptive`]) | — | [`energy_naa::curvature`] |
 //! | foldover / smoothness / looping bounds and their merge | §5.2 | [`bounds`] |
 //! | bound-constrained Levenberg–Marquardt, warm start | §5.3, §7 | [`solve`], [`crate::lm`] |
 //! | remapping F_s, F_t and inverses, inverse bilinear lookup, boundary blending, several ROIs | §6, §8, §10.2 | [`remap`] |

@@ -42,7 +42,8 @@
 //!
 //! # Model Hessian
 //! LM's model uses JᵀJ by default (Gauss–Newton, the paper's); [`NaaModel::Newton`] adds
-//! S = Σ r∇²r, computed per cell like JᵀJ ([`curvature`]).
+//! S = Σ r∇²r, computed per cell like JᵀJ ([`curvature`]); [`NaaModel::Adaptive`] hands LM
+//! both and lets it choose per iteration.
 //!
 //! # Validity
 //! det(∂W/∂α, ∂W/∂β) is bilinear in (α, β) (∂W/∂α depends on β only, ∂W/∂β on α only), so it
@@ -286,6 +287,9 @@ pub struct NaaEnergy<'a> {
     packed: Option<PackedJacobian>,
     /// What [`Residuals::normal_equations`] returns as "JᵀJ": see [`NaaModel`].
     model: NaaModel,
+    /// S at the point of the last normal equations, for [`Residuals::curvature`]
+    /// ([`NaaModel::Adaptive`] only).
+    pending_curvature: Option<(Vec<f64>, DMatrix<f64>)>,
 }
 
 /// The model Hessian the NAA energy hands to LM in place of JᵀJ.
@@ -301,6 +305,13 @@ pub enum NaaModel {
     /// 8/8/8, bump 36/65/100 → 12/17/18, plane 24/100/100 → 27/7/8 (same minima); worm
     /// 7/64/14 → 37/54/38 (other local minima at 48 and 288): not always faster.
     Newton,
+    /// Either model, chosen per iteration (NL2SOL's rule, Dennis, Gay & Welsch 1981): LM gets
+    /// JᵀJ and S apart ([`Residuals::curvature`]) and, after each accepted step, keeps for
+    /// the next one the model whose predicted decrease was closer to the actual decrease
+    /// ([`crate::lm`], "Other model Hessians"). Evaluations cost what Newton's do. Measured as
+    /// above: saddle 8/9/9, bump 20/16/21, plane 29/7/8 (same minima), worm 30/47/22 (the
+    /// Gauss–Newton minima at 192 and 288, a lower one at 48): never a worse minimum there.
+    Adaptive,
 }
 
 /// The rest samples and weight slopes of [`NaaEnergy`] structure-of-arrays: cell c's samples
@@ -412,6 +423,7 @@ impl<'a> NaaEnergy<'a> {
             lanes: SampleLanes::new(&samples, &weight_slopes, per_cell),
             packed: PackedJacobian::new(deformed),
             model: NaaModel::GaussNewton,
+            pending_curvature: None,
         }
     }
 
@@ -576,21 +588,19 @@ impl<'a> NaaEnergy<'a> {
         g: &VertexGrid,
         cell: usize,
         chunks: &mut Vec<LaneResiduals<8>>,
-    ) -> LocalNormalEquations<8> {
+    ) -> CellBlock {
         let warp = self.cell_warp(g, cell);
         let first = cell * self.lanes.padded;
         chunks.clear();
         for at in (first..first + self.lanes.padded).step_by(LANES) {
             chunks.push(self.chunk_residuals(jac, &warp, at));
         }
-        let mut block = cell_block_of::<8, 36>(chunks);
-        if self.model == NaaModel::Newton {
-            let s = self.cell_curvature(jac, &warp, first, chunks);
-            for (row, s_row) in block.jtj.iter_mut().zip(&s) {
-                for (entry, s) in row.iter_mut().zip(s_row) {
-                    *entry += s;
-                }
-            }
+        let mut block = CellBlock {
+            normal: cell_block_of::<8, 36>(chunks),
+            curvature: LocalNormalEquations::default(),
+        };
+        if self.model != NaaModel::GaussNewton {
+            block.curvature.jtj = self.cell_curvature(jac, &warp, first, chunks);
         }
         block
     }
@@ -616,7 +626,7 @@ impl<'a> NaaEnergy<'a> {
         jac: &impl JacobianAt,
         g: &VertexGrid,
         first: usize,
-        out: &mut [LocalNormalEquations<8>],
+        out: &mut [CellBlock],
     ) {
         let mut chunks = Vec::with_capacity(self.lanes.padded / LANES);
         for (c, block) in out.iter_mut().enumerate() {
@@ -635,12 +645,7 @@ impl<'a> NaaEnergy<'a> {
 
     /// [`NaaEnergy::fill_blocks_with`] on the packed J_D if there is one.
     #[inline(always)]
-    fn fill_blocks_baseline(
-        &self,
-        g: &VertexGrid,
-        first: usize,
-        out: &mut [LocalNormalEquations<8>],
-    ) {
+    fn fill_blocks_baseline(&self, g: &VertexGrid, first: usize, out: &mut [CellBlock]) {
         match &self.packed {
             Some(packed) => self.fill_blocks_with(packed, g, first, out),
             None => self.fill_blocks_with(&FieldJacobian(self.deformed), g, first, out),
@@ -660,12 +665,7 @@ impl<'a> NaaEnergy<'a> {
     /// vector registers (same results bit for bit).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn fill_blocks_avx512(
-        &self,
-        g: &VertexGrid,
-        first: usize,
-        out: &mut [LocalNormalEquations<8>],
-    ) {
+    fn fill_blocks_avx512(&self, g: &VertexGrid, first: usize, out: &mut [CellBlock]) {
         self.fill_blocks_baseline(g, first, out)
     }
 
@@ -680,7 +680,7 @@ impl<'a> NaaEnergy<'a> {
     }
 
     /// Cell blocks `first..` into `out`, AVX-512 if the CPU has it.
-    fn fill_blocks(&self, g: &VertexGrid, first: usize, out: &mut [LocalNormalEquations<8>]) {
+    fn fill_blocks(&self, g: &VertexGrid, first: usize, out: &mut [CellBlock]) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx512f") {
             // SAFETY: the CPU supports AVX-512F, checked just above.
@@ -756,9 +756,9 @@ impl<'a> NaaEnergy<'a> {
 
     /// One cell's energy and normal equations over its eight slots.
     pub fn cell_normal_equations(&self, g: &VertexGrid, cell: usize) -> LocalNormalEquations<8> {
-        let mut block = [LocalNormalEquations::default()];
+        let mut block = [CellBlock::default()];
         self.fill_blocks(g, cell, &mut block);
-        block[0]
+        block[0].for_model(self.model)
     }
 
     /// Fill `out` (one entry per cell) by `fill(first cell, part)`, in parallel tasks of
@@ -1005,14 +1005,54 @@ impl Residuals for NaaEnergy<'_> {
                 ..NormalEquations::zeros(n)
             };
         }
-        let mut blocks = vec![LocalNormalEquations::default(); self.cells()];
+        let mut blocks = vec![CellBlock::default(); self.cells()];
         self.per_cell(&mut blocks, BLOCK_SAMPLES_PER_TASK, |first, out| {
             self.fill_blocks(&g, first, out)
         });
         let slots: Vec<[Option<usize>; 8]> = (0..self.cells())
             .map(|c| self.cell_unknowns(&g, c))
             .collect();
-        NormalEquations::assemble(n, slots.iter().zip(&blocks))
+        let model: Vec<LocalNormalEquations<8>> =
+            blocks.iter().map(|b| b.for_model(self.model)).collect();
+        if self.model == NaaModel::Adaptive {
+            let curvature = blocks.iter().map(|b| &b.curvature);
+            let s = NormalEquations::assemble(n, slots.iter().zip(curvature)).jtj;
+            self.pending_curvature = Some((x.to_vec(), s));
+        }
+        NormalEquations::assemble(n, slots.iter().zip(&model))
+    }
+
+    /// S = Σ r∇²r at x for [`NaaModel::Adaptive`] (computed by the normal equations at the
+    /// same x, which LM asks for first); None for the other models.
+    fn curvature(&mut self, x: &[f64]) -> Option<DMatrix<f64>> {
+        match self.pending_curvature.take() {
+            Some((at, s)) if at == x => Some(s),
+            _ => None,
+        }
+    }
+}
+
+/// One cell's normal equations and, for the second-order models, its block of S = Σ r∇²r
+/// (in `curvature.jtj`; zero for Gauss–Newton).
+#[derive(Clone, Copy, Debug, Default)]
+struct CellBlock {
+    normal: LocalNormalEquations<8>,
+    curvature: LocalNormalEquations<8>,
+}
+
+impl CellBlock {
+    /// What `model` hands LM for this cell: JᵀJ, or JᵀJ + S for [`NaaModel::Newton`] (the
+    /// adaptive model gets JᵀJ and S apart, [`Residuals::curvature`]).
+    fn for_model(&self, model: NaaModel) -> LocalNormalEquations<8> {
+        let mut block = self.normal;
+        if model == NaaModel::Newton {
+            for (row, s_row) in block.jtj.iter_mut().zip(&self.curvature.jtj) {
+                for (entry, s) in row.iter_mut().zip(s_row) {
+                    *entry += s;
+                }
+            }
+        }
+        block
     }
 }
 
