@@ -93,12 +93,10 @@ fn axis_aligned_vertices_give_the_aa_energy() {
     }
 }
 
-#[test]
-fn analytic_jacobian_matches_central_differences() {
-    // Linear component fields are reproduced exactly by bilinear interpolation inside the
-    // texel-centre range ([0.5/64, 1 − 0.5/64]; every sample below stays inside), so the residuals
-    // are smooth in the vertices and central differences are exact up to rounding:
-    // ≈ ε·|r|/step ≈ 1e-16/1e-6 = 1e-10, against a 1e-8 tolerance.
+/// Rest fields, a frame and a 4×4-line grid for the derivative checks: every component
+/// field linear in (s, t), hence reproduced exactly by bilinear interpolation inside the
+/// texel-centre range (64 texels), with a zero mixed derivative ∂_s∂_t.
+fn affine_problem() -> (RestFields, DeformedJacobian, Grid) {
     let n = 64;
     let rest = RestFields {
         o_s: Field::from_fn(n, n, |s, t| 1.0 + 0.2 * s - 0.1 * t),
@@ -114,6 +112,16 @@ fn analytic_jacobian_matches_central_differences() {
         }),
     };
     let grid = Grid::new(vec![0.0, 0.3, 0.55, 1.0], vec![0.0, 0.45, 0.7, 1.0]).unwrap();
+    (rest, frame, grid)
+}
+
+#[test]
+fn analytic_jacobian_matches_central_differences() {
+    // Linear component fields are reproduced exactly by bilinear interpolation inside the
+    // texel-centre range ([0.5/64, 1 − 0.5/64]; every sample below stays inside), so the residuals
+    // are smooth in the vertices and central differences are exact up to rounding:
+    // ≈ ε·|r|/step ≈ 1e-16/1e-6 = 1e-10, against a 1e-8 tolerance.
+    let (rest, frame, grid) = affine_problem();
     let energy = NaaEnergy::new(&rest, &grid, &frame, 4, 3);
     // Interior vertices moved off the axis-aligned positions in both coordinates.
     let x = vec![0.32, 0.42, 0.28, 0.73, 0.57, 0.47, 0.52, 0.68];
@@ -154,21 +162,7 @@ fn newton_model_is_the_derivative_of_the_gradient() {
     // Truncation error ≈ step²·|∂³F| ≈ 1e-10·O(10); rounding ≈ 1e-16·|Jᵀr|/step ≈ 1e-11:
     // 1e-7 (relative to 1 + |entry|) is far above both and far below the size of S (checked
     // ≥ 1e-2 below), so a missing or wrong term of S fails.
-    let n = 64;
-    let rest = RestFields {
-        o_s: Field::from_fn(n, n, |s, t| 1.0 + 0.2 * s - 0.1 * t),
-        o_t: Field::from_fn(n, n, |s, t| 0.9 + 0.3 * t + 0.05 * s),
-        rigidity: disc_rigidity(n, &[(0.5, 0.5, 0.3)], 0.3),
-    };
-    let frame = DeformedJacobian {
-        d_s: VectorField::from_fn(n, n, |s, t| {
-            [1.4 + 0.6 * s + 0.4 * t, 0.2 - 0.3 * t, 0.5 * s]
-        }),
-        d_t: VectorField::from_fn(n, n, |s, t| {
-            [0.1 * s - 0.2 * t, 0.8 - 0.3 * s + 0.5 * t, 0.3 + 0.4 * t]
-        }),
-    };
-    let grid = Grid::new(vec![0.0, 0.3, 0.55, 1.0], vec![0.0, 0.45, 0.7, 1.0]).unwrap();
+    let (rest, frame, grid) = affine_problem();
     let mut newton = NaaEnergy::new(&rest, &grid, &frame, 4, 3).with_model(NaaModel::Newton);
     let mut gauss_newton = NaaEnergy::new(&rest, &grid, &frame, 4, 3);
     let x = vec![0.32, 0.42, 0.28, 0.73, 0.57, 0.47, 0.52, 0.68];

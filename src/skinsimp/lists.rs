@@ -88,7 +88,8 @@ impl Lists {
     /// Make list `v` a copy of `items`: in place if it has the room, else at the end of the
     /// arena (its old slots become unused; the arena is compacted when they are too many).
     pub(super) fn replace(&mut self, v: usize, items: &[u32]) {
-        let len = u32::try_from(items.len()).expect("list length fits u32");
+        let len = u32::try_from(items.len())
+            .expect("a list is shorter than the arena (super::MAX_FACES)");
         let span = self.spans[v];
         if len <= span.cap {
             let start = span.start as usize;
@@ -97,7 +98,8 @@ impl Lists {
             return;
         }
         self.unused += span.cap as usize;
-        let start = u32::try_from(self.arena.len()).expect("arena fits u32 indices");
+        let start =
+            u32::try_from(self.arena.len()).expect("the arena fits u32 indices (super::MAX_FACES)");
         self.arena.extend_from_slice(items);
         self.spans[v] = Span {
             start,

@@ -38,6 +38,11 @@ mod queue;
 pub mod tube;
 pub mod weights;
 
+/// The most triangles [`simplify`] takes: face indices are `u32`, and the vertices' face lists
+/// (three entries per triangle) share one arena of at most about twice their total length,
+/// indexed by `u32` (`lists.rs`). Larger meshes are an [`Error::InvalidArgument`].
+pub const MAX_FACES: usize = (u32::MAX / 8) as usize;
+
 use nalgebra::{Matrix4, Point3};
 
 use crate::error::{Error, Result};
@@ -201,6 +206,12 @@ impl Input {
         let name = &self.mesh.name;
         let n = self.mesh.positions.len();
         let bad = |m: String| Err(Error::InvalidArgument(format!("{name}: {m}")));
+        if self.mesh.faces.len() > MAX_FACES {
+            return bad(format!(
+                "{} triangles: skinsimp takes at most {MAX_FACES} (u32 face indices)",
+                self.mesh.faces.len()
+            ));
+        }
         match &self.deformation {
             Deformation::Skinned { influences, joints } => {
                 if joints.is_empty() {
