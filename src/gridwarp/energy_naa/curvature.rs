@@ -8,38 +8,206 @@
 //! accepted steps then shrink the energy gap by a near-constant factor (linear convergence, tens
 //! of iterations at 192 and 288 unknowns). With S the iteration counts fall on the saddle, bump
 //! and plane, not on the worm ([`super::NaaModel::Newton`] lists them; bench
-//! `gridwarp_naa_frame_newton`). The paper uses ALGLIB's Jacobian-only protocol, so this model is an option, not the default; LM
-//! needs no change for it: a trial whose damped model is not positive definite fails its box QP
-//! or predicts no decrease, and both count as a rejected trial (λ grows).
+//! `gridwarp_naa_frame_newton`). The paper uses ALGLIB's Jacobian-only protocol, so this model is
+//! an option, not the default; LM needs no change for it: a trial whose damped model is not
+//! positive definite fails its box QP or predicts no decrease, and both count as a rejected
+//! trial (λ grows).
 //!
 //! # Formula (one sample, one axis; module docs of [`super`] for q, W, φ_c)
 //! Slot a = (c, k) is coordinate k of corner c; φ'_c = ∂φ_c/∂s for the s residual (∂φ_c/∂t for
-//! the t residual); D_k is column k of J_D, G_k = (∂_k J_D) W, u = q/‖q‖. Then
+//! the t residual); D_k is column k of J_D, G_k = (∂_k J_D) W, u = q/‖q‖, Π = I − uuᵀ. Then
 //!   Q_a = ∂q/∂x_a = φ'_c D_k + φ_c G_k,      d_a = ∂r/∂x_a = σ uᵀQ_a,
 //!   ∂²q/∂x_a∂x_b = φ'_c φ_c' ∂_l D_k + φ_c φ'_c' ∂_k D_l + φ_c φ_c' (∂_l∂_k J_D) W,
-//!   r∇²r_ab = σr [Q_aᵀ(I − uuᵀ)Q_b/‖q‖ + uᵀ ∂²q/∂x_a∂x_b].
-//! With κ = (‖q‖ − o)/‖q‖ (= r/(σ‖q‖)), ρ = σ²κ, A_kl = D_k·D_l, B_kl = D_k·G_l,
-//! C_kl = G_k·G_l and H_kl = ρ B_kl + σr u·∂_l D_k this is
-//!   r∇²r_ab = φ'_c φ'_c' ρA_kl + φ'_c φ_c' H_kl + φ_c φ'_c' H_lk + φ_c φ_c' ρC_kl − κ d_a d_b.
-//! (σr uᵀ(uuᵀ)… gives the last term: ρ (uᵀQ_a)(uᵀQ_b) = κ d_a d_b.) Left out: the term
-//! φ_c φ_c' σr uᵀ(∂_s∂_t J_D)W of the fields' mixed derivative, the only second derivative of a
-//! bilinear texel patch (a constant per texel): S is exact where J_D is affine across the
-//! cell's texels, and a model of the curvature elsewhere (LM's gain ratio absorbs the rest).
-//! At q = 0 (u undefined) the sample adds nothing, as in the Jacobian.
+//!   r∇²r_ab = σr [Q_aᵀ Π Q_b/‖q‖ + uᵀ ∂²q/∂x_a∂x_b].
+//! With ρ = σr/‖q‖ = σ²(‖q‖ − o)/‖q‖ this is
+//!   r∇²r_ab = φ'_c φ'_c' P_kl + φ'_c φ_c' Q_kl + φ_c φ'_c' Q_lk + φ_c φ_c' T_kl,
+//!   P_kl = ρ D_kᵀΠD_l,  Q_kl = ρ D_kᵀΠG_l + σr uᵀ∂_l D_k,  T_kl = ρ G_kᵀΠG_l,
+//! with xᵀΠy = x·y − (u·x)(u·y). Left out: the term φ_c φ_c' σr uᵀ(∂_s∂_t J_D)W of the fields'
+//! mixed derivative, the only second derivative of a bilinear texel patch (a constant per
+//! texel): S is exact where J_D is affine across the cell's texels, and a model of the curvature
+//! elsewhere (LM's gain ratio absorbs the rest). At q = 0 (u undefined) the sample adds nothing,
+//! as in the Jacobian.
+//!
+//! # Moments: summing over a cell's samples
+//! The corner weights are products of one weight per side: for the s residual, with A = (1−α, α)
+//! along s and B = (1−β, β) across, corner c = (i, j) (i = 0, 1 its side along, j across) has
+//!   φ_c = A_i B_j,   φ'_c = ε_i B_j / h   (ε_0 = −1, ε_1 = +1; h the rest cell's width);
+//! the t residual is the same with the roles of α and β (and of i and j, and h → the cell's
+//! height k) swapped. So each product of weights above is one of a few monomials in α, β, and
+//! a cell's S needs only these sums over its samples (B_jj' = B_j B_j', pairs unordered):
+//!   m1[jj'][kl] = Σ B_jj' P_kl,  m2[jj'][i'][kl] = Σ B_jj' A_i' Q_kl,
+//!   m3[ii'][jj'][kl] = Σ A_ii' B_jj' T_kl    (3·3 + 3·2·4 + 3·3·3 = 60 sums per axis),
+//! from which, for a = (c, k), c = (i, j), and b = (c', l), c' = (i', j'),
+//!   S_ab = ε_i ε_i' m1[jj'][kl] / h² + ε_i m2[jj'][i'][kl] / h + ε_i' m2[jj'][i][lk] / h
+//!          + m3[ii'][jj'][kl].
+//! Each sample thus costs 60 multiply-adds per axis instead of one sum per entry of the 8×8
+//! block (36 entries of 4 products each); the result is the same sum, rounded differently.
+//!
+//! # Lanes
+//! The residual pass ([`super::NaaEnergy::chunk_residuals`]) keeps J_D and W of its LANES
+//! samples ([`LaneJacobian`]), so S reads no texels of its own; the coefficients are then
+//! computed as whole-lane operations ([`axis_coefficients`]) and added to the moments
+//! ([`CellMoments::add_chunk`]). (Written per sample inside one lane loop, the same formulas
+//! were left scalar by the compiler: the loop over the two axes stayed a loop.)
 
-use super::{dot, image, lanes, norm, CellWarp, JacobianAt, NaaEnergy, LANES};
-use crate::gridwarp::energy::{axes_total, LaneResiduals, UPPER_8};
+use super::{lanes, SampleLanes, VectorSample, LANES};
+use crate::gridwarp::energy::{lane_total, UPPER_8};
 
-/// Per axis and lane, the running sums of the 36 upper-triangle entries of a cell's S.
-pub(super) type CurvatureSums = [[[f64; LANES]; 36]; 2];
+/// The index of an unordered pair {x, y} of sides (or of coordinates) 0/1: 00 → 0, 01 and
+/// 10 → 1, 11 → 2.
+#[inline(always)]
+fn pair(x: usize, y: usize) -> usize {
+    x + y
+}
 
-/// The per-sample 2×2 coefficient blocks of r∇²r (module docs), one value per lane:
-/// ρA_kl, ρC_kl, H_kl (indexed [k][l]) and κ.
-struct LaneCoefficients {
-    rho_a: [[[f64; LANES]; 2]; 2],
-    rho_c: [[[f64; LANES]; 2]; 2],
-    h: [[[f64; LANES]; 2]; 2],
-    kappa: [f64; LANES],
+/// The coefficients P_kl, Q_kl and T_kl of one axis's r∇²r (module docs) of LANES samples,
+/// one value per lane: P and T (symmetric) at [`pair`]`(k, l)`, Q at 2k + l.
+pub(super) struct LaneCoefficients {
+    p: [[f64; LANES]; 3],
+    q: [[f64; LANES]; 4],
+    t: [[f64; LANES]; 3],
+}
+
+/// J_D = [D_s D_t] with its derivatives along s and t at the warped points of LANES samples,
+/// and their slopes W_s, W_t, one value per lane: what the residual pass
+/// ([`super::NaaEnergy::chunk_residuals`]) keeps for S, so that S needs no texel reads of its
+/// own. Indexed [column k][component], W as [axis][coordinate].
+pub(super) struct LaneJacobian {
+    value: [[[f64; LANES]; 3]; 2],
+    ds: [[[f64; LANES]; 3]; 2],
+    dt: [[[f64; LANES]; 3]; 2],
+    w: [[[f64; LANES]; 2]; 2],
+}
+
+impl LaneJacobian {
+    pub(super) fn zeros() -> Self {
+        LaneJacobian {
+            value: [[[0.0; LANES]; 3]; 2],
+            ds: [[[0.0; LANES]; 3]; 2],
+            dt: [[[0.0; LANES]; 3]; 2],
+            w: [[[0.0; LANES]; 2]; 2],
+        }
+    }
+
+    /// Lane `lane` ← J_D's columns `d_s`, `d_t` and the slopes `w` = [W_s, W_t].
+    #[inline(always)]
+    pub(super) fn set(
+        &mut self,
+        lane: usize,
+        d_s: &VectorSample,
+        d_t: &VectorSample,
+        w: [[f64; 2]; 2],
+    ) {
+        for c in 0..3 {
+            self.value[0][c][lane] = d_s.value[c];
+            self.ds[0][c][lane] = d_s.ds[c];
+            self.dt[0][c][lane] = d_s.dt[c];
+            self.value[1][c][lane] = d_t.value[c];
+            self.ds[1][c][lane] = d_t.ds[c];
+            self.dt[1][c][lane] = d_t.dt[c];
+        }
+        for (lanes, w) in self.w.iter_mut().zip(w) {
+            lanes[0][lane] = w[0];
+            lanes[1][lane] = w[1];
+        }
+    }
+}
+
+/// One value per lane.
+type Lanes = [f64; LANES];
+
+/// x·y per lane, for 3-vectors given by component.
+#[inline(always)]
+fn dot_lanes(x: &[Lanes; 3], y: &[Lanes; 3]) -> Lanes {
+    lanewise(|n| x[0][n] * y[0][n] + x[1][n] * y[1][n] + x[2][n] * y[2][n])
+}
+
+/// a w₀ + b w₁ per lane (a J_D-like matrix [a b] applied to w), by component.
+#[inline(always)]
+fn image_lanes(a: &[Lanes; 3], b: &[Lanes; 3], w: &[Lanes; 2]) -> [Lanes; 3] {
+    let component = |c: usize| lanewise(|n| a[c][n] * w[0][n] + b[c][n] * w[1][n]);
+    [component(0), component(1), component(2)]
+}
+
+/// The coefficients of r∇²r of LANES samples on one axis (module docs):
+///   P_kl = ρ D_kᵀΠD_l,  Q_kl = ρ D_kᵀΠG_l + σr uᵀ∂_l D_k,  T_kl = ρ G_kᵀΠG_l,
+/// q = J_D w, u = q/‖q‖, G_k = (∂_k J_D) w, ρ = σ²(‖q‖ − o)/‖q‖, σr = σ²(‖q‖ − o); all 0 at
+/// q = 0 (u undefined: the sample adds nothing, as in the Jacobian); P, T by [`pair`], Q at
+/// 2k + l. `w` = W_s or W_t and `o` = o_s or o_t per lane. Written as whole-lane operations
+/// (each a short loop over the lanes, one vector instruction each).
+#[inline(always)]
+fn axis_coefficients(
+    kept: &LaneJacobian,
+    w: &[Lanes; 2],
+    sigma: &Lanes,
+    o: &Lanes,
+) -> LaneCoefficients {
+    let [d0, d1] = &kept.value;
+    // ∂_s D_k = kept.ds[k], ∂_t D_k = kept.dt[k].
+    let q = image_lanes(d0, d1, w);
+    let length = lanewise(|n| dot_lanes(&q, &q)[n].sqrt());
+    let inverse = lanewise(|n| {
+        if length[n] > 0.0 {
+            1.0 / length[n]
+        } else {
+            0.0
+        }
+    });
+    let sigma_r = lanewise(|n| sigma[n] * sigma[n] * (length[n] - o[n]));
+    let rho = lanewise(|n| sigma_r[n] * inverse[n]);
+    let unit = |c: usize| lanewise(|n| q[c][n] * inverse[n]);
+    let u = [unit(0), unit(1), unit(2)];
+    let g = [
+        image_lanes(&kept.ds[0], &kept.ds[1], w),
+        image_lanes(&kept.dt[0], &kept.dt[1], w),
+    ];
+    let d = [d0, d1];
+    let u_d = [dot_lanes(&u, d0), dot_lanes(&u, d1)];
+    let u_g = [dot_lanes(&u, &g[0]), dot_lanes(&u, &g[1])];
+    // ∂_l D_k by [l][k].
+    let along = [[&kept.ds[0], &kept.ds[1]], [&kept.dt[0], &kept.dt[1]]];
+    // xᵀΠy = x·y − (u·x)(u·y).
+    let mut out = LaneCoefficients {
+        p: [[0.0; LANES]; 3],
+        q: [[0.0; LANES]; 4],
+        t: [[0.0; LANES]; 3],
+    };
+    for (k, l) in [(0, 0), (0, 1), (1, 1)] {
+        let (dd, gg) = (dot_lanes(d[k], d[l]), dot_lanes(&g[k], &g[l]));
+        out.p[pair(k, l)] = lanewise(|n| rho[n] * (dd[n] - u_d[k][n] * u_d[l][n]));
+        out.t[pair(k, l)] = lanewise(|n| rho[n] * (gg[n] - u_g[k][n] * u_g[l][n]));
+    }
+    for k in 0..2 {
+        for l in 0..2 {
+            let (dg, u_along) = (dot_lanes(d[k], &g[l]), dot_lanes(&u, along[l][k]));
+            out.q[2 * k + l] =
+                lanewise(|n| rho[n] * (dg[n] - u_d[k][n] * u_g[l][n]) + sigma_r[n] * u_along[n]);
+        }
+    }
+    out
+}
+
+/// The coefficients of the LANES samples from `at` on, both axes, from their kept J_D.
+#[inline(always)]
+fn chunk_coefficients(
+    samples: &SampleLanes,
+    at: usize,
+    kept: &LaneJacobian,
+) -> [LaneCoefficients; 2] {
+    let sigma = lanes(&samples.sigma, at);
+    [
+        axis_coefficients(kept, &kept.w[0], sigma, lanes(&samples.o_s, at)),
+        axis_coefficients(kept, &kept.w[1], sigma, lanes(&samples.o_t, at)),
+    ]
+}
+
+/// One axis's moments of a cell (module docs, "Moments"), per lane: `m1[jj'][kl]`,
+/// `m2[jj'][i'][kl]` (kl = 2k + l), `m3[ii'][jj'][kl]`, pairs by [`pair`].
+#[derive(Clone, Copy)]
+pub(super) struct AxisMoments<T> {
+    m1: [[T; 3]; 3],
+    m2: [[[T; 4]; 2]; 3],
+    m3: [[[T; 3]; 3]; 3],
 }
 
 /// [f(0), …, f(LANES − 1)] by a plain loop, always inlined (so that it is compiled with its
@@ -53,146 +221,148 @@ fn lanewise(f: impl Fn(usize) -> f64) -> [f64; LANES] {
     out
 }
 
-impl NaaEnergy<'_> {
-    /// Add the r∇²r of the LANES samples from `at` on (both axes) to `sums`, given their
-    /// residuals and derivatives `chunk` ([`NaaEnergy::chunk_residuals`]): first the per-sample
-    /// coefficients ([`NaaEnergy::chunk_coefficients`]), then every entry
-    ///   S_ab += φ'_c φ'_c' ρA_kl + φ'_c φ_c' H_kl + φ_c φ'_c' H_lk + φ_c φ_c' ρC_kl − κ d_a d_b,
-    /// a = 2c + k, b = 2c' + l, lane by lane.
-    #[inline(always)]
-    pub(super) fn add_chunk_curvature(
-        &self,
-        jac: &impl JacobianAt,
-        warp: &CellWarp,
-        at: usize,
-        chunk: &LaneResiduals<8>,
-        sums: &mut CurvatureSums,
-    ) {
-        let s = &self.lanes;
-        let (alpha, beta) = (lanes(&s.alpha, at), lanes(&s.beta, at));
-        let [bs, bt, as_, at_] = s.slopes.each_ref().map(|v| lanes(v, at));
-        // φ_c and φ'_c per lane (the same weights as the Jacobian's): corners 00, 10, 01, 11.
-        let phi: [[f64; LANES]; 4] = [
-            lanewise(|l| (1.0 - alpha[l]) * (1.0 - beta[l])),
-            lanewise(|l| alpha[l] * (1.0 - beta[l])),
-            lanewise(|l| (1.0 - alpha[l]) * beta[l]),
-            lanewise(|l| alpha[l] * beta[l]),
-        ];
-        let dphi_ds: [[f64; LANES]; 4] = [lanewise(|l| -bs[l]), *bs, lanewise(|l| -bt[l]), *bt];
-        let dphi_dt: [[f64; LANES]; 4] = [lanewise(|l| -as_[l]), lanewise(|l| -at_[l]), *as_, *at_];
-        let coefficients = self.chunk_coefficients(jac, warp, at);
-        for (axis, (k, dphi)) in coefficients.iter().zip([dphi_ds, dphi_dt]).enumerate() {
-            let d = &chunk.d[axis];
-            // The factors of φ'_c and φ_c in S_ab (module docs), per corner c' of b and (k, l):
-            //   U_c'kl = φ'_c' ρA_kl + φ_c' H_kl,  V_c'kl = φ'_c' H_lk + φ_c' ρC_kl,
-            // so that S_ab = φ'_c U_c'kl + φ_c V_c'kl − κ d_a d_b.
-            let mut u = [[[[0.0; LANES]; 2]; 2]; 4];
-            let mut v = [[[[0.0; LANES]; 2]; 2]; 4];
-            for c2 in 0..4 {
-                for k_a in 0..2 {
-                    for l_b in 0..2 {
-                        for lane in 0..LANES {
-                            u[c2][k_a][l_b][lane] = dphi[c2][lane] * k.rho_a[k_a][l_b][lane]
-                                + phi[c2][lane] * k.h[k_a][l_b][lane];
-                            v[c2][k_a][l_b][lane] = dphi[c2][lane] * k.h[l_b][k_a][lane]
-                                + phi[c2][lane] * k.rho_c[k_a][l_b][lane];
-                        }
-                    }
-                }
-            }
-            let mut kappa_d = [[0.0; LANES]; 8];
-            for (kappa_d, d) in kappa_d.iter_mut().zip(d) {
-                *kappa_d = lanewise(|lane| k.kappa[lane] * d[lane]);
-            }
-            // Entry e = (a, b), a ≤ b, in the order of UPPER_8 (row by row).
-            let mut e = 0;
-            for (a, kappa_d_a) in kappa_d.iter().enumerate() {
-                let (c, k_a) = (a / 2, a % 2);
-                for b in a..8 {
-                    let (u, v) = (&u[b / 2][k_a][b % 2], &v[b / 2][k_a][b % 2]);
-                    let sum = &mut sums[axis][e];
-                    for lane in 0..LANES {
-                        sum[lane] += dphi[c][lane] * u[lane] + phi[c][lane] * v[lane]
-                            - kappa_d_a[lane] * d[b][lane];
-                    }
-                    e += 1;
-                }
-            }
+/// The three products of a side's two weights per lane: [w₀w₀, w₀w₁, w₁w₁] (by [`pair`]).
+#[inline(always)]
+fn pair_products(w: &[[f64; LANES]; 2]) -> [[f64; LANES]; 3] {
+    [
+        lanewise(|l| w[0][l] * w[0][l]),
+        lanewise(|l| w[0][l] * w[1][l]),
+        lanewise(|l| w[1][l] * w[1][l]),
+    ]
+}
+
+/// `sum[lane] += weight[lane] · coefficient[lane]` for each coefficient.
+#[inline(always)]
+fn add_weighted<const N: usize>(
+    sums: &mut [[f64; LANES]; N],
+    weight: &[f64; LANES],
+    coefficients: &[[f64; LANES]; N],
+) {
+    for (sum, c) in sums.iter_mut().zip(coefficients) {
+        for lane in 0..LANES {
+            sum[lane] += weight[lane] * c[lane];
+        }
+    }
+}
+
+/// Corner c = i + 2j of a cell (i its side along s, j along t) seen from `axis`: (its side
+/// along the axis, its side across it).
+#[inline(always)]
+fn sides(axis: usize, c: usize) -> (usize, usize) {
+    if axis == 0 {
+        (c % 2, c / 2)
+    } else {
+        (c / 2, c % 2)
+    }
+}
+
+/// ε_i: the sign of ∂φ_c/∂(along) for side i (−1 for the near side, +1 for the far one).
+#[inline(always)]
+fn sign(side: usize) -> f64 {
+    if side == 0 {
+        -1.0
+    } else {
+        1.0
+    }
+}
+
+impl AxisMoments<f64> {
+    /// Add this axis's part of S (module docs, "Moments") to the upper triangle of `s`, for a
+    /// rest cell of extent `h` along the axis.
+    fn add_to(&self, axis: usize, h: f64, s: &mut [[f64; 8]; 8]) {
+        let (h1, h2) = (1.0 / h, 1.0 / (h * h));
+        for &(a, b) in &UPPER_8 {
+            let ((c, k), (c2, l)) = ((a / 2, a % 2), (b / 2, b % 2));
+            let ((i, j), (i2, j2)) = (sides(axis, c), sides(axis, c2));
+            let jj = pair(j, j2);
+            s[a][b] += sign(i) * sign(i2) * self.m1[jj][pair(k, l)] * h2
+                + sign(i) * self.m2[jj][i2][2 * k + l] * h1
+                + sign(i2) * self.m2[jj][i][2 * l + k] * h1
+                + self.m3[pair(i, i2)][jj][pair(k, l)];
+        }
+    }
+}
+
+impl AxisMoments<[f64; LANES]> {
+    fn zero() -> Self {
+        AxisMoments {
+            m1: [[[0.0; LANES]; 3]; 3],
+            m2: [[[[0.0; LANES]; 4]; 2]; 3],
+            m3: [[[[0.0; LANES]; 3]; 3]; 3],
         }
     }
 
-    /// The coefficients of r∇²r of the LANES samples from `at` on, per axis (module docs):
-    /// κ = (‖q‖ − o)/‖q‖, ρ = σ²κ, ρA_kl = ρ D_k·D_l, ρC_kl = ρ G_k·G_l and
-    /// H_kl = ρ D_k·G_l + σr u·∂_l D_k (all 0 where q = 0 or σ = 0).
-    #[inline(always)]
-    fn chunk_coefficients(
-        &self,
-        jac: &impl JacobianAt,
-        warp: &CellWarp,
-        at: usize,
-    ) -> [LaneCoefficients; 2] {
-        let s = &self.lanes;
-        let (alpha, beta, sigma) = (lanes(&s.alpha, at), lanes(&s.beta, at), lanes(&s.sigma, at));
-        let (o_s, o_t) = (lanes(&s.o_s, at), lanes(&s.o_t, at));
-        let zero = || LaneCoefficients {
-            rho_a: [[[0.0; LANES]; 2]; 2],
-            rho_c: [[[0.0; LANES]; 2]; 2],
-            h: [[[0.0; LANES]; 2]; 2],
-            kappa: [0.0; LANES],
+    /// Each moment's lanes added in lane order.
+    fn totals(&self) -> AxisMoments<f64> {
+        let mut out = AxisMoments {
+            m1: [[0.0; 3]; 3],
+            m2: [[[0.0; 4]; 2]; 3],
+            m3: [[[0.0; 3]; 3]; 3],
         };
-        let mut out = [zero(), zero()];
-        // One simple loop over the lanes (selects, no branches): vector registers.
-        for lane in 0..LANES {
-            let w = warp.at(alpha[lane], beta[lane]);
-            let (ds, dt) = jac.at(w.pos);
-            // D_k, column k of J_D, and ∂_l D_k, its derivative along coordinate l: along[l][k].
-            let columns = [ds.value, dt.value];
-            let along = [[ds.ds, dt.ds], [ds.dt, dt.dt]];
-            let sg = sigma[lane];
-            for (out, (w, o)) in out.iter_mut().zip([(w.w_s, o_s[lane]), (w.w_t, o_t[lane])]) {
-                let q = image(&ds.value, &dt.value, w);
-                let length = norm(q);
-                // 1/‖q‖, or 0 at q = 0: then κ = ρ = 0 and u = 0, so the sample adds nothing.
-                let inverse = if length > 0.0 { 1.0 / length } else { 0.0 };
-                let kappa = (length - o) * inverse;
-                let rho = sg * sg * kappa;
-                let sigma_r = sg * sg * (length - o);
-                let u = q.map(|v| v * inverse);
-                // G_k = (∂_k J_D) W.
-                let g = [image(&ds.ds, &dt.ds, w), image(&ds.dt, &dt.dt, w)];
-                out.kappa[lane] = kappa;
-                for k in 0..2 {
-                    for l in 0..2 {
-                        out.rho_a[k][l][lane] = rho * dot(columns[k], columns[l]);
-                        out.rho_c[k][l][lane] = rho * dot(g[k], g[l]);
-                        out.h[k][l][lane] =
-                            rho * dot(columns[k], g[l]) + sigma_r * dot(u, along[l][k]);
-                    }
+        for jj in 0..3 {
+            for kl in 0..3 {
+                out.m1[jj][kl] = lane_total(&self.m1[jj][kl]);
+                for ii in 0..3 {
+                    out.m3[ii][jj][kl] = lane_total(&self.m3[ii][jj][kl]);
+                }
+            }
+            for i in 0..2 {
+                for kl in 0..4 {
+                    out.m2[jj][i][kl] = lane_total(&self.m2[jj][i][kl]);
                 }
             }
         }
         out
     }
 
-    /// S of cell `cell` (8×8 over its slots, [`NaaEnergy::cell_unknowns`]) from its chunks'
-    /// residuals `chunks` (in order): per axis and lane sums over the chunks, then each entry
-    /// [`axes_total`] (a fixed order: the same for any number of threads). Inlined into the
-    /// callers' AVX-512 variants ([`NaaEnergy::fill_blocks`]).
+    /// Add one chunk's samples: weights `along` = A and `across` = B (module docs) and the
+    /// coefficients `k`, lane by lane.
     #[inline(always)]
-    pub(super) fn cell_curvature(
-        &self,
-        jac: &impl JacobianAt,
-        warp: &CellWarp,
-        first: usize,
-        chunks: &[LaneResiduals<8>],
-    ) -> [[f64; 8]; 8] {
-        let mut sums: CurvatureSums = [[[0.0; LANES]; 36]; 2];
-        for (n, chunk) in chunks.iter().enumerate() {
-            self.add_chunk_curvature(jac, warp, first + n * LANES, chunk, &mut sums);
+    fn add(&mut self, along: &[[f64; LANES]; 2], across: &[[f64; LANES]; 2], k: &LaneCoefficients) {
+        let (along2, across2) = (pair_products(along), pair_products(across));
+        for (jj, b) in across2.iter().enumerate() {
+            add_weighted(&mut self.m1[jj], b, &k.p);
+            for (i, a) in along.iter().enumerate() {
+                add_weighted(&mut self.m2[jj][i], &lanewise(|l| b[l] * a[l]), &k.q);
+            }
+            for (ii, a) in along2.iter().enumerate() {
+                add_weighted(&mut self.m3[ii][jj], &lanewise(|l| a[l] * b[l]), &k.t);
+            }
         }
+    }
+}
+
+/// The moments of one cell's samples, axes s and t, summed per lane as the chunks come
+/// ([`CellMoments::add`]); [`CellMoments::curvature`] turns them into the cell's S.
+pub(super) struct CellMoments([AxisMoments<[f64; LANES]>; 2]);
+
+impl CellMoments {
+    pub(super) fn zeros() -> Self {
+        CellMoments([AxisMoments::zero(), AxisMoments::zero()])
+    }
+
+    /// Add the LANES samples from `at` on, given their J_D `kept` by the residual pass: their
+    /// coefficients (axes s, t), weighted by A = (1−α, α) along s and B = (1−β, β) across for
+    /// axis s, the roles swapped for axis t (module docs, "Moments").
+    #[inline(always)]
+    pub(super) fn add_chunk(&mut self, samples: &SampleLanes, at: usize, kept: &LaneJacobian) {
+        let coefficients = chunk_coefficients(samples, at, kept);
+        let (alpha, beta) = (lanes(&samples.alpha, at), lanes(&samples.beta, at));
+        let a = [lanewise(|l| 1.0 - alpha[l]), *alpha];
+        let b = [lanewise(|l| 1.0 - beta[l]), *beta];
+        self.0[0].add(&a, &b, &coefficients[0]);
+        self.0[1].add(&b, &a, &coefficients[1]);
+    }
+
+    /// The cell's S (8×8 over its slots, [`super::NaaEnergy::cell_unknowns`]) for a rest cell
+    /// of size h × k: each moment's lanes added in lane order, then the entries (module docs,
+    /// "Moments"), axis s then t: a fixed order, the same for any number of threads.
+    pub(super) fn curvature(&self, h: f64, k: f64) -> [[f64; 8]; 8] {
         let mut s = [[0.0; 8]; 8];
-        for (e, &(a, b)) in UPPER_8.iter().enumerate() {
-            s[a][b] = axes_total(&[sums[0][e], sums[1][e]]);
+        for (axis, (moments, extent)) in self.0.iter().zip([h, k]).enumerate() {
+            moments.totals().add_to(axis, extent, &mut s);
+        }
+        for &(a, b) in &UPPER_8 {
             s[b][a] = s[a][b];
         }
         s

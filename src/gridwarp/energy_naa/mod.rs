@@ -53,6 +53,8 @@
 
 pub mod curvature;
 
+use curvature::{CellMoments, LaneJacobian};
+
 use std::time::Instant;
 
 use nalgebra::DMatrix;
@@ -300,7 +302,8 @@ pub enum NaaModel {
     GaussNewton,
     /// JᵀJ + S, S = Σ r∇²r ([`curvature`]): the norm's curvature too (ALGLIB's exact-Hessian
     /// protocol, in spirit). May be indefinite: LM then damps more. Each evaluation costs about
-    /// 2.5× a Gauss–Newton one. Measured on the built-in scenes (frame 4 of 4, 8×8 samples,
+    /// 1.8× a Gauss–Newton one (S from the residual pass's texel reads, summed as moments:
+    /// [`curvature`]). Measured on the built-in scenes (frame 4 of 4, 8×8 samples,
     /// 48/192/288 unknowns), Jacobian evaluations Gauss–Newton → Newton: saddle 19/35/46 →
     /// 8/8/8, bump 36/65/100 → 12/17/18, plane 24/100/100 → 27/7/8 (same minima); worm
     /// 7/64/14 → 37/54/38 (other local minima at 48 and 288): not always faster.
@@ -318,7 +321,7 @@ pub enum NaaModel {
 /// at c·P …, P = K·L rounded up to a multiple of [`LANES`] (the samples of a cell processed
 /// together, 8 f64 in one 512-bit register), the padding with σ = 0 (its residuals and
 /// derivatives are exactly 0; the per-residual visits skip it).
-struct SampleLanes {
+pub(super) struct SampleLanes {
     padded: usize,
     alpha: Vec<f64>,
     beta: Vec<f64>,
@@ -469,9 +472,19 @@ impl<'a> NaaEnergy<'a> {
         [a[0], a[1], b[0], b[1], c[0], c[1], d[0], d[1]]
     }
 
+    /// The rest size (h_i, k_j) of cell `cell` = (i, j).
+    fn cell_extent(&self, cell: usize) -> (f64, f64) {
+        let (i, j) = (cell / self.rows(), cell % self.rows());
+        (
+            self.rest_grid.s[i + 1] - self.rest_grid.s[i],
+            self.rest_grid.t[j + 1] - self.rest_grid.t[j],
+        )
+    }
+
     /// The bilinear warp of cell `cell` = (i, j) at the vertices `g`.
     fn cell_warp(&self, g: &VertexGrid, cell: usize) -> CellWarp {
         let (i, j) = (cell / self.rows(), cell % self.rows());
+        let (h, k) = self.cell_extent(cell);
         CellWarp::new(
             [
                 g.at(i, j),
@@ -479,8 +492,8 @@ impl<'a> NaaEnergy<'a> {
                 g.at(i, j + 1),
                 g.at(i + 1, j + 1),
             ],
-            self.rest_grid.s[i + 1] - self.rest_grid.s[i],
-            self.rest_grid.t[j + 1] - self.rest_grid.t[j],
+            h,
+            k,
         )
     }
 
@@ -507,15 +520,16 @@ impl<'a> NaaEnergy<'a> {
     /// folded into one factor per residual:
     ///   ∂r/∂P_c,k = (∂φ_c/∂s) σm_k + φ_c σg_k,  σm = (σ/‖q‖) J_Dᵀ q,
     ///   σg_k = (σ/‖q‖) q · (∂_k J_D) W_s   (σ/‖q‖ taken as 0 for q = 0),
-    /// and r^t likewise. One simple loop over the lanes: the compiler runs the lanes side by
-    /// side in vector registers.
+    /// and r^t likewise. With `KEEP_JACOBIAN` (the second-order models), also J_D and W of
+    /// each lane, for S ([`curvature::LaneJacobian`]). One simple loop over the lanes: the
+    /// compiler runs the lanes side by side in vector registers.
     #[inline(always)]
-    fn chunk_residuals(
+    fn chunk_residuals<const KEEP_JACOBIAN: bool>(
         &self,
         jac: &impl JacobianAt,
         warp: &CellWarp,
         at: usize,
-    ) -> LaneResiduals<8> {
+    ) -> (LaneResiduals<8>, LaneJacobian) {
         let s = &self.lanes;
         let (alpha, beta, sigma) = (lanes(&s.alpha, at), lanes(&s.beta, at), lanes(&s.sigma, at));
         let (o_s, o_t) = (lanes(&s.o_s, at), lanes(&s.o_t, at));
@@ -524,10 +538,14 @@ impl<'a> NaaEnergy<'a> {
             r: [[0.0; LANES]; 2],
             d: [[[0.0; LANES]; 8]; 2],
         };
+        let mut kept = LaneJacobian::zeros();
         for lane in 0..LANES {
             let (al, be, sg) = (alpha[lane], beta[lane], sigma[lane]);
             let w = warp.at(al, be);
             let (ds, dt) = jac.at(w.pos);
+            if KEEP_JACOBIAN {
+                kept.set(lane, &ds, &dt, [w.w_s, w.w_t]);
+            }
             // φ_c and ∂φ_c/∂s = (∂φ_c/∂α)/h, ∂φ_c/∂t = (∂φ_c/∂β)/k for the corners 00, 10, 01, 11.
             let phi = [
                 (1.0 - al) * (1.0 - be),
@@ -555,7 +573,7 @@ impl<'a> NaaEnergy<'a> {
                 }
             }
         }
-        out
+        (out, kept)
     }
 
     /// Σ r² over cell `cell`'s residuals: per-lane, per-axis sums over the cell's chunks (the
@@ -592,16 +610,23 @@ impl<'a> NaaEnergy<'a> {
         let warp = self.cell_warp(g, cell);
         let first = cell * self.lanes.padded;
         chunks.clear();
-        for at in (first..first + self.lanes.padded).step_by(LANES) {
-            chunks.push(self.chunk_residuals(jac, &warp, at));
+        let mut block = CellBlock::default();
+        if self.model == NaaModel::GaussNewton {
+            for at in (first..first + self.lanes.padded).step_by(LANES) {
+                chunks.push(self.chunk_residuals::<false>(jac, &warp, at).0);
+            }
+        } else {
+            // S from the same texel reads: J_D kept per chunk, its moments summed per cell.
+            let mut moments = CellMoments::zeros();
+            for at in (first..first + self.lanes.padded).step_by(LANES) {
+                let (chunk, kept) = self.chunk_residuals::<true>(jac, &warp, at);
+                chunks.push(chunk);
+                moments.add_chunk(&self.lanes, at, &kept);
+            }
+            let (h, k) = self.cell_extent(cell);
+            block.curvature.jtj = moments.curvature(h, k);
         }
-        let mut block = CellBlock {
-            normal: cell_block_of::<8, 36>(chunks),
-            curvature: LocalNormalEquations::default(),
-        };
-        if self.model != NaaModel::GaussNewton {
-            block.curvature.jtj = self.cell_curvature(jac, &warp, first, chunks);
-        }
+        block.normal = cell_block_of::<8, 36>(chunks);
         block
     }
 
@@ -712,7 +737,7 @@ impl<'a> NaaEnergy<'a> {
         let warp = self.cell_warp(g, cell);
         let first = cell * self.lanes.padded;
         for at in (first..first + self.lanes.padded).step_by(LANES) {
-            let chunk = self.chunk_residuals(jac, &warp, at);
+            let (chunk, _) = self.chunk_residuals::<false>(jac, &warp, at);
             let sigma = lanes(&self.lanes.sigma, at);
             for (lane, &sigma) in sigma.iter().enumerate() {
                 if sigma != 0.0 {
