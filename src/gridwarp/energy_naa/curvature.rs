@@ -35,19 +35,23 @@
 //! the t residual is the same with the roles of α and β (and of i and j, and h → the cell's
 //! height k) swapped. So each product of weights above is one of a few monomials in α, β, and
 //! a cell's S needs only these sums over its samples (B_jj' = B_j B_j', pairs unordered):
-//!   m1[jj'][kl] = Σ B_jj' P_kl,  m2[jj'][i'][kl] = Σ B_jj' A_i' Q_kl,
-//!   m3[ii'][jj'][kl] = Σ A_ii' B_jj' T_kl    (3·3 + 3·2·4 + 3·3·3 = 60 sums per axis),
+//! ```text
+//! m1[jj'][kl] = Σ B_jj' P_kl,  m2[jj'][i'][kl] = Σ B_jj' A_i' Q_kl,
+//! m3[ii'][jj'][kl] = Σ A_ii' B_jj' T_kl    (3·3 + 3·2·4 + 3·3·3 = 60 sums per axis),
+//! ```
 //! from which, for a = (c, k), c = (i, j), and b = (c', l), c' = (i', j'),
-//!   S_ab = ε_i ε_i' m1[jj'][kl] / h² + ε_i m2[jj'][i'][kl] / h + ε_i' m2[jj'][i][lk] / h
-//!          + m3[ii'][jj'][kl].
+//! ```text
+//! S_ab = ε_i ε_i' m1[jj'][kl] / h² + ε_i m2[jj'][i'][kl] / h + ε_i' m2[jj'][i][lk] / h
+//!        + m3[ii'][jj'][kl].
+//! ```
 //! Each sample thus costs 60 multiply-adds per axis instead of one sum per entry of the 8×8
-//! block (36 entries of 4 products each); the result is the same sum, rounded differently.
+//! block (36 entries of three products each); the result is the same sum, rounded differently.
 //!
 //! # Lanes
-//! The residual pass ([`super::NaaEnergy::chunk_residuals`]) keeps J_D and W of its LANES
-//! samples ([`LaneJacobian`]), so S reads no texels of its own; the coefficients are then
-//! computed as whole-lane operations ([`axis_coefficients`]) and added to the moments
-//! ([`CellMoments::add_chunk`]). (Written per sample inside one lane loop, the same formulas
+//! The residual pass (`NaaEnergy::chunk_residuals`) keeps J_D and W of its LANES samples
+//! (`LaneJacobian`), so S reads no texels of its own; the coefficients are then computed as
+//! whole-lane operations (`axis_coefficients`) and added to the moments
+//! (`CellMoments::add_chunk`). (Written per sample inside one lane loop, the same formulas
 //! were left scalar by the compiler: the loop over the two axes stayed a loop.)
 
 use super::{lanes, SampleLanes, VectorSample, LANES};
@@ -333,7 +337,7 @@ impl AxisMoments<[f64; LANES]> {
 }
 
 /// The moments of one cell's samples, axes s and t, summed per lane as the chunks come
-/// ([`CellMoments::add`]); [`CellMoments::curvature`] turns them into the cell's S.
+/// ([`CellMoments::add_chunk`]); [`CellMoments::curvature`] turns them into the cell's S.
 pub(super) struct CellMoments([AxisMoments<[f64; LANES]>; 2]);
 
 impl CellMoments {
