@@ -620,18 +620,28 @@ pub(super) struct LaneResiduals<const N: usize> {
 pub(super) fn cell_block_of<const N: usize, const T: usize>(
     chunks: &[LaneResiduals<N>],
 ) -> LocalNormalEquations<N> {
+    let mut block = cell_gradient_of(chunks);
+    for &(p, q) in &LaneSums::<N, T>::UPPER {
+        block.jtj[p][q] = chunk_sum(chunks, |c, axis, lane| {
+            c.d[axis][p][lane] * c.d[axis][q][lane]
+        });
+        block.jtj[q][p] = block.jtj[p][q];
+    }
+    block
+}
+
+/// A cell's F and Jᵀr alone (JᵀJ left 0) from the residuals of its chunks, as in
+/// [`cell_block_of`].
+#[inline(always)]
+pub(super) fn cell_gradient_of<const N: usize>(
+    chunks: &[LaneResiduals<N>],
+) -> LocalNormalEquations<N> {
     let mut block = LocalNormalEquations {
         energy: chunk_sum(chunks, |c, axis, lane| c.r[axis][lane] * c.r[axis][lane]),
         ..Default::default()
     };
     for (p, jtr) in block.jtr.iter_mut().enumerate() {
         *jtr = chunk_sum(chunks, |c, axis, lane| c.d[axis][p][lane] * c.r[axis][lane]);
-    }
-    for &(p, q) in &LaneSums::<N, T>::UPPER {
-        block.jtj[p][q] = chunk_sum(chunks, |c, axis, lane| {
-            c.d[axis][p][lane] * c.d[axis][q][lane]
-        });
-        block.jtj[q][p] = block.jtj[p][q];
     }
     block
 }

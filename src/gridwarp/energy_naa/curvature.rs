@@ -46,6 +46,9 @@
 //! ```
 //! Each sample thus costs 60 multiply-adds per axis instead of one sum per entry of the 8×8
 //! block (36 entries of three products each); the result is the same sum, rounded differently.
+//! JᵀJ has the same form (d_a d_b = σ²(uᵀQ_a)(uᵀQ_b): P, Q, T with the products (u·x)(u·y)
+//! weighted σ²), so for [`super::NaaModel::Newton`] the same 60 sums give JᵀJ + S at once,
+//! with λ = σ² − ρ in place of −ρ as the weight of those products.
 //!
 //! # Lanes
 //! The residual pass (`NaaEnergy::chunk_residuals`) keeps J_D and W of its LANES samples
@@ -137,14 +140,16 @@ fn image_lanes(a: &[Lanes; 3], b: &[Lanes; 3], w: &[Lanes; 2]) -> [Lanes; 3] {
 ///   P_kl = ρ D_kᵀΠD_l,  Q_kl = ρ D_kᵀΠG_l + σr uᵀ∂_l D_k,  T_kl = ρ G_kᵀΠG_l,
 /// q = J_D w, u = q/‖q‖, G_k = (∂_k J_D) w, ρ = σ²(‖q‖ − o)/‖q‖, σr = σ²(‖q‖ − o); all 0 at
 /// q = 0 (u undefined: the sample adds nothing, as in the Jacobian); P, T by [`pair`], Q at
-/// 2k + l. `w` = W_s or W_t and `o` = o_s or o_t per lane. Written as whole-lane operations
-/// (each a short loop over the lanes, one vector instruction each).
+/// 2k + l. `w` = W_s or W_t and `o` = o_s or o_t per lane. `with_jtj`: those of JᵀJ + S
+/// instead (σ²(u·x)(u·y) added to each, module docs "Moments"). Written as whole-lane
+/// operations (each a short loop over the lanes, one vector instruction each).
 #[inline(always)]
 fn axis_coefficients(
     kept: &LaneJacobian,
     w: &[Lanes; 2],
     sigma: &Lanes,
     o: &Lanes,
+    with_jtj: bool,
 ) -> LaneCoefficients {
     let [d0, d1] = &kept.value;
     // ∂_s D_k = kept.ds[k], ∂_t D_k = kept.dt[k].
@@ -159,6 +164,10 @@ fn axis_coefficients(
     });
     let sigma_r = lanewise(|n| sigma[n] * sigma[n] * (length[n] - o[n]));
     let rho = lanewise(|n| sigma_r[n] * inverse[n]);
+    // λ, the weight of the products (u·x)(u·y): −ρ (from the projector Π of S), plus σ² with
+    // JᵀJ (its d_a d_b = σ²(uᵀQ_a)(uᵀQ_b)).
+    let jtj = if with_jtj { 1.0 } else { 0.0 };
+    let lambda = lanewise(|n| jtj * sigma[n] * sigma[n] - rho[n]);
     let unit = |c: usize| lanewise(|n| q[c][n] * inverse[n]);
     let u = [unit(0), unit(1), unit(2)];
     let g = [
@@ -170,7 +179,7 @@ fn axis_coefficients(
     let u_g = [dot_lanes(&u, &g[0]), dot_lanes(&u, &g[1])];
     // ∂_l D_k by [l][k].
     let along = [[&kept.ds[0], &kept.ds[1]], [&kept.dt[0], &kept.dt[1]]];
-    // xᵀΠy = x·y − (u·x)(u·y).
+    // ρ xᵀΠy = ρ x·y − ρ(u·x)(u·y), with JᵀJ's σ²(u·x)(u·y) added if asked.
     let mut out = LaneCoefficients {
         p: [[0.0; LANES]; 3],
         q: [[0.0; LANES]; 4],
@@ -178,30 +187,33 @@ fn axis_coefficients(
     };
     for (k, l) in [(0, 0), (0, 1), (1, 1)] {
         let (dd, gg) = (dot_lanes(d[k], d[l]), dot_lanes(&g[k], &g[l]));
-        out.p[pair(k, l)] = lanewise(|n| rho[n] * (dd[n] - u_d[k][n] * u_d[l][n]));
-        out.t[pair(k, l)] = lanewise(|n| rho[n] * (gg[n] - u_g[k][n] * u_g[l][n]));
+        out.p[pair(k, l)] = lanewise(|n| rho[n] * dd[n] + lambda[n] * u_d[k][n] * u_d[l][n]);
+        out.t[pair(k, l)] = lanewise(|n| rho[n] * gg[n] + lambda[n] * u_g[k][n] * u_g[l][n]);
     }
     for k in 0..2 {
         for l in 0..2 {
             let (dg, u_along) = (dot_lanes(d[k], &g[l]), dot_lanes(&u, along[l][k]));
-            out.q[2 * k + l] =
-                lanewise(|n| rho[n] * (dg[n] - u_d[k][n] * u_g[l][n]) + sigma_r[n] * u_along[n]);
+            out.q[2 * k + l] = lanewise(|n| {
+                rho[n] * dg[n] + lambda[n] * u_d[k][n] * u_g[l][n] + sigma_r[n] * u_along[n]
+            });
         }
     }
     out
 }
 
-/// The coefficients of the LANES samples from `at` on, both axes, from their kept J_D.
+/// The coefficients of the LANES samples from `at` on, both axes, from their kept J_D (of
+/// JᵀJ + S `with_jtj`, else of S).
 #[inline(always)]
 fn chunk_coefficients(
     samples: &SampleLanes,
     at: usize,
     kept: &LaneJacobian,
+    with_jtj: bool,
 ) -> [LaneCoefficients; 2] {
     let sigma = lanes(&samples.sigma, at);
     [
-        axis_coefficients(kept, &kept.w[0], sigma, lanes(&samples.o_s, at)),
-        axis_coefficients(kept, &kept.w[1], sigma, lanes(&samples.o_t, at)),
+        axis_coefficients(kept, &kept.w[0], sigma, lanes(&samples.o_s, at), with_jtj),
+        axis_coefficients(kept, &kept.w[1], sigma, lanes(&samples.o_t, at), with_jtj),
     ]
 }
 
@@ -337,7 +349,8 @@ impl AxisMoments<[f64; LANES]> {
 }
 
 /// The moments of one cell's samples, axes s and t, summed per lane as the chunks come
-/// ([`CellMoments::add_chunk`]); [`CellMoments::curvature`] turns them into the cell's S.
+/// ([`CellMoments::add_chunk`]); [`CellMoments::matrix`] turns them into the cell's S (or
+/// JᵀJ + S).
 pub(super) struct CellMoments([AxisMoments<[f64; LANES]>; 2]);
 
 impl CellMoments {
@@ -349,8 +362,14 @@ impl CellMoments {
     /// coefficients (axes s, t), weighted by A = (1−α, α) along s and B = (1−β, β) across for
     /// axis s, the roles swapped for axis t (module docs, "Moments").
     #[inline(always)]
-    pub(super) fn add_chunk(&mut self, samples: &SampleLanes, at: usize, kept: &LaneJacobian) {
-        let coefficients = chunk_coefficients(samples, at, kept);
+    pub(super) fn add_chunk(
+        &mut self,
+        samples: &SampleLanes,
+        at: usize,
+        kept: &LaneJacobian,
+        with_jtj: bool,
+    ) {
+        let coefficients = chunk_coefficients(samples, at, kept, with_jtj);
         let (alpha, beta) = (lanes(&samples.alpha, at), lanes(&samples.beta, at));
         let a = [lanewise(|l| 1.0 - alpha[l]), *alpha];
         let b = [lanewise(|l| 1.0 - beta[l]), *beta];
@@ -358,10 +377,10 @@ impl CellMoments {
         self.0[1].add(&b, &a, &coefficients[1]);
     }
 
-    /// The cell's S (8×8 over its slots, [`super::NaaEnergy::cell_unknowns`]) for a rest cell
-    /// of size h × k: each moment's lanes added in lane order, then the entries (module docs,
+    /// The cell's S, or JᵀJ + S if the chunks were added `with_jtj` (8×8 over its slots,
+    /// [`super::NaaEnergy::cell_unknowns`]), for a rest cell of size h × k: each moment's lanes added in lane order, then the entries (module docs,
     /// "Moments"), axis s then t: a fixed order, the same for any number of threads.
-    pub(super) fn curvature(&self, h: f64, k: f64) -> [[f64; 8]; 8] {
+    pub(super) fn matrix(&self, h: f64, k: f64) -> [[f64; 8]; 8] {
         let mut s = [[0.0; 8]; 8];
         for (axis, (moments, extent)) in self.0.iter().zip([h, k]).enumerate() {
             moments.totals().add_to(axis, extent, &mut s);

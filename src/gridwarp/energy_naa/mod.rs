@@ -61,8 +61,8 @@ use nalgebra::DMatrix;
 
 use super::bounds::{foldover, loop_distance, merge, BoundOptions, Interval};
 use super::energy::{
-    axes_total, cell_block_of, for_each_task, lanes, rest_samples, LaneResiduals, RestFields,
-    RestSample, LANES,
+    axes_total, cell_block_of, cell_gradient_of, for_each_task, lanes, rest_samples, LaneResiduals,
+    RestFields, RestSample, LANES,
 };
 use super::field::{bilinear_formula, Axis, Field, Sample};
 use super::grid::Grid;
@@ -615,18 +615,26 @@ impl<'a> NaaEnergy<'a> {
             for at in (first..first + self.lanes.padded).step_by(LANES) {
                 chunks.push(self.chunk_residuals::<false>(jac, &warp, at).0);
             }
+            block.normal = cell_block_of::<8, 36>(chunks);
         } else {
-            // S from the same texel reads: J_D kept per chunk, its moments summed per cell.
+            // S from the same texel reads: J_D kept per chunk, its moments summed per cell;
+            // for Newton the moments hold JᵀJ + S at once ([`curvature`], "Moments").
+            let newton = self.model == NaaModel::Newton;
             let mut moments = CellMoments::zeros();
             for at in (first..first + self.lanes.padded).step_by(LANES) {
                 let (chunk, kept) = self.chunk_residuals::<true>(jac, &warp, at);
                 chunks.push(chunk);
-                moments.add_chunk(&self.lanes, at, &kept);
+                moments.add_chunk(&self.lanes, at, &kept, newton);
             }
             let (h, k) = self.cell_extent(cell);
-            block.curvature.jtj = moments.curvature(h, k);
+            if newton {
+                block.normal = cell_gradient_of(chunks);
+                block.normal.jtj = moments.matrix(h, k);
+            } else {
+                block.normal = cell_block_of::<8, 36>(chunks);
+                block.curvature.jtj = moments.matrix(h, k);
+            }
         }
-        block.normal = cell_block_of::<8, 36>(chunks);
         block
     }
 
@@ -783,7 +791,7 @@ impl<'a> NaaEnergy<'a> {
     pub fn cell_normal_equations(&self, g: &VertexGrid, cell: usize) -> LocalNormalEquations<8> {
         let mut block = [CellBlock::default()];
         self.fill_blocks(g, cell, &mut block);
-        block[0].for_model(self.model)
+        block[0].normal
     }
 
     /// Fill `out` (one entry per cell) by `fill(first cell, part)`, in parallel tasks of
@@ -1037,14 +1045,13 @@ impl Residuals for NaaEnergy<'_> {
         let slots: Vec<[Option<usize>; 8]> = (0..self.cells())
             .map(|c| self.cell_unknowns(&g, c))
             .collect();
-        let model: Vec<LocalNormalEquations<8>> =
-            blocks.iter().map(|b| b.for_model(self.model)).collect();
+        let model = blocks.iter().map(|b| &b.normal);
         if self.model == NaaModel::Adaptive {
             let curvature = blocks.iter().map(|b| &b.curvature);
             let s = NormalEquations::assemble(n, slots.iter().zip(curvature)).jtj;
             self.pending_curvature = Some((x.to_vec(), s));
         }
-        NormalEquations::assemble(n, slots.iter().zip(&model))
+        NormalEquations::assemble(n, slots.iter().zip(model))
     }
 
     /// S = Σ r∇²r at x for [`NaaModel::Adaptive`] (computed by the normal equations at the
@@ -1057,28 +1064,13 @@ impl Residuals for NaaEnergy<'_> {
     }
 }
 
-/// One cell's normal equations and, for the second-order models, its block of S = Σ r∇²r
-/// (in `curvature.jtj`; zero for Gauss–Newton).
+/// One cell's normal equations with the model Hessian LM gets in place of JᵀJ (JᵀJ, or
+/// JᵀJ + S for [`NaaModel::Newton`]) and, for [`NaaModel::Adaptive`], its block of
+/// S = Σ r∇²r apart (in `curvature.jtj`; zero for the other models).
 #[derive(Clone, Copy, Debug, Default)]
 struct CellBlock {
     normal: LocalNormalEquations<8>,
     curvature: LocalNormalEquations<8>,
-}
-
-impl CellBlock {
-    /// What `model` hands LM for this cell: JᵀJ, or JᵀJ + S for [`NaaModel::Newton`] (the
-    /// adaptive model gets JᵀJ and S apart, [`Residuals::curvature`]).
-    fn for_model(&self, model: NaaModel) -> LocalNormalEquations<8> {
-        let mut block = self.normal;
-        if model == NaaModel::Newton {
-            for (row, s_row) in block.jtj.iter_mut().zip(&self.curvature.jtj) {
-                for (entry, s) in row.iter_mut().zip(s_row) {
-                    *entry += s;
-                }
-            }
-        }
-        block
-    }
 }
 
 /// Samples per parallel task of an energy-only evaluation ([`super::energy::for_each_task`]):
