@@ -302,8 +302,8 @@ pub enum NaaModel {
     GaussNewton,
     /// JᵀJ + S, S = Σ r∇²r ([`curvature`]): the norm's curvature too (ALGLIB's exact-Hessian
     /// protocol, in spirit). May be indefinite: LM then damps more. Each evaluation costs about
-    /// 1.8× a Gauss–Newton one (S from the residual pass's texel reads, summed as moments:
-    /// [`curvature`]). Measured on the built-in scenes (frame 4 of 4, 8×8 samples,
+    /// 1.4× a Gauss–Newton one (JᵀJ + S from the residual pass's texel reads, summed as
+    /// moments: [`curvature`]). Measured on the built-in scenes (frame 4 of 4, 8×8 samples,
     /// 48/192/288 unknowns), Jacobian evaluations Gauss–Newton → Newton: saddle 19/35/46 →
     /// 8/8/8, bump 36/65/100 → 12/17/18, plane 24/100/100 → 27/7/8 (same minima); worm
     /// 7/64/14 → 37/54/38 (other local minima at 48 and 288): not always faster.
