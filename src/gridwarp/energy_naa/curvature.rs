@@ -60,6 +60,9 @@
 use super::{lanes, SampleLanes, VectorSample, LANES};
 use crate::gridwarp::energy::{lane_total, UPPER_8};
 
+/// One value per lane.
+type Lanes = [f64; LANES];
+
 /// The index of an unordered pair {x, y} of sides (or of coordinates) 0/1: 00 → 0, 01 and
 /// 10 → 1, 11 → 2.
 #[inline(always)]
@@ -70,9 +73,9 @@ fn pair(x: usize, y: usize) -> usize {
 /// The coefficients P_kl, Q_kl and T_kl of one axis's r∇²r (module docs) of LANES samples,
 /// one value per lane: P and T (symmetric) at [`pair`]`(k, l)`, Q at 2k + l.
 pub(super) struct LaneCoefficients {
-    p: [[f64; LANES]; 3],
-    q: [[f64; LANES]; 4],
-    t: [[f64; LANES]; 3],
+    p: [Lanes; 3],
+    q: [Lanes; 4],
+    t: [Lanes; 3],
 }
 
 /// J_D = [D_s D_t] with its derivatives along s and t at the warped points of LANES samples,
@@ -80,10 +83,10 @@ pub(super) struct LaneCoefficients {
 /// ([`super::NaaEnergy::chunk_residuals`]) keeps for S, so that S needs no texel reads of its
 /// own. Indexed [column k][component], W as [axis][coordinate].
 pub(super) struct LaneJacobian {
-    value: [[[f64; LANES]; 3]; 2],
-    ds: [[[f64; LANES]; 3]; 2],
-    dt: [[[f64; LANES]; 3]; 2],
-    w: [[[f64; LANES]; 2]; 2],
+    value: [[Lanes; 3]; 2],
+    ds: [[Lanes; 3]; 2],
+    dt: [[Lanes; 3]; 2],
+    w: [[Lanes; 2]; 2],
 }
 
 impl LaneJacobian {
@@ -119,9 +122,6 @@ impl LaneJacobian {
         }
     }
 }
-
-/// One value per lane.
-type Lanes = [f64; LANES];
 
 /// x·y per lane, for 3-vectors given by component.
 #[inline(always)]
@@ -219,7 +219,6 @@ fn chunk_coefficients(
 
 /// One axis's moments of a cell (module docs, "Moments"), per lane: `m1[jj'][kl]`,
 /// `m2[jj'][i'][kl]` (kl = 2k + l), `m3[ii'][jj'][kl]`, pairs by [`pair`].
-#[derive(Clone, Copy)]
 pub(super) struct AxisMoments<T> {
     m1: [[T; 3]; 3],
     m2: [[[T; 4]; 2]; 3],
@@ -229,7 +228,7 @@ pub(super) struct AxisMoments<T> {
 /// [f(0), …, f(LANES − 1)] by a plain loop, always inlined (so that it is compiled with its
 /// caller's AVX-512, unlike an outlined `std::array::from_fn`).
 #[inline(always)]
-fn lanewise(f: impl Fn(usize) -> f64) -> [f64; LANES] {
+fn lanewise(f: impl Fn(usize) -> f64) -> Lanes {
     let mut out = [0.0; LANES];
     for (lane, v) in out.iter_mut().enumerate() {
         *v = f(lane);
@@ -239,7 +238,7 @@ fn lanewise(f: impl Fn(usize) -> f64) -> [f64; LANES] {
 
 /// The three products of a side's two weights per lane: [w₀w₀, w₀w₁, w₁w₁] (by [`pair`]).
 #[inline(always)]
-fn pair_products(w: &[[f64; LANES]; 2]) -> [[f64; LANES]; 3] {
+fn pair_products(w: &[Lanes; 2]) -> [Lanes; 3] {
     [
         lanewise(|l| w[0][l] * w[0][l]),
         lanewise(|l| w[0][l] * w[1][l]),
@@ -249,11 +248,7 @@ fn pair_products(w: &[[f64; LANES]; 2]) -> [[f64; LANES]; 3] {
 
 /// `sum[lane] += weight[lane] · coefficient[lane]` for each coefficient.
 #[inline(always)]
-fn add_weighted<const N: usize>(
-    sums: &mut [[f64; LANES]; N],
-    weight: &[f64; LANES],
-    coefficients: &[[f64; LANES]; N],
-) {
+fn add_weighted<const N: usize>(sums: &mut [Lanes; N], weight: &Lanes, coefficients: &[Lanes; N]) {
     for (sum, c) in sums.iter_mut().zip(coefficients) {
         for lane in 0..LANES {
             sum[lane] += weight[lane] * c[lane];
@@ -299,7 +294,7 @@ impl AxisMoments<f64> {
     }
 }
 
-impl AxisMoments<[f64; LANES]> {
+impl AxisMoments<Lanes> {
     fn zero() -> Self {
         AxisMoments {
             m1: [[[0.0; LANES]; 3]; 3],
@@ -334,7 +329,7 @@ impl AxisMoments<[f64; LANES]> {
     /// Add one chunk's samples: weights `along` = A and `across` = B (module docs) and the
     /// coefficients `k`, lane by lane.
     #[inline(always)]
-    fn add(&mut self, along: &[[f64; LANES]; 2], across: &[[f64; LANES]; 2], k: &LaneCoefficients) {
+    fn add(&mut self, along: &[Lanes; 2], across: &[Lanes; 2], k: &LaneCoefficients) {
         let (along2, across2) = (pair_products(along), pair_products(across));
         for (jj, b) in across2.iter().enumerate() {
             add_weighted(&mut self.m1[jj], b, &k.p);
@@ -351,7 +346,7 @@ impl AxisMoments<[f64; LANES]> {
 /// The moments of one cell's samples, axes s and t, summed per lane as the chunks come
 /// ([`CellMoments::add_chunk`]); [`CellMoments::matrix`] turns them into the cell's S (or
 /// JᵀJ + S).
-pub(super) struct CellMoments([AxisMoments<[f64; LANES]>; 2]);
+pub(super) struct CellMoments([AxisMoments<Lanes>; 2]);
 
 impl CellMoments {
     pub(super) fn zeros() -> Self {

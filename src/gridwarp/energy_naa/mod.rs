@@ -38,12 +38,13 @@
 //! parallel, and the blocks scattered in cell order (deterministic for any number of threads).
 //! Inside a cell, samples are processed 8 at a time (one per lane); each of the 1 + 8 + 36
 //! entries is summed per lane and per axis over the cell's samples, then added in a fixed
-//! order ([`super::energy::cell_block_of`]), so the sums depend on the sample layout only.
+//! order (`super::energy::cell_block_of`), so the sums depend on the sample layout only.
 //!
 //! # Model Hessian
-//! LM's model uses JᵀJ by default (Gauss–Newton, the paper's); [`NaaModel::Newton`] adds
-//! S = Σ r∇²r, computed per cell like JᵀJ ([`curvature`]); [`NaaModel::Adaptive`] hands LM
-//! both and lets it choose per iteration.
+//! LM's model uses JᵀJ by default (Gauss–Newton, the paper's); [`NaaModel::Newton`] uses
+//! JᵀJ + S, S = Σ r∇²r, both summed per cell as the moments of [`curvature`] (in place of the
+//! 36 JᵀJ sums above); [`NaaModel::Adaptive`] hands LM JᵀJ (as Gauss–Newton) and S apart and
+//! lets it choose per iteration.
 //!
 //! # Validity
 //! det(∂W/∂α, ∂W/∂β) is bilinear in (α, β) (∂W/∂α depends on β only, ∂W/∂β on α only), so it
