@@ -8,7 +8,11 @@
 //!   `solve_sequence` does; the paper's preprocessing). Their one-off cost is measured
 //!   separately (`gridwarp_aa_rest_samples`), and the printed line also gives the time of one
 //!   `solve_frame` that builds them itself.
-//! - Non-axis-aligned: 48, 192 and 288 unknowns ((M−2)(N−2)·2, fixed border) on the saddle.
+//! - Non-axis-aligned: 48, 192 and 288 unknowns ((M−2)(N−2)·2, fixed border) on the saddle,
+//!   likewise on rest samples built beforehand ([`NaaRestSamples`], once per sequence, as
+//!   `solve_naa_sequence` does), their one-off cost measured separately
+//!   (`gridwarp_naa_rest_samples`) and given with one `solve_naa_frame` in the printed line.
+//!   The frame's own preparation (interleaving its six J_D fields) stays in the rows.
 //! - Non-axis-aligned again with the second-order model JᵀJ + Σ r∇²r (`NaaModel::Newton`,
 //!   `gridwarp_naa_frame_newton`) and with the per-iteration choice between the two models
 //!   (`NaaModel::Adaptive`, `gridwarp_naa_frame_adaptive`), 8×8 samples.
@@ -22,7 +26,8 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use reparam::gridwarp::energy_naa::{
-    solve_naa_frame, DeformedJacobian, NaaEnergy, NaaModel, VertexGrid,
+    solve_naa_frame, solve_naa_frame_with_rest_samples, DeformedJacobian, NaaEnergy, NaaModel,
+    NaaRestSamples, VertexGrid,
 };
 use reparam::gridwarp::scene::{analytic_scene, disc_rigidity, partials_of, plane_stretch};
 use reparam::gridwarp::{
@@ -174,10 +179,10 @@ fn bench_naa(c: &mut Criterion) {
                     naa_model: model,
                     ..options(samples)
                 };
+                let rest_samples = NaaRestSamples::new(&fields.rest, &grid, samples, samples);
                 let solve = || {
-                    solve_naa_frame(
-                        &fields.rest,
-                        &grid,
+                    solve_naa_frame_with_rest_samples(
+                        &rest_samples,
                         &deformed,
                         &vertices,
                         &vertices,
@@ -195,11 +200,40 @@ fn bench_naa(c: &mut Criterion) {
                     once.rest_energy,
                     judged,
                 );
+                let alone = solve_naa_frame(
+                    &fields.rest,
+                    &grid,
+                    &deformed,
+                    &vertices,
+                    &vertices,
+                    (0, 1),
+                    &options,
+                );
+                println!(
+                    "  (one solve_naa_frame building its rest samples itself: {:.3} ms)",
+                    alone.unwrap().seconds * 1e3
+                );
                 group.bench_function(name, |b| b.iter(|| black_box(solve().unwrap())));
             }
         }
         group.finish();
     }
+    // The once-per-sequence precomputation the rows above leave out.
+    let mut group = c.benchmark_group("gridwarp_naa_rest_samples");
+    group.sample_size(20);
+    for samples in SAMPLES {
+        for (m, n) in NAA_SIZES {
+            let grid = Grid::uniform(m, n);
+            let name = format!(
+                "{}_unknowns_{samples}x{samples}_samples",
+                (m - 2) * (n - 2) * 2
+            );
+            group.bench_function(name, |b| {
+                b.iter(|| black_box(NaaRestSamples::new(&fields.rest, &grid, samples, samples)))
+            });
+        }
+    }
+    group.finish();
 }
 
 criterion_group!(benches, bench_aa, bench_aa_gpu, bench_naa);

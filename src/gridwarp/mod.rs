@@ -40,7 +40,8 @@ pub mod solve;
 
 pub use energy::{AaEnergy, DeformedFields, RestFields, RestSamples};
 pub use energy_naa::{
-    solve_naa_frame, DeformedJacobian, NaaEnergy, NaaFrameSolution, NaaModel, VertexGrid,
+    solve_naa_frame, solve_naa_frame_with_rest_samples, DeformedJacobian, NaaEnergy,
+    NaaFrameSolution, NaaModel, NaaRestSamples, VertexGrid,
 };
 pub use field::Field;
 pub use grid::{grid_from_rigidity, Grid};

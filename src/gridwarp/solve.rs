@@ -7,7 +7,8 @@ use std::time::Instant;
 use super::bounds::{frame_bounds, BoundOptions};
 use super::energy::{AaEnergy, DeformedFields, RestFields, RestSamples};
 use super::energy_naa::{
-    solve_naa_frame, DeformedJacobian, NaaFrameSolution, NaaModel, VertexGrid,
+    solve_naa_frame_with_rest_samples, DeformedJacobian, NaaFrameSolution, NaaModel,
+    NaaRestSamples, VertexGrid,
 };
 use super::grid::Grid;
 use crate::error::Result;
@@ -201,9 +202,12 @@ pub fn solve_sequence(
 /// from `start`, normally [`VertexGrid::from_grid`] of the rest grid), its bounds are
 /// [`super::energy_naa::naa_frame_bounds`] around them — foldover boxes, the smoothness bound o
 /// and, with `looping`, the looping box around frame 0's solution — and every frame is solved by
-/// [`solve_naa_frame`]. The border mode (fixed or sliding) is `start`'s.
+/// [`super::energy_naa::solve_naa_frame`], on rest samples built once before the first frame
+/// ([`NaaRestSamples`]; the first frame's `seconds` does not include them). The border mode
+/// (fixed or sliding) is `start`'s.
 ///
-/// Errors: those of [`solve_naa_frame`] (`start` of the wrong shape or folded).
+/// Errors: those of [`super::energy_naa::solve_naa_frame`] (`start` of the wrong shape or
+/// folded).
 pub fn solve_naa_sequence(
     rest: &RestFields,
     rest_grid: &Grid,
@@ -211,13 +215,15 @@ pub fn solve_naa_sequence(
     frames: &[DeformedJacobian],
     options: &SolveOptions,
 ) -> Result<Vec<NaaFrameSolution>> {
+    let (k, l) = options.samples_per_cell();
+    let samples = NaaRestSamples::new(rest, rest_grid, k, l);
     solve_frames(
         start,
         frames.len(),
         |s: &NaaFrameSolution| &s.vertices,
         |j, previous, first| {
             let frame = (j, frames.len());
-            solve_naa_frame(rest, rest_grid, &frames[j], previous, first, frame, options)
+            solve_naa_frame_with_rest_samples(&samples, &frames[j], previous, first, frame, options)
         },
     )
 }

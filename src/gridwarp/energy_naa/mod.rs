@@ -56,6 +56,7 @@ pub mod curvature;
 
 use curvature::{CellMoments, LaneJacobian};
 
+use std::borrow::Cow;
 use std::time::Instant;
 
 use nalgebra::DMatrix;
@@ -278,14 +279,10 @@ impl VertexGrid {
 
 /// The non-axis-aligned energy of one frame as a least-squares problem in the interior vertices.
 pub struct NaaEnergy<'a> {
-    rest_grid: &'a Grid,
+    /// Built for this energy ([`NaaEnergy::new`]) or shared by a sequence's frames.
+    rest: Cow<'a, NaaRestSamples>,
     rest_vertices: VertexGrid,
     deformed: &'a DeformedJacobian,
-    /// The rest samples (cell (i, j)'s K·L samples in the order of [`rest_samples`]) and,
-    /// per sample, the bilinear weights' slopes that do not depend on the unknowns:
-    /// [(1−β)/h_i, β/h_i, (1−α)/k_j, α/k_j] (∂φ_c/∂s and ∂φ_c/∂t up to sign),
-    /// structure-of-arrays, padded per cell for the lane loops.
-    lanes: SampleLanes,
     /// The six components of J_D interleaved per texel, when they share one resolution.
     packed: Option<PackedJacobian>,
     /// What [`Residuals::normal_equations`] returns as "JᵀJ": see [`NaaModel`].
@@ -318,10 +315,68 @@ pub enum NaaModel {
     Adaptive,
 }
 
+/// The rest side of the non-axis-aligned energy: the rest samples (cell (i, j)'s K·L samples
+/// in the order of [`rest_samples`], exactly the axis-aligned energy's) and, per sample, the
+/// bilinear weights' slopes that do not depend on the unknowns: [(1−β)/h_i, β/h_i,
+/// (1−α)/k_j, α/k_j] (∂φ_c/∂s and ∂φ_c/∂t up to sign), structure-of-arrays, padded per cell
+/// for the lane loops (`SampleLanes`). They depend only on the rest fields, the rest grid
+/// and K×L, so a sequence builds them once (the paper's preprocessing;
+/// [`super::solve::solve_naa_sequence`]) and every frame's [`NaaEnergy`] reads them
+/// ([`NaaEnergy::from_rest_samples`]), as the axis-aligned energy's
+/// [`super::energy::RestSamples`].
+#[derive(Clone, Debug)]
+pub struct NaaRestSamples {
+    grid: Grid,
+    per_cell: (usize, usize),
+    lanes: SampleLanes,
+}
+
+impl NaaRestSamples {
+    /// The K×L midpoint samples of every rest cell ([`rest_samples`]) and their weight slopes.
+    pub fn new(rest: &RestFields, rest_grid: &Grid, k: usize, l: usize) -> NaaRestSamples {
+        let samples = rest_samples(rest, rest_grid, k, l);
+        let per_cell = k.max(1) * l.max(1);
+        let rows = rest_grid.t.len() - 1;
+        let weight_slopes: Vec<[f64; 4]> = samples
+            .chunks_exact(per_cell)
+            .enumerate()
+            .flat_map(|(cell, cell_samples)| {
+                let (i, j) = (cell / rows, cell % rows);
+                let h = rest_grid.s[i + 1] - rest_grid.s[i];
+                let kj = rest_grid.t[j + 1] - rest_grid.t[j];
+                cell_samples.iter().map(move |p| {
+                    [
+                        (1.0 - p.beta) / h,
+                        p.beta / h,
+                        (1.0 - p.alpha) / kj,
+                        p.alpha / kj,
+                    ]
+                })
+            })
+            .collect();
+        NaaRestSamples {
+            grid: rest_grid.clone(),
+            per_cell: (k.max(1), l.max(1)),
+            lanes: SampleLanes::new(&samples, &weight_slopes, per_cell),
+        }
+    }
+
+    /// The rest grid these samples belong to.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// Samples per cell (K, L).
+    pub fn per_cell(&self) -> (usize, usize) {
+        self.per_cell
+    }
+}
+
 /// The rest samples and weight slopes of [`NaaEnergy`] structure-of-arrays: cell c's samples
 /// at c·P …, P = K·L rounded up to a multiple of [`LANES`] (the samples of a cell processed
 /// together, 8 f64 in one 512-bit register), the padding with σ = 0 (its residuals and
 /// derivatives are exactly 0; the per-residual visits skip it).
+#[derive(Clone, Debug)]
 pub(super) struct SampleLanes {
     padded: usize,
     alpha: Vec<f64>,
@@ -392,39 +447,30 @@ impl JacobianAt for PackedJacobian {
 
 impl<'a> NaaEnergy<'a> {
     /// Precompute the rest-point quantities of every sample: K×L midpoints per cell (exactly the
-    /// AA energy's rest samples).
+    /// AA energy's rest samples; [`NaaRestSamples`]).
     pub fn new(
         rest: &RestFields,
-        rest_grid: &'a Grid,
+        rest_grid: &Grid,
         deformed: &'a DeformedJacobian,
         k: usize,
         l: usize,
     ) -> Self {
-        let samples = rest_samples(rest, rest_grid, k, l);
-        let per_cell = k.max(1) * l.max(1);
-        let rows = rest_grid.t.len() - 1;
-        let weight_slopes: Vec<[f64; 4]> = samples
-            .chunks_exact(per_cell)
-            .enumerate()
-            .flat_map(|(cell, cell_samples)| {
-                let (i, j) = (cell / rows, cell % rows);
-                let h = rest_grid.s[i + 1] - rest_grid.s[i];
-                let kj = rest_grid.t[j + 1] - rest_grid.t[j];
-                cell_samples.iter().map(move |p| {
-                    [
-                        (1.0 - p.beta) / h,
-                        p.beta / h,
-                        (1.0 - p.alpha) / kj,
-                        p.alpha / kj,
-                    ]
-                })
-            })
-            .collect();
-        NaaEnergy {
-            rest_grid,
-            rest_vertices: VertexGrid::from_grid(rest_grid),
+        Self::with_rest(
+            Cow::Owned(NaaRestSamples::new(rest, rest_grid, k, l)),
             deformed,
-            lanes: SampleLanes::new(&samples, &weight_slopes, per_cell),
+        )
+    }
+
+    /// The energy of `deformed` over rest samples built beforehand (once per sequence).
+    pub fn from_rest_samples(samples: &'a NaaRestSamples, deformed: &'a DeformedJacobian) -> Self {
+        Self::with_rest(Cow::Borrowed(samples), deformed)
+    }
+
+    fn with_rest(rest: Cow<'a, NaaRestSamples>, deformed: &'a DeformedJacobian) -> Self {
+        NaaEnergy {
+            rest_vertices: VertexGrid::from_grid(&rest.grid),
+            rest,
+            deformed,
             packed: PackedJacobian::new(deformed),
             model: NaaModel::GaussNewton,
             pending_curvature: None,
@@ -449,11 +495,11 @@ impl<'a> NaaEnergy<'a> {
     }
 
     fn columns(&self) -> usize {
-        self.rest_grid.s.len() - 1
+        self.rest.grid.s.len() - 1
     }
 
     fn rows(&self) -> usize {
-        self.rest_grid.t.len() - 1
+        self.rest.grid.t.len() - 1
     }
 
     fn cells(&self) -> usize {
@@ -477,8 +523,8 @@ impl<'a> NaaEnergy<'a> {
     fn cell_extent(&self, cell: usize) -> (f64, f64) {
         let (i, j) = (cell / self.rows(), cell % self.rows());
         (
-            self.rest_grid.s[i + 1] - self.rest_grid.s[i],
-            self.rest_grid.t[j + 1] - self.rest_grid.t[j],
+            self.rest.grid.s[i + 1] - self.rest.grid.s[i],
+            self.rest.grid.t[j + 1] - self.rest.grid.t[j],
         )
     }
 
@@ -503,7 +549,7 @@ impl<'a> NaaEnergy<'a> {
     /// needs): r = σ (‖J_D(p) W_·‖ − o_·).
     #[inline(always)]
     fn chunk_values(&self, jac: &impl JacobianAt, warp: &CellWarp, at: usize) -> [[f64; LANES]; 2] {
-        let s = &self.lanes;
+        let s = &self.rest.lanes;
         let (alpha, beta, sigma) = (lanes(&s.alpha, at), lanes(&s.beta, at), lanes(&s.sigma, at));
         let (o_s, o_t) = (lanes(&s.o_s, at), lanes(&s.o_t, at));
         let mut r = [[0.0; LANES]; 2];
@@ -531,7 +577,7 @@ impl<'a> NaaEnergy<'a> {
         warp: &CellWarp,
         at: usize,
     ) -> (LaneResiduals<8>, LaneJacobian) {
-        let s = &self.lanes;
+        let s = &self.rest.lanes;
         let (alpha, beta, sigma) = (lanes(&s.alpha, at), lanes(&s.beta, at), lanes(&s.sigma, at));
         let (o_s, o_t) = (lanes(&s.o_s, at), lanes(&s.o_t, at));
         let [bs, bt, as_, at_] = s.slopes.each_ref().map(|v| lanes(v, at));
@@ -584,9 +630,9 @@ impl<'a> NaaEnergy<'a> {
     #[inline(always)]
     fn cell_energy_with(&self, jac: &impl JacobianAt, g: &VertexGrid, cell: usize) -> f64 {
         let warp = self.cell_warp(g, cell);
-        let first = cell * self.lanes.padded;
+        let first = cell * self.rest.lanes.padded;
         let mut sums = [[0.0; LANES]; 2];
-        for at in (first..first + self.lanes.padded).step_by(LANES) {
+        for at in (first..first + self.rest.lanes.padded).step_by(LANES) {
             let r = self.chunk_values(jac, &warp, at);
             for (sums, r) in sums.iter_mut().zip(&r) {
                 for lane in 0..LANES {
@@ -609,11 +655,11 @@ impl<'a> NaaEnergy<'a> {
         chunks: &mut Vec<LaneResiduals<8>>,
     ) -> CellBlock {
         let warp = self.cell_warp(g, cell);
-        let first = cell * self.lanes.padded;
+        let first = cell * self.rest.lanes.padded;
         chunks.clear();
         let mut block = CellBlock::default();
         if self.model == NaaModel::GaussNewton {
-            for at in (first..first + self.lanes.padded).step_by(LANES) {
+            for at in (first..first + self.rest.lanes.padded).step_by(LANES) {
                 chunks.push(self.chunk_residuals::<false>(jac, &warp, at).0);
             }
             block.normal = cell_block_of::<8, 36>(chunks);
@@ -622,10 +668,10 @@ impl<'a> NaaEnergy<'a> {
             // for Newton the moments hold JᵀJ + S at once ([`curvature`], "Moments").
             let newton = self.model == NaaModel::Newton;
             let mut moments = CellMoments::zeros();
-            for at in (first..first + self.lanes.padded).step_by(LANES) {
+            for at in (first..first + self.rest.lanes.padded).step_by(LANES) {
                 let (chunk, kept) = self.chunk_residuals::<true>(jac, &warp, at);
                 chunks.push(chunk);
-                moments.add_chunk(&self.lanes, at, &kept, newton);
+                moments.add_chunk(&self.rest.lanes, at, &kept, newton);
             }
             let (h, k) = self.cell_extent(cell);
             if newton {
@@ -662,7 +708,7 @@ impl<'a> NaaEnergy<'a> {
         first: usize,
         out: &mut [CellBlock],
     ) {
-        let mut chunks = Vec::with_capacity(self.lanes.padded / LANES);
+        let mut chunks = Vec::with_capacity(self.rest.lanes.padded / LANES);
         for (c, block) in out.iter_mut().enumerate() {
             *block = self.cell_block_with(jac, g, first + c, &mut chunks);
         }
@@ -744,10 +790,10 @@ impl<'a> NaaEnergy<'a> {
         mut visit: impl FnMut(f64, &[f64; 8]),
     ) {
         let warp = self.cell_warp(g, cell);
-        let first = cell * self.lanes.padded;
-        for at in (first..first + self.lanes.padded).step_by(LANES) {
+        let first = cell * self.rest.lanes.padded;
+        for at in (first..first + self.rest.lanes.padded).step_by(LANES) {
             let (chunk, _) = self.chunk_residuals::<false>(jac, &warp, at);
-            let sigma = lanes(&self.lanes.sigma, at);
+            let sigma = lanes(&self.rest.lanes.sigma, at);
             for (lane, &sigma) in sigma.iter().enumerate() {
                 if sigma != 0.0 {
                     for axis in 0..2 {
@@ -804,7 +850,7 @@ impl<'a> NaaEnergy<'a> {
         samples_per_task: usize,
         fill: impl Fn(usize, &mut [T]) + Sync,
     ) {
-        for_each_task(out, self.lanes.padded, samples_per_task, fill);
+        for_each_task(out, self.rest.lanes.padded, samples_per_task, fill);
     }
 }
 
@@ -1173,10 +1219,42 @@ pub fn solve_naa_frame(
     deformed: &DeformedJacobian,
     previous: &VertexGrid,
     first: &VertexGrid,
-    (frame, frames): (usize, usize),
+    frame: (usize, usize),
     options: &SolveOptions,
 ) -> Result<NaaFrameSolution> {
     let start = Instant::now();
+    let (k, l) = options.samples_per_cell();
+    let samples = NaaRestSamples::new(rest, rest_grid, k, l);
+    solve_naa_frame_from(start, &samples, deformed, previous, first, frame, options)
+}
+
+/// [`solve_naa_frame`] on rest samples built beforehand ([`NaaRestSamples::new`], once per
+/// sequence: they depend on the rest fields, the rest grid and K×L only, the paper's
+/// preprocessing). The samples' K×L is used (`options.samples` is not read); `seconds` is
+/// the frame's own cost, without the samples' precomputation.
+pub fn solve_naa_frame_with_rest_samples(
+    samples: &NaaRestSamples,
+    deformed: &DeformedJacobian,
+    previous: &VertexGrid,
+    first: &VertexGrid,
+    frame: (usize, usize),
+    options: &SolveOptions,
+) -> Result<NaaFrameSolution> {
+    let start = Instant::now();
+    solve_naa_frame_from(start, samples, deformed, previous, first, frame, options)
+}
+
+/// The solve of [`solve_naa_frame`] given its rest samples; `seconds` counts from `start`.
+fn solve_naa_frame_from(
+    start: Instant,
+    samples: &NaaRestSamples,
+    deformed: &DeformedJacobian,
+    previous: &VertexGrid,
+    first: &VertexGrid,
+    (frame, frames): (usize, usize),
+    options: &SolveOptions,
+) -> Result<NaaFrameSolution> {
+    let rest_grid = samples.grid();
     let (m, n) = (rest_grid.s.len(), rest_grid.t.len());
     for (name, g) in [("previous", previous), ("first", first)] {
         if (g.m, g.n, g.points.len()) != (m, n, m * n)
@@ -1189,8 +1267,7 @@ pub fn solve_naa_frame(
             )));
         }
     }
-    let (k, l) = options.samples_per_cell();
-    let mut energy = NaaEnergy::new(rest, rest_grid, deformed, k, l)
+    let mut energy = NaaEnergy::from_rest_samples(samples, deformed)
         .with_sliding_border(previous.sliding_border)
         .with_model(options.naa_model);
     let bound_options = options.bound_options(frame, frames);
