@@ -181,6 +181,46 @@ fn two_rois_on_a_mesh_are_solved_independently_and_combined() {
     assert!(out.join("gridwarp_rest_naa_render.png").exists());
 }
 
+/// Without --rigidity the map is R ≡ 1: Algorithm 1 places no interior line, the run has 0
+/// unknowns and leaves every frame as it is, and says why and what to give instead.
+#[test]
+fn a_uniform_rigidity_map_leaves_nothing_to_warp_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let (rest, frame) = plane_frames(dir.path());
+    let out = dir.path().join("out");
+    let args = |json: bool| {
+        let mut a = vec![
+            "gridwarp",
+            "--obj",
+            rest.to_str().unwrap(),
+            frame.to_str().unwrap(),
+            "--size",
+            "16",
+            "--samples",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        if json {
+            a.push("--json");
+        }
+        reparam(&a)
+    };
+    let (ok, stdout, stderr) = args(false);
+    assert!(ok, "{stderr}");
+    assert!(stdout.contains("0 unknowns"), "{stdout}");
+    assert!(stdout.contains("nothing to warp"), "{stdout}");
+    assert!(stdout.contains("--rigidity"), "{stdout}");
+    let (ok, stdout, stderr) = args(true);
+    assert!(ok, "{stderr}");
+    let v = json(&stdout);
+    let roi = &v["rois"][0];
+    assert_eq!(roi["unknowns"].as_u64().unwrap(), 0);
+    let f = &roi["frames"][0];
+    assert_eq!(f["iterations"].as_u64().unwrap(), 0);
+    assert_eq!(f["energy_before"], f["energy_after"]);
+}
+
 #[test]
 fn bad_rois_and_rigidity_maps_are_errors_naming_the_culprit() {
     let dir = tempfile::tempdir().unwrap();

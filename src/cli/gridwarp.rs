@@ -95,7 +95,8 @@ pub struct GridwarpArgs {
     /// Rigidity: a map (PNG 8/16-bit or EXR, values in [0, 1]), `auto` (from the model's
     /// base-colour texture, see `gridwarp::rigidity`), or `discs:s,t,r;…` (rigid discs in ROI
     /// coordinates). Give one per ROI, or one shared by all (a shared image covers the whole
-    /// texture; a per-ROI image covers its ROI). Default: R ≡ 1.
+    /// texture; a per-ROI image covers its ROI). Default: R ≡ 1 (with `--grid auto`, no
+    /// interior line: nothing to warp).
     #[arg(long)]
     pub rigidity: Vec<String>,
     /// Axis-aligned lines or non-axis-aligned vertices.
@@ -786,6 +787,9 @@ pub fn run(args: GridwarpArgs) -> Result<()> {
             r.rest_grid.s.len(),
             r.rest_grid.t.len()
         );
+        if r.unknowns == 0 {
+            println!("{}", NOTHING_TO_WARP);
+        }
         println!("{}", frame_table(&r.frames));
     }
     if result.rois.len() > 1 {
@@ -841,6 +845,13 @@ pub fn frame_rows(frames: &[FrameStats]) -> Vec<Vec<String>> {
         })
         .collect()
 }
+
+/// Printed under a ROI without unknowns (Algorithm 1 on a uniform rigidity map, the default
+/// R ≡ 1, places no interior line).
+const NOTHING_TO_WARP: &str =
+    "  nothing to warp: the starting grid has no interior line (Algorithm 1 \
+     finds no rigidity boundary in a uniform map, e.g. the default R ≡ 1); give --rigidity (a map, \
+     `auto` or `discs:…`) or a uniform grid --grid MxN";
 
 /// Column names of [`frame_rows`].
 pub const FRAME_HEADER: [&str; 8] = [
