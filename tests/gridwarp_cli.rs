@@ -46,6 +46,23 @@ fn plane_frames(dir: &Path) -> (PathBuf, PathBuf) {
     (rest, frame)
 }
 
+/// `reparam gridwarp` on the OBJ frames `rest`, `frame` with 16² fields, writing to `out`,
+/// with `extra` arguments.
+fn gridwarp_on(rest: &Path, frame: &Path, out: &Path, extra: &[&str]) -> (bool, String, String) {
+    let mut args = vec![
+        "gridwarp",
+        "--obj",
+        rest.to_str().unwrap(),
+        frame.to_str().unwrap(),
+        "--size",
+        "16",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    reparam(&args)
+}
+
 fn json(stdout: &str) -> serde_json::Value {
     serde_json::from_str(stdout).expect("valid JSON")
 }
@@ -188,30 +205,12 @@ fn a_uniform_rigidity_map_leaves_nothing_to_warp_and_says_so() {
     let dir = tempfile::tempdir().unwrap();
     let (rest, frame) = plane_frames(dir.path());
     let out = dir.path().join("out");
-    let args = |json: bool| {
-        let mut a = vec![
-            "gridwarp",
-            "--obj",
-            rest.to_str().unwrap(),
-            frame.to_str().unwrap(),
-            "--size",
-            "16",
-            "--samples",
-            "2",
-            "--out",
-            out.to_str().unwrap(),
-        ];
-        if json {
-            a.push("--json");
-        }
-        reparam(&a)
-    };
-    let (ok, stdout, stderr) = args(false);
+    let (ok, stdout, stderr) = gridwarp_on(&rest, &frame, &out, &["--samples", "2"]);
     assert!(ok, "{stderr}");
     assert!(stdout.contains("0 unknowns"), "{stdout}");
     assert!(stdout.contains("nothing to warp"), "{stdout}");
     assert!(stdout.contains("--rigidity"), "{stdout}");
-    let (ok, stdout, stderr) = args(true);
+    let (ok, stdout, stderr) = gridwarp_on(&rest, &frame, &out, &["--samples", "2", "--json"]);
     assert!(ok, "{stderr}");
     let v = json(&stdout);
     let roi = &v["rois"][0];
@@ -227,18 +226,7 @@ fn bad_rois_and_rigidity_maps_are_errors_naming_the_culprit() {
     let (rest, frame) = plane_frames(dir.path());
     let out = dir.path().join("out");
     let run = |extra: &[&str]| {
-        let mut args = vec![
-            "gridwarp",
-            "--obj",
-            rest.to_str().unwrap(),
-            frame.to_str().unwrap(),
-            "--size",
-            "16",
-            "--out",
-            out.to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        let (ok, _, stderr) = reparam(&args);
+        let (ok, _, stderr) = gridwarp_on(&rest, &frame, &out, extra);
         assert!(!ok, "{extra:?} succeeded");
         assert!(!stderr.contains("panicked"), "{stderr}");
         stderr
