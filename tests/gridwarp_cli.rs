@@ -259,14 +259,7 @@ fn bad_rois_and_rigidity_maps_are_errors_naming_the_culprit() {
     assert!(e.contains("discs") || e.contains("three numbers"), "{e}");
     // Frames with a different connectivity.
     let other = write_grid_obj(dir.path(), "other.obj", 8, |u, v| [u, v, 0.0]);
-    let (ok, _, stderr) = reparam(&[
-        "gridwarp",
-        "--obj",
-        rest.to_str().unwrap(),
-        other.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (ok, _, stderr) = gridwarp_on(&rest, &other, &out, &[]);
     assert!(
         !ok && stderr.contains("frame 0") && stderr.contains("faces"),
         "{stderr}"
@@ -283,18 +276,8 @@ fn bad_rois_and_rigidity_maps_are_errors_naming_the_culprit() {
     image::GrayImage::from_pixel(10, 10, image::Luma([255]))
         .save(&map)
         .unwrap();
-    let (ok, _, stderr) = reparam(&[
-        "gridwarp",
-        "--obj",
-        textured.to_str().unwrap(),
-        frame.to_str().unwrap(),
-        "--roi",
-        "0,0.5,0,0.5",
-        "--rigidity",
-        map.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let extra = ["--roi", "0,0.5,0,0.5", "--rigidity", map.to_str().unwrap()];
+    let (ok, _, stderr) = gridwarp_on(&textured, &frame, &out, &extra);
     // The ROI covers 16×16 texture pixels.
     assert!(
         !ok && stderr.contains("10x10") && stderr.contains("16x16"),
