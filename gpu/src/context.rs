@@ -55,6 +55,14 @@ impl Gpu {
         )
     }
 
+    /// Whether the adapter is Mesa's lavapipe (llvmpipe behind Vulkan): CI's adapter, on which
+    /// the f32 error snapshots are taken. llvmpipe behind OpenGL (what wgpu finds where the
+    /// Vulkan driver is not installed) is not: its shaders are translated and rounded
+    /// differently.
+    pub fn is_lavapipe(&self) -> bool {
+        self.info.backend == wgpu::Backend::Vulkan && self.info.name.contains("llvmpipe")
+    }
+
     /// The adapter's description.
     pub fn adapter_info(&self) -> &wgpu::AdapterInfo {
         &self.info
