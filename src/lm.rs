@@ -122,13 +122,32 @@ pub trait Residuals {
     /// F(x) = Σ r_k(x)². May return `f64::INFINITY` for an invalid trial point (e.g. a folded
     /// grid cell): the solver treats it as a rejected step.
     fn energy(&mut self, x: &[f64]) -> f64;
-    /// F(x), JᵀJ (n×n) and Jᵀr (n) at x. Only called at x₀ and at accepted points.
+    /// F(x), JᵀJ (n×n) and Jᵀr (n) at x. [`minimize`] asks for them only at x₀ and at accepted
+    /// points; [`Speculative`] also at trial points, so their F must be `energy(x)` bit for
+    /// bit (+∞ where that is +∞).
     fn normal_equations(&mut self, x: &[f64]) -> NormalEquations;
     /// S = Σ_k r_k ∇²r_k at x (n×n, symmetric), if the problem offers it for an adaptive model
     /// (module docs, "Other model Hessians"); called right after
     /// [`Residuals::normal_equations`] at the same x. The default: None (Gauss–Newton only).
     fn curvature(&mut self, _x: &[f64]) -> Option<DMatrix<f64>> {
         None
+    }
+}
+
+/// A problem borrowed mutably is a problem (so that adaptors such as [`Speculative`] can wrap
+/// a borrowed one).
+impl<R: Residuals + ?Sized> Residuals for &mut R {
+    fn dim(&self) -> usize {
+        (**self).dim()
+    }
+    fn energy(&mut self, x: &[f64]) -> f64 {
+        (**self).energy(x)
+    }
+    fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
+        (**self).normal_equations(x)
+    }
+    fn curvature(&mut self, x: &[f64]) -> Option<DMatrix<f64>> {
+        (**self).curvature(x)
     }
 }
 
@@ -226,6 +245,78 @@ impl<const N: usize> LocalNormalEquations<N> {
                 self.jtj[a][b] += d[a] * d[b];
             }
         }
+    }
+}
+
+/// A [`Residuals`] problem whose trial points get their normal equations at once: a trial
+/// that LM accepts then needs no second pass over the residuals for its JᵀJ and Jᵀr.
+///
+/// LM asks for F at every trial point and for the normal equations only at accepted ones
+/// ([`Residuals`]), so a trial costs one pass (energy only) and an accepted one two. Where
+/// the normal equations cost little more than the energy (they read the same texels, or
+/// they run in parallel while the energy would not), computing them at the trial already is
+/// cheaper whenever the trial is accepted, as most are. A rejected trial wastes the
+/// difference, so this adaptor speculates only while trials are being accepted: after a
+/// rejected trial (e.g. the string of them of [`LmOptions::paper`]) the next trial asks for
+/// the energy alone, until one is accepted again.
+///
+/// F is taken from the normal equations; the problem must give the same F both ways, bit for
+/// bit (the grid-warp energies sum the same terms in the same order), so the iterates, the
+/// counts of [`LmReport`] and the result are those of the plain problem.
+pub struct Speculative<R> {
+    inner: R,
+    /// The normal equations at the last trial point, if they were computed with its energy.
+    pending: Option<(Vec<f64>, NormalEquations)>,
+    /// Whether the last trial point was accepted (LM asked for its normal equations).
+    last_accepted: bool,
+}
+
+impl<R: Residuals> Speculative<R> {
+    pub fn new(inner: R) -> Self {
+        Speculative {
+            inner,
+            pending: None,
+            last_accepted: true,
+        }
+    }
+
+    /// The wrapped problem.
+    pub fn into_inner(self) -> R {
+        self.inner
+    }
+}
+
+impl<R: Residuals> Residuals for Speculative<R> {
+    fn dim(&self) -> usize {
+        self.inner.dim()
+    }
+
+    /// F(x) from the normal equations at x while trials are being accepted, else alone.
+    fn energy(&mut self, x: &[f64]) -> f64 {
+        if self.pending.take().is_some() {
+            // The previous trial's normal equations were never asked for: it was rejected.
+            self.last_accepted = false;
+        }
+        if !self.last_accepted {
+            return self.inner.energy(x);
+        }
+        let normal = self.inner.normal_equations(x);
+        let energy = normal.energy;
+        self.pending = Some((x.to_vec(), normal));
+        energy
+    }
+
+    /// The normal equations computed with the energy at x, if they were; else computed now.
+    fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
+        self.last_accepted = true;
+        match self.pending.take() {
+            Some((at, normal)) if at == x => normal,
+            _ => self.inner.normal_equations(x),
+        }
+    }
+
+    fn curvature(&mut self, x: &[f64]) -> Option<DMatrix<f64>> {
+        self.inner.curvature(x)
     }
 }
 

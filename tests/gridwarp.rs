@@ -1,5 +1,7 @@
 //! Properties of the f64 gridwarp reference, axis-aligned variant (notes "Oracles for tests").
 
+mod common;
+
 use reparam::gridwarp::bounds::{loop_distance, merge, Interval};
 use reparam::gridwarp::field::Field;
 use reparam::gridwarp::grid::{grid_from_rigidity, lines_from_profile};
@@ -403,4 +405,42 @@ fn residuals_equal_the_formula_with_fields_of_different_resolutions() {
         }
     }
     assert_eq!(energy.residuals(&x), expected);
+}
+
+#[test]
+fn energy_equals_the_normal_equations_energy_bit_for_bit() {
+    // The solver hands the energy to LM through lm::Speculative, which takes a trial's F from
+    // its normal equations while trials are being accepted and from energy() after a rejected
+    // one: both must give the same F bit for bit, or a run would depend on which were
+    // computed. They sum the same r² in the same order (per lane: axis s, then t, chunk by
+    // chunk; then the lanes, then the cells in order). Both chunk layouts (L ≤ 4: two column
+    // samples per chunk; L > 4: one), padded samples, and cells without any sample of R > 0
+    // (R = 0 outside the discs) are covered.
+    let size = 64;
+    let rigidity = disc_rigidity(size, &[(0.3, 0.35, 0.12), (0.7, 0.6, 0.15)], 0.0);
+    let scene = plane_stretch(size, 2, 1.8, rigidity);
+    let grid = Grid::uniform(7, 6);
+    let mut rng = common::Rng(7);
+    for (k, l) in [(8, 8), (4, 3), (3, 5), (1, 1)] {
+        for frame in &scene.frames {
+            let mut energy = AaEnergy::new(&scene.rest, &grid, frame, k, l);
+            for _ in 0..3 {
+                // Each line moved by at most 0.4 of the smallest rest cell (1/6): still
+                // strictly increasing.
+                let x: Vec<f64> = grid
+                    .to_unknowns()
+                    .iter()
+                    .map(|v| v + rng.uniform(-0.4, 0.4) / 6.0)
+                    .collect();
+                let (e, normal) = (energy.energy(&x), energy.normal_equations(&x));
+                assert!(e > 0.0, "a non-trivial energy");
+                assert_eq!(
+                    e.to_bits(),
+                    normal.energy.to_bits(),
+                    "{k}×{l}: {e} vs {}",
+                    normal.energy
+                );
+            }
+        }
+    }
 }

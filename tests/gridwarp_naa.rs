@@ -1,6 +1,8 @@
 //! Properties of the non-axis-aligned gridwarp energy and solve (notes "Formulation: NAA",
 //! "Analytic Jacobian: NAA", "Bounds", "Oracles for tests").
 
+mod common;
+
 use nalgebra::{DVector, Vector3};
 use reparam::gridwarp::energy_naa::{naa_bounds, VectorField};
 use reparam::gridwarp::field::Field;
@@ -497,6 +499,58 @@ fn residuals_equal_the_formula_with_components_of_one_or_several_resolutions() {
                 (r - e).abs() <= 4.0 * f64::EPSILON * e.abs().max(1e-300),
                 "z field {z_size}², residual {n}: {r:e} vs {e:e}"
             );
+        }
+    }
+}
+
+#[test]
+fn energy_equals_the_normal_equations_energy_bit_for_bit() {
+    // As for the axis-aligned energy (tests/gridwarp.rs): lm::Speculative takes a trial's F
+    // from its normal equations or from energy(), so both must agree bit for bit, for every
+    // model (Gauss–Newton sums F with JᵀJ; Newton and Adaptive with the moments of S), both
+    // border modes, and at a folded grid (+∞ both ways). Saddle frame: J_D far from
+    // axis-aligned, R varying.
+    let size = 64;
+    let scene = reparam::gridwarp::scene::analytic_scene("saddle", 2).unwrap();
+    let fields = scene.fields(size);
+    let deformed = DeformedJacobian::from_partials(size, |s, t| {
+        reparam::gridwarp::scene::partials_of(&*scene.frames[1], s, t)
+    });
+    let grid = Grid::uniform(6, 8);
+    let mut rng = common::Rng(11);
+    for sliding in [false, true] {
+        let rest_vertices = VertexGrid::from_grid(&grid).with_sliding_border(sliding);
+        for model in [NaaModel::GaussNewton, NaaModel::Newton, NaaModel::Adaptive] {
+            for (k, l) in [(8, 8), (3, 2)] {
+                let mut energy = NaaEnergy::new(&fields.rest, &grid, &deformed, k, l)
+                    .with_sliding_border(sliding)
+                    .with_model(model);
+                for _ in 0..3 {
+                    // Every coordinate moved by at most 0.15 of the smallest rest cell side
+                    // (1/7): each edge keeps ≥ 70% of its length along its axis and leans by
+                    // ≤ 0.043, so every corner determinant stays > 0 (checked).
+                    let x: Vec<f64> = rest_vertices
+                        .to_unknowns()
+                        .iter()
+                        .map(|v| v + rng.uniform(-0.15, 0.15) / 7.0)
+                        .collect();
+                    assert!(rest_vertices.with_unknowns(&x).is_valid());
+                    let (e, normal) = (energy.energy(&x), energy.normal_equations(&x));
+                    assert!(e > 0.0, "a non-trivial energy");
+                    assert_eq!(
+                        e.to_bits(),
+                        normal.energy.to_bits(),
+                        "{model:?} {k}×{l} sliding {sliding}: {e} vs {}",
+                        normal.energy
+                    );
+                }
+                // P_11 pushed past P_21 along s: a folded cell.
+                let mut folded = rest_vertices.to_unknowns();
+                folded[0] += 0.3;
+                assert!(!rest_vertices.with_unknowns(&folded).is_valid());
+                assert_eq!(energy.energy(&folded), f64::INFINITY);
+                assert_eq!(energy.normal_equations(&folded).energy, f64::INFINITY);
+            }
         }
     }
 }

@@ -449,8 +449,9 @@ impl<P: Residuals> Residuals for Instrumented<P> {
     }
 }
 
-/// Energy +∞ wherever x₀ > limit (an "invalid" region such as a folded cell); counts normal
-/// equations requested there (there must be none: they are only asked at accepted points).
+/// Energy +∞ wherever x₀ > limit (an "invalid" region such as a folded cell), in the normal
+/// equations too (as [`Residuals::normal_equations`] requires); counts normal equations
+/// requested there (`minimize` must ask for none: it asks only at accepted points).
 struct InvalidBeyond<P> {
     inner: P,
     limit: f64,
@@ -469,10 +470,12 @@ impl<P: Residuals> Residuals for InvalidBeyond<P> {
         }
     }
     fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
+        let mut normal = self.inner.normal_equations(x);
         if x[0] > self.limit {
             self.jacobians_at_invalid += 1;
+            normal.energy = INF;
         }
-        self.inner.normal_equations(x)
+        normal
     }
 }
 
@@ -941,5 +944,135 @@ fn stop_codes_are_alglibs() {
             epsx: 0.0,
             max_iterations: 100
         }
+    );
+}
+
+// ------------------------------------------------------------------------------------------
+// Speculative normal equations
+// ------------------------------------------------------------------------------------------
+
+/// One call to a problem: the energy alone (`'E'`) or the normal equations (`'N'`), and where.
+type Call = (char, Vec<f64>);
+
+/// Wraps a problem and logs its calls.
+struct Logged<P> {
+    inner: P,
+    calls: Vec<Call>,
+}
+
+impl<P: Residuals> Residuals for Logged<P> {
+    fn dim(&self) -> usize {
+        self.inner.dim()
+    }
+    fn energy(&mut self, x: &[f64]) -> f64 {
+        self.calls.push(('E', x.to_vec()));
+        self.inner.energy(x)
+    }
+    fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
+        self.calls.push(('N', x.to_vec()));
+        self.inner.normal_equations(x)
+    }
+}
+
+/// The calls [`Speculative`] must make, given those of the plain run (N at x₀, then per trial
+/// E, followed by N there if it was accepted): each trial's normal equations at once if the
+/// previous trial was accepted (or it is the first), and nothing more if it is accepted;
+/// after a rejected trial its energy alone, then N if it is accepted.
+fn speculative_calls(plain: &[Call]) -> Vec<Call> {
+    assert_eq!(
+        plain[0].0, 'N',
+        "the plain run starts with the normal equations at x₀"
+    );
+    let mut trials = Vec::new(); // (point, accepted)
+    for call in &plain[1..] {
+        match call {
+            ('E', x) => trials.push((x.clone(), false)),
+            ('N', x) => {
+                let last = trials.last_mut().expect("N only after a trial");
+                assert_eq!(&last.0, x, "N at the trial just evaluated");
+                last.1 = true;
+            }
+            _ => unreachable!(),
+        }
+    }
+    let mut out = vec![plain[0].clone()];
+    let mut previous_accepted = true;
+    for (x, accepted) in trials {
+        if previous_accepted {
+            out.push(('N', x));
+        } else {
+            out.push(('E', x.clone()));
+            if accepted {
+                out.push(('N', x));
+            }
+        }
+        previous_accepted = accepted;
+    }
+    out
+}
+
+/// Run `make()` plain and through [`Speculative`], and compare (see the test below).
+fn check_speculative<P: Residuals>(
+    make: impl Fn() -> P,
+    bounds: &Bounds,
+    x0: &[f64],
+    options: &LmOptions,
+) {
+    let mut plain = Logged {
+        inner: make(),
+        calls: Vec::new(),
+    };
+    let expected = minimize(&mut plain, x0, bounds, options).unwrap();
+    let mut logged = Logged {
+        inner: make(),
+        calls: Vec::new(),
+    };
+    let report = minimize(&mut Speculative::new(&mut logged), x0, bounds, options).unwrap();
+    // The same run: iterates, energies, counts (LM's, per trial and accepted point) and
+    // stop, bit for bit.
+    assert_eq!(report.x, expected.x);
+    assert_eq!(report.accepted_energies, expected.accepted_energies);
+    assert_eq!(
+        (report.energy_evaluations, report.jacobian_evaluations),
+        (expected.energy_evaluations, expected.jacobian_evaluations)
+    );
+    assert_eq!(
+        (report.iterations, report.stop),
+        (expected.iterations, expected.stop)
+    );
+    // Each case has accepted and rejected trials, so both branches of the policy are taken.
+    let rejected = expected.energy_evaluations - expected.iterations;
+    assert!(expected.iterations >= 3 && rejected >= 1, "{expected:?}");
+    assert_eq!(logged.calls, speculative_calls(&plain.calls));
+    // Fewer passes: an accepted trial after an accepted one needs no second pass.
+    assert!(logged.calls.len() < plain.calls.len());
+}
+
+#[test]
+fn speculative_normal_equations_change_the_calls_not_the_run() {
+    // The exponential fit with the paper preset (steps accepted, then a string of rejected
+    // trials up to λ overflow).
+    check_speculative(
+        exp_fit,
+        &Bounds::unbounded(2),
+        &[1.0, 0.0],
+        &LmOptions::paper(),
+    );
+    // Rosenbrock against the bound x ≤ 0.5 (accepted and rejected trials on the curved
+    // valley).
+    let bounds = Bounds::new(vec![-INF, -INF], vec![0.5, INF]);
+    check_speculative(rosenbrock, &bounds, &[-1.2, 1.0], &LmOptions::default());
+    // Trials beyond x₀ = 0.9 invalid (+∞, as a folded cell): normal equations asked there
+    // return F = +∞ too, and the trial is rejected as in the plain run.
+    let invalid = || InvalidBeyond {
+        inner: rosenbrock(),
+        limit: 0.9,
+        jacobians_at_invalid: 0,
+    };
+    check_speculative(
+        invalid,
+        &Bounds::unbounded(2),
+        &[-1.2, 1.0],
+        &LmOptions::default(),
     );
 }
