@@ -673,26 +673,30 @@ pub(super) fn axes_total([s, t]: &[[f64; LANES]; 2]) -> f64 {
     lane_total(&std::array::from_fn(|lane| s[lane] + t[lane]))
 }
 
-/// Samples per parallel task ([`for_each_task`]): enough work (tens of microseconds) to
-/// amortise handing a task to another thread. Depends on the problem size only, and results
-/// do not depend on it.
+/// Samples per parallel task at most ([`for_each_task`]), and the fewest worth splitting:
+/// tens of microseconds of work (≈ 7 ns a sample for the normal equations), enough to
+/// amortise forking a task. Results do not depend on it.
 const SAMPLES_PER_TASK: usize = 4096;
 
-/// Fill `out` (one entry per cell of `samples_per_cell` samples) by `fill(first cell, part)`:
-/// in ⌈samples/`samples_per_task`⌉ parallel tasks of equal numbers of cells (±1), or on the
-/// calling thread if that makes at most two tasks (two tasks barely repay handing one to
-/// another thread and waking it). The split depends on the problem size only, and results
-/// do not depend on it (each entry is computed alone).
+/// Fill `out` (one entry per cell of `samples_per_cell` samples) by `fill(first cell, part)`,
+/// in parallel tasks of equal numbers of cells (±1): as many tasks as rayon's pool has
+/// threads, or the smallest multiple of that with at most `samples_per_task` samples a task
+/// (one task per thread when the cells cost alike: each extra task costs a steal), or on
+/// the calling thread if there are fewer than `samples_per_task` samples in all (or one
+/// thread). The split depends on the problem size and the thread count, the results on
+/// neither (each entry is computed alone, and the caller sums them in cell order).
 pub(super) fn for_each_task<T: Send>(
     out: &mut [T],
     samples_per_cell: usize,
     samples_per_task: usize,
     fill: impl Fn(usize, &mut [T]) + Sync,
 ) {
-    let tasks = (out.len() * samples_per_cell).div_ceil(samples_per_task.max(1));
-    if tasks <= 2 {
+    let samples = out.len() * samples_per_cell;
+    let threads = rayon::current_num_threads();
+    if threads <= 1 || samples < samples_per_task.max(1) {
         return fill(0, out);
     }
+    let tasks = threads * samples.div_ceil(threads * samples_per_task.max(1));
     let per_task = out.len().div_ceil(tasks);
     out.par_chunks_mut(per_task)
         .enumerate()

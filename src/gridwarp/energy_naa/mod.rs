@@ -1120,16 +1120,17 @@ struct CellBlock {
     curvature: LocalNormalEquations<8>,
 }
 
-/// Samples per parallel task of an energy-only evaluation ([`super::energy::for_each_task`]):
-/// tens of microseconds of work (≈ 15 ns a sample here), enough to amortise handing a task to
-/// another thread. Results do not depend on it.
+/// Samples per parallel task of an energy-only evaluation at most, and the fewest worth
+/// splitting ([`super::energy::for_each_task`]): tens of microseconds of work (≈ 12 ns a
+/// sample here). With 8×8 samples the 48-unknown problem (35 cells, 2,240 samples) is split
+/// in two. Results do not depend on it.
 const ENERGY_SAMPLES_PER_TASK: usize = 2048;
 
-/// Samples per parallel task of a normal-equations evaluation: a sample's residuals, 16
-/// derivatives and 2 × 45 products cost about three times its energy (≈ 45 ns), so a task of
-/// the same tens of microseconds holds a quarter of the samples. With 8×8 samples the
-/// 48-unknown problem (35 cells, 2,240 samples) is thus split over the threads too.
-const BLOCK_SAMPLES_PER_TASK: usize = 512;
+/// The same for a normal-equations evaluation. A sample's residuals, 16 derivatives and
+/// 2 × 45 products cost about three times its energy, but fewer, larger tasks still came
+/// out faster on two threads: at 48 unknowns (8×8 samples) one task per thread beat tasks of
+/// 512 or 1,024 samples by 10–15% (Newton and Gauss–Newton solves, best of 200).
+const BLOCK_SAMPLES_PER_TASK: usize = 2048;
 
 /// Foldover interval of one coordinate: between the midpoints to the previous neighbours along
 /// that axis (with [`super::bounds::FOLDOVER_MARGIN`]); frozen at the current value if those
