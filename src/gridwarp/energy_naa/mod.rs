@@ -37,8 +37,9 @@
 //! are accumulated per cell in an 8×8 block ([`crate::lm::LocalNormalEquations`]), cells in
 //! parallel, and the blocks scattered in cell order (deterministic for any number of threads).
 //! Inside a cell, samples are processed 8 at a time (one per lane); each of the 1 + 8 + 36
-//! entries is summed per lane and per axis over the cell's samples, then added in a fixed
-//! order (`super::energy::cell_block_of`), so the sums depend on the sample layout only.
+//! entries is summed per lane over the cell's samples (F and Jᵀr per axis too; JᵀJ in tiles
+//! of 4×4 slots), then added in a fixed order (`super::energy::cell_block_of`), so the sums
+//! depend on the sample layout only.
 //!
 //! # Model Hessian
 //! LM's model uses JᵀJ by default (Gauss–Newton, the paper's); [`NaaModel::Newton`] uses
@@ -662,7 +663,7 @@ impl<'a> NaaEnergy<'a> {
             for at in (first..first + self.rest.lanes.padded).step_by(LANES) {
                 chunks.push(self.chunk_residuals::<false>(jac, &warp, at).0);
             }
-            block.normal = cell_block_of::<8, 36>(chunks);
+            block.normal = cell_block_of(chunks);
         } else {
             // S from the same texel reads: J_D kept per chunk, its moments summed per cell;
             // for Newton the moments hold JᵀJ + S at once ([`curvature`], "Moments").
@@ -678,7 +679,7 @@ impl<'a> NaaEnergy<'a> {
                 block.normal = cell_gradient_of(chunks);
                 block.normal.jtj = moments.matrix(h, k);
             } else {
-                block.normal = cell_block_of::<8, 36>(chunks);
+                block.normal = cell_block_of(chunks);
                 block.curvature.jtj = moments.matrix(h, k);
             }
         }
