@@ -20,6 +20,13 @@
 //!   sample count; the printed line gives the final energy re-evaluated with 8×8 samples so the
 //!   two can be compared at equal quality.
 //!
+//! - The printed counts are LM's: energy evaluations (one per trial point) and Jacobian
+//!   evaluations (x₀ and accepted points). The solves hand the energy to LM through
+//!   `lm::Speculative` (a trial's normal equations computed with its energy while trials are
+//!   being accepted), so the passes over the samples are fewer than their sum: at aa 38 3
+//!   energy-only + 7 normal-equation passes for 9 + 6, at naa 48 Newton 1 + 9 for 9 + 8, at
+//!   naa 48 Gauss–Newton 4 + 22 for 23 + 19.
+//!
 //! Run: `cargo bench --bench gridwarp`.
 
 use std::hint::black_box;

@@ -32,6 +32,10 @@
 //!    ρ > 0.5: λ ← 0.33λ, ν ← 1;  ρ < 0.1: λ ← 2νλ, ν ← 2ν (a poor model: damp more);
 //!    otherwise λ, ν unchanged. Accepted energies therefore strictly decrease.
 //!
+//! Each trial point costs a call of [`Residuals::energy`], each accepted point one of
+//! [`Residuals::normal_equations`]; wrapped in [`Speculative`], a problem computes a trial's
+//! normal equations with its energy while trials are being accepted (same run, fewer passes).
+//!
 //! λ₀ = 10⁻³ · max_i (2JᵀJ)_ii (1 if that is 0), ν₀ = 1 (Madsen, Nielsen & Tingleff §3.2 use
 //! τ = 10⁻³ on the diagonal of the Gauss–Newton Hessian; ALGLIB the same schedule with
 //! λ_up = 2 and λ_down = 0.33).
@@ -176,7 +180,7 @@ impl NormalEquations {
     }
 
     /// Scatter the normal equations of a group of residuals over N local unknowns ("slots")
-    /// into these: F += F_local, Jᵀr[slot a] += local Jᵀr[a], JᵀJ[slot a, slot b] += local
+    /// into these: F += F_local, Jᵀr\[slot a\] += local Jᵀr\[a\], JᵀJ\[slot a, slot b\] += local
     /// JᵀJ[a, b]; slots with no unknown (a fixed variable) are dropped.
     pub fn add_local<const N: usize>(
         &mut self,

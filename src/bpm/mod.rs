@@ -16,12 +16,12 @@
 //! | stage | seed step | file |
 //! |---|---|---|
 //! | SL(2,C) maps, fits, exp/log | 3, 4, 8 | [`moebius`] |
-//! | star layout, orientation fix, log ratios | 2–5 | [`precompute`] |
+//! | star layout, orientation fix, log ratios | 2–5 | [`precompute()`] |
 //! | edge-barycentric weights, blending, evaluation | 6–9 | [`eval`] |
 //! | quality protocol (QC = σmax/σmin) | authors' protocol | [`quality`] |
 //!
 //! Entry points: [`precompute()`](precompute::precompute) then [`Bpm::eval`] /
-//! [`Bpm::eval_many`]; [`qc_protocol`](quality::qc_protocol) for the distortion figures.
+//! [`Bpm::eval_many`]; [`quality::qc_protocol`] for the distortion figures.
 
 pub mod eval;
 #[cfg(feature = "gpu")]

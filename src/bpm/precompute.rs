@@ -65,7 +65,7 @@ pub struct Star {
 /// Everything the evaluation needs about one triangle t = (i, j, k).
 #[derive(Clone, Copy, Debug)]
 pub struct TriangleMaps {
-    /// Layout of the corners in t's frame: z[0] = 0, z[1] on the positive real axis, z[2]
+    /// Layout of the corners in t's frame: z\[0\] = 0, z\[1\] on the positive real axis, z\[2\]
     /// above it (or below, when the star is mirrored).
     pub z: [C; 3],
     /// The corners' UVs.

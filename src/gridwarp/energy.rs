@@ -160,7 +160,7 @@ impl RestSamples {
     /// σ = √w R, o_s = ‖O_s‖ and o_t = ‖O_t‖ at the K×L midpoints of every rest cell
     /// (R at the nearest texel, ‖O_·‖ bilinear, exactly as [`Field::nearest`] and
     /// [`Field::bilinear`] give them). Cell columns in parallel (beyond twice
-    /// [`SAMPLES_PER_TASK`] samples).
+    /// `SAMPLES_PER_TASK` = 4096 samples).
     pub fn new(rest: &RestFields, rest_grid: &Grid, k: usize, l: usize) -> RestSamples {
         let (k, l) = (k.max(1), l.max(1));
         let (chunk_columns, stride) = chunk_layout(l);

@@ -20,7 +20,7 @@
 //!    `n_before · n_after > 0` in the rest pose and every training pose.
 //!
 //! Queue entries carry the versions of both endpoints; an entry whose endpoint changed since is
-//! skipped ([`super::queue`]). Ties in cost are broken by (a, b): the order does not depend on
+//! skipped (`super::queue`). Ties in cost are broken by (a, b): the order does not depend on
 //! the thread count (the costs are computed in parallel, each edge independently).
 //!
 //! **Order** ([`Schedule`]): by default exactly greedy — after each collapse every edge around
@@ -30,16 +30,16 @@
 //! and sorts all edges once per pass, as meshoptimizer does.
 //!
 //! **Cost of one step** (issue #6 speed targets): the neighbourhood of a collapse is scanned in
-//! O(valence) with reusable per-vertex stamps ([`Stars`]) instead of sorted neighbour lists;
+//! O(valence) with reusable per-vertex stamps (`Stars`) instead of sorted neighbour lists;
 //! face lists are merged, not re-sorted; nothing is allocated per collapse; a costly candidate
 //! (skinned Full/Mohr) is kept with its queue entry so that the popped edge is not evaluated a
 //! second time; the rest-pose method queues edges by the QEM value alone
 //! ([`super::cost::rest_position`]) and chooses the weights only for the edge it collapses.
-//! The faces and UV wedges of every vertex are lists in one flat arena ([`super::lists`]), not
+//! The faces and UV wedges of every vertex are lists in one flat arena (`super::lists`), not
 //! one heap block each. [`Schedule::Passes`] tries edges in cost order, all over the mesh, so
 //! nearly every try starts with cache misses; it knows the next edges, though, and prefetches
 //! their data a few tries ahead, in steps (vertex data, then face lists, then faces, then
-//! the faces' vertices: [`State::prefetch_vertices`] and the following).
+//! the faces' vertices: `State::prefetch_vertices` and the following).
 //! None of this changes a bit of the greedy result (a test pins the records' hash).
 
 use std::borrow::Cow;
