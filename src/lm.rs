@@ -181,7 +181,7 @@ impl NormalEquations {
 
     /// Scatter the normal equations of a group of residuals over N local unknowns ("slots")
     /// into these: F += F_local, Jᵀr\[slot a\] += local Jᵀr\[a\], JᵀJ\[slot a, slot b\] += local
-    /// JᵀJ[a, b]; slots with no unknown (a fixed variable) are dropped.
+    /// JᵀJ\[a, b\]; slots with no unknown (a fixed variable) are dropped.
     pub fn add_local<const N: usize>(
         &mut self,
         slots: &[Option<usize>; N],
@@ -256,13 +256,13 @@ impl<const N: usize> LocalNormalEquations<N> {
 /// that LM accepts then needs no second pass over the residuals for its JᵀJ and Jᵀr.
 ///
 /// LM asks for F at every trial point and for the normal equations only at accepted ones
-/// ([`Residuals`]), so a trial costs one pass (energy only) and an accepted one two. Where
-/// the normal equations cost little more than the energy (they read the same texels, or
-/// they run in parallel while the energy would not), computing them at the trial already is
-/// cheaper whenever the trial is accepted, as most are. A rejected trial wastes the
-/// difference, so this adaptor speculates only while trials are being accepted: after a
-/// rejected trial (e.g. the string of them of [`LmOptions::paper`]) the next trial asks for
-/// the energy alone, until one is accepted again.
+/// ([`Residuals`]), so a rejected trial costs one pass (energy only) and an accepted one two.
+/// Computing the normal equations at the trial already saves the energy-only pass whenever
+/// the trial is accepted, as most are, and wastes the difference between the two passes
+/// when it is rejected. So this adaptor speculates only while trials are being accepted:
+/// after a rejected trial (e.g. the string of them of [`LmOptions::paper`]) the next trial
+/// asks for the energy alone, until one is accepted again. (Grid warp, 2 threads: a
+/// normal-equations pass costs 1.7–4 energy passes, and aa 38 runs 10 passes instead of 15.)
 ///
 /// F is taken from the normal equations; the problem must give the same F both ways, bit for
 /// bit (the grid-warp energies sum the same terms in the same order), so the iterates, the
@@ -282,11 +282,6 @@ impl<R: Residuals> Speculative<R> {
             pending: None,
             last_accepted: true,
         }
-    }
-
-    /// The wrapped problem.
-    pub fn into_inner(self) -> R {
-        self.inner
     }
 }
 
