@@ -1129,8 +1129,9 @@ const ENERGY_SAMPLES_PER_TASK: usize = 2048;
 
 /// The same for a normal-equations evaluation. A sample's residuals, 16 derivatives and
 /// 2 × 45 products cost about three times its energy, but fewer, larger tasks still came
-/// out faster on two threads: at 48 unknowns (8×8 samples) one task per thread beat tasks of
-/// 512 or 1,024 samples by 10–15% (Newton and Gauss–Newton solves, best of 200).
+/// out faster on two threads: at 48 unknowns (8×8 samples, Newton and Gauss–Newton solves,
+/// best of 200) one task per thread took 17–20% less time than 5 tasks of ≤ 512 samples and
+/// 6–13% less than 4 tasks of ≤ 560.
 const BLOCK_SAMPLES_PER_TASK: usize = 2048;
 
 /// Foldover interval of one coordinate: between the midpoints to the previous neighbours along
