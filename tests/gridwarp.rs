@@ -6,7 +6,7 @@ use reparam::gridwarp::bounds::{loop_distance, merge, Interval};
 use reparam::gridwarp::field::Field;
 use reparam::gridwarp::grid::{grid_from_rigidity, lines_from_profile};
 use reparam::gridwarp::scene::{
-    disc_rigidity, flat_rest, plane_stretch, stretch_fields, uniform_stretch,
+    analytic_scene, disc_rigidity, flat_rest, plane_stretch, stretch_fields, uniform_stretch,
 };
 use reparam::gridwarp::*;
 use reparam::lm::{LmOptions, Residuals};
@@ -405,6 +405,71 @@ fn residuals_equal_the_formula_with_fields_of_different_resolutions() {
         }
     }
     assert_eq!(energy.residuals(&x), expected);
+}
+
+#[test]
+fn window_reads_give_the_gather_reads_bit_for_bit() {
+    // With AVX-512 the lane loops read each chunk's texels by permuting two vector loads
+    // from fields stored column by column ("windows"), where the chunk's rows fit in one
+    // window, and by gathers elsewhere. Both read the same texels, so F, JᵀJ and Jᵀr must be
+    // equal bit for bit. Covered: both chunk layouts (L ≤ 4: two column samples per chunk,
+    // windows of 8 rows; L > 4: one, windows of 16), two chunk rows per column sample
+    // (L = 12), padded samples, and cells too tall for a window (3×3 lines) next to cells
+    // that fit (16×16 lines). The saddle's ‖D_s‖ varies along t and ‖D_t‖ along s, so that
+    // reading a wrong texel row or column changes the sums. On a CPU without AVX-512 both
+    // energies read by gathers.
+    let scene = analytic_scene("saddle", 2)
+        .expect("built-in scene")
+        .fields(64);
+    let frame = &scene.frames[1];
+    let mut rng = common::Rng(11);
+    let mut windowed = 0;
+    for (m, n) in [(16, 16), (7, 6), (3, 3)] {
+        let grid = Grid::uniform(m, n);
+        for (k, l) in [(8, 8), (4, 3), (3, 4), (5, 12), (1, 1)] {
+            let mut windows = AaEnergy::new(&scene.rest, &grid, frame, k, l);
+            let mut gathers = AaEnergy::new(&scene.rest, &grid, frame, k, l).with_gathers_only();
+            for _ in 0..2 {
+                // Lines moved by at most 0.4 of the rest spacing: still strictly increasing.
+                let spacing = 1.0 / (m.max(n) - 1) as f64;
+                let x: Vec<f64> = grid
+                    .to_unknowns()
+                    .iter()
+                    .map(|v| v + rng.uniform(-0.4, 0.4) * spacing)
+                    .collect();
+                windowed += windows.chunk_rows_read_by_windows(&x).0;
+                assert_eq!(gathers.chunk_rows_read_by_windows(&x).0, 0);
+                let (a, b) = (windows.normal_equations(&x), gathers.normal_equations(&x));
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                let what = format!("{m}×{n} lines, {k}×{l} samples");
+                assert_eq!(a.energy.to_bits(), b.energy.to_bits(), "F, {what}");
+                assert_eq!(
+                    bits(a.jtr.as_slice()),
+                    bits(b.jtr.as_slice()),
+                    "Jᵀr, {what}"
+                );
+                assert_eq!(
+                    bits(a.jtj.as_slice()),
+                    bits(b.jtj.as_slice()),
+                    "JᵀJ, {what}"
+                );
+                let (ea, eb) = (windows.energy(&x), gathers.energy(&x));
+                assert_eq!(ea.to_bits(), eb.to_bits(), "energy(), {what}");
+            }
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    let avx512 = std::arch::is_x86_feature_detected!("avx512f");
+    #[cfg(not(target_arch = "x86_64"))]
+    let avx512 = false;
+    if avx512 {
+        assert!(
+            windowed > 0,
+            "with AVX-512, some chunk rows are read by windows"
+        );
+    } else {
+        println!("no AVX-512: both energies read by gathers");
+    }
 }
 
 #[test]

@@ -20,6 +20,9 @@
 //! - Per evaluation, the warped sample coordinates are separable (f depends on the column
 //!   sample only, g on the row sample only), so their texel positions are tabulated once per
 //!   column and row sample.
+//! - The four texels around each lane's warped point are read by gathers or, with AVX-512,
+//!   by permuting two vector loads from the fields stored column by column, where a chunk's
+//!   texel rows fit in 16 (module `texel_reads`; the same values either way).
 //! - Inside a cell, samples are processed 8 (`LANES`) at a time (L row samples of one column
 //!   sample, or two column samples of ≤ 4 rows each) in plain loops over fixed-size arrays that
 //!   the compiler turns into vector instructions; each lane keeps its own partial sums of F,
@@ -33,6 +36,9 @@ use rayon::prelude::*;
 
 use super::field::{bilinear_formula, bilinear_value, nearest_texel, Axis, Field, Sample};
 use super::grid::Grid;
+use super::texel_reads::{
+    ColumnMajor, Gathers, LaneColumns, LaneRows, Quads, RowWindow, TexelReads, Windows,
+};
 use crate::lm::{LocalNormalEquations, NormalEquations, Residuals};
 
 /// The fields of the rest pose: ‖O_s‖, ‖O_t‖ and the rigidity R.
@@ -70,7 +76,7 @@ pub fn rest_samples(rest: &RestFields, rest_grid: &Grid, k: usize, l: usize) -> 
 }
 
 /// Samples processed together by the sample loops: 8 f64, one 512-bit register.
-pub(super) const LANES: usize = 8;
+pub const LANES: usize = 8;
 
 /// The layout of a cell's samples in the lane loops: (C, S) = (column samples, stored row
 /// samples) per chunk of [`LANES`] samples. L ≤ 4: two column samples of S = 4 rows each
@@ -293,6 +299,8 @@ pub struct AaEnergy<'a> {
     deformed: &'a DeformedFields,
     /// Built for this energy ([`AaEnergy::new`]) or shared by a sequence's frames.
     rest: Cow<'a, RestSamples>,
+    /// ‖D_s‖ and ‖D_t‖ stored column by column, for [`Windows`] (None: gathers only).
+    column_major: Option<Box<[ColumnMajor; 2]>>,
 }
 
 /// Where the warped samples of one grid fall on one deformed field's texels, separable
@@ -304,6 +312,8 @@ struct FieldTexels {
     columns: AxisTexels,
     /// Texel rows stored as offsets y·W into the field's values.
     rows: AxisTexels,
+    /// The window of each chunk row (LANES consecutive row table entries) for [`Windows`].
+    windows: Vec<Option<RowWindow>>,
 }
 
 impl FieldTexels {
@@ -319,7 +329,7 @@ impl FieldTexels {
         }
     }
 
-    /// The LANES row table entries from `at` on.
+    /// The LANES row table entries from `at` on (a multiple of LANES).
     #[inline(always)]
     fn rows_at(&self, at: usize) -> RowTexels<'_> {
         RowTexels {
@@ -327,6 +337,7 @@ impl FieldTexels {
             upper: lanes(&self.rows.upper, at),
             frac: lanes(&self.rows.frac, at),
             scale: lanes(&self.rows.scale, at),
+            window: self.windows.get(at / LANES).and_then(Option::as_ref),
         }
     }
 }
@@ -341,8 +352,9 @@ struct AxisTexels {
 
 impl AxisTexels {
     /// The samples of every cell along `lines` at the fractions `slots` (one table entry
-    /// each; None: padding with lower = upper = 0, frac = scale = 0), on an axis of `texels`
-    /// texels; texel indices multiplied by `step` (1 along s, the field's width along t).
+    /// each; None: padding at the texels of the entry before, frac = scale = 0), on an axis
+    /// of `texels` texels; texel indices multiplied by `step` (1 along s, the field's width
+    /// along t).
     fn along(lines: &[f64], slots: &[Option<f64>], texels: usize, step: usize) -> Self {
         let size = (lines.len() - 1) * slots.len();
         let mut out = AxisTexels {
@@ -353,9 +365,17 @@ impl AxisTexels {
         };
         for (i, cell) in lines.windows(2).enumerate() {
             for (a, slot) in slots.iter().enumerate() {
-                let Some(fraction) = slot else { continue };
-                let axis = Axis::new(cell[0] + fraction * (cell[1] - cell[0]), texels);
                 let at = i * slots.len() + a;
+                let Some(fraction) = slot else {
+                    // Padding (σ = 0) reads the texels of the sample before it, so that it
+                    // stays within that chunk's window ([`RowWindow`]).
+                    if at > 0 {
+                        out.lower[at] = out.lower[at - 1];
+                        out.upper[at] = out.upper[at - 1];
+                    }
+                    continue;
+                };
+                let axis = Axis::new(cell[0] + fraction * (cell[1] - cell[0]), texels);
                 out.lower[at] = axis.lower * step;
                 out.upper[at] = axis.upper * step;
                 out.frac[at] = axis.frac;
@@ -363,6 +383,18 @@ impl AxisTexels {
             }
         }
         out
+    }
+
+    /// The windows of the chunk rows of a row table (entries with texel rows `lower`/`step`,
+    /// LANES consecutive entries a chunk row), for chunks of `columns` column samples.
+    fn windows(&self, step: usize, columns: usize) -> Vec<Option<RowWindow>> {
+        let row = |v: &[usize]| -> [usize; LANES] { std::array::from_fn(|l| v[l] / step.max(1)) };
+        let lower = self.lower.chunks_exact(LANES);
+        let upper = self.upper.chunks_exact(LANES);
+        lower
+            .zip(upper)
+            .map(|(lower, upper)| RowWindow::of(&row(lower), &row(upper), columns))
+            .collect()
     }
 }
 
@@ -401,13 +433,65 @@ struct ColumnTexels {
     scale: [f64; LANES],
 }
 
-/// The row samples' texel rows on one field, per lane.
+/// The row samples' texel rows on one field, per lane, and their window.
 #[derive(Clone, Copy)]
 struct RowTexels<'c> {
     lower: &'c [usize; LANES],
     upper: &'c [usize; LANES],
     frac: &'c [f64; LANES],
     scale: &'c [f64; LANES],
+    window: Option<&'c RowWindow>,
+}
+
+/// One deformed field at a chunk's lanes: the four texels around each warped point
+/// ([`TexelReads`]) and the point's (frac, scale) along s and t ([`Axis`]).
+struct LaneTexels {
+    quads: Quads,
+    s: ([f64; LANES], [f64; LANES]),
+    t: ([f64; LANES], [f64; LANES]),
+}
+
+impl LaneTexels {
+    /// Read with `reads` on field `field` (0: ‖D_s‖, 1: ‖D_t‖).
+    #[inline(always)]
+    fn read(reads: impl TexelReads, field: usize, x: &ColumnTexels, y: &RowTexels) -> Self {
+        let columns = LaneColumns {
+            lower: &x.lower,
+            upper: &x.upper,
+        };
+        let rows = LaneRows {
+            lower: y.lower,
+            upper: y.upper,
+        };
+        LaneTexels {
+            quads: reads.quads(field, columns, rows, y.window),
+            s: (x.frac, x.scale),
+            t: (*y.frac, *y.scale),
+        }
+    }
+
+    /// [f₀₀, f₁₀, f₀₁, f₁₁] of lane `lane`.
+    #[inline(always)]
+    fn quad(&self, lane: usize) -> [f64; 4] {
+        let q = &self.quads;
+        [q[0][lane], q[1][lane], q[2][lane], q[3][lane]]
+    }
+
+    /// The field's value at lane `lane`'s warped point.
+    #[inline(always)]
+    fn value(&self, lane: usize) -> f64 {
+        bilinear_value(self.s.0[lane], self.t.0[lane], self.quad(lane))
+    }
+
+    /// The field's value and gradient at lane `lane`'s warped point.
+    #[inline(always)]
+    fn sample(&self, lane: usize) -> Sample {
+        bilinear_formula(
+            (self.s.0[lane], self.s.1[lane]),
+            (self.t.0[lane], self.t.1[lane]),
+            self.quad(lane),
+        )
+    }
 }
 
 /// LANES samples of a cell: C column samples a₀ … a₀ + C − 1, each with LANES/C row samples
@@ -418,10 +502,8 @@ struct Chunk<'c> {
     sigma: &'c [f64; LANES],
     o_s: &'c [f64; LANES],
     o_t: &'c [f64; LANES],
-    columns_s: ColumnTexels,
-    columns_t: ColumnTexels,
-    rows_s: RowTexels<'c>,
-    rows_t: RowTexels<'c>,
+    /// ‖D_s‖ and ‖D_t‖ at the lanes.
+    fields: [LaneTexels; 2],
 }
 
 /// The first LANES entries of `v` from `at`, as a fixed-size array (index checks once).
@@ -431,50 +513,16 @@ pub(super) fn lanes<T>(v: &[T], at: usize) -> &[T; LANES] {
 }
 
 impl Chunk<'_> {
-    /// The four texels [f₀₀, f₁₀, f₀₁, f₁₁] of `values` around lane `lane`'s warped point.
-    /// (The tables hold only valid indices; reading through `get` with a fallback instead of
-    /// indexing leaves the lane loop without a panic branch, so that it vectorises.)
-    #[inline(always)]
-    fn quad(values: &[f64], x: &ColumnTexels, y: &RowTexels, lane: usize) -> [f64; 4] {
-        let at = |row: usize, column: usize| values.get(row + column).copied().unwrap_or(0.0);
-        [
-            at(y.lower[lane], x.lower[lane]),
-            at(y.lower[lane], x.upper[lane]),
-            at(y.upper[lane], x.lower[lane]),
-            at(y.upper[lane], x.upper[lane]),
-        ]
-    }
-
     /// c_s = ‖D_s‖ and c_t = ‖D_t‖ at lane `lane`'s warped point, values only.
     #[inline(always)]
-    fn values(&self, d: &DeformedFields, lane: usize) -> [f64; 2] {
-        let (xs, ys, xt, yt) = (&self.columns_s, &self.rows_s, &self.columns_t, &self.rows_t);
-        let qs = Self::quad(&d.d_s.values, xs, ys, lane);
-        let qt = Self::quad(&d.d_t.values, xt, yt, lane);
-        [
-            bilinear_value(xs.frac[lane], ys.frac[lane], qs),
-            bilinear_value(xt.frac[lane], yt.frac[lane], qt),
-        ]
+    fn values(&self, lane: usize) -> [f64; 2] {
+        [self.fields[0].value(lane), self.fields[1].value(lane)]
     }
 
     /// c_s and c_t at lane `lane`'s warped point with their gradients.
     #[inline(always)]
-    fn samples(&self, d: &DeformedFields, lane: usize) -> [Sample; 2] {
-        let (xs, ys, xt, yt) = (&self.columns_s, &self.rows_s, &self.columns_t, &self.rows_t);
-        let qs = Self::quad(&d.d_s.values, xs, ys, lane);
-        let qt = Self::quad(&d.d_t.values, xt, yt, lane);
-        [
-            bilinear_formula(
-                (xs.frac[lane], xs.scale[lane]),
-                (ys.frac[lane], ys.scale[lane]),
-                qs,
-            ),
-            bilinear_formula(
-                (xt.frac[lane], xt.scale[lane]),
-                (yt.frac[lane], yt.scale[lane]),
-                qt,
-            ),
-        ]
+    fn samples(&self, lane: usize) -> [Sample; 2] {
+        [self.fields[0].sample(lane), self.fields[1].sample(lane)]
     }
 
     /// Lane `lane`'s residuals r^s = σ (c_s a_i − o_s), r^t = σ (c_t b_j − o_t).
@@ -751,18 +799,48 @@ impl<'a> AaEnergy<'a> {
         k: usize,
         l: usize,
     ) -> Self {
-        AaEnergy {
+        Self::with_rest(
             deformed,
-            rest: Cow::Owned(RestSamples::new(rest, rest_grid, k, l)),
-        }
+            Cow::Owned(RestSamples::new(rest, rest_grid, k, l)),
+        )
     }
 
     /// The energy of `deformed` over rest samples built beforehand (once per sequence).
     pub fn from_rest_samples(samples: &'a RestSamples, deformed: &'a DeformedFields) -> Self {
+        Self::with_rest(deformed, Cow::Borrowed(samples))
+    }
+
+    /// The energy of `deformed` over `rest`; the fields stored column by column too if the
+    /// CPU can read them by [`Windows`].
+    fn with_rest(deformed: &'a DeformedFields, rest: Cow<'a, RestSamples>) -> Self {
+        let fields = [&deformed.d_s, &deformed.d_t];
+        let column_major = Windows::available().then(|| Box::new(fields.map(ColumnMajor::of)));
         AaEnergy {
             deformed,
-            rest: Cow::Borrowed(samples),
+            rest,
+            column_major,
         }
+    }
+
+    /// (Chunk rows of ‖D_s‖ read by windows at `x`, all chunk rows): how many of this energy's
+    /// texel reads at `x` permute vector loads (none without AVX-512F). For tests.
+    pub fn chunk_rows_read_by_windows(&self, x: &[f64]) -> (usize, usize) {
+        let axes = self.warped_axes(&self.rest.grid.with_unknowns(x));
+        let windows = &axes.d_s.windows;
+        let used = if self.windows().is_some() {
+            windows.iter().flatten().count()
+        } else {
+            0
+        };
+        (used, windows.len())
+    }
+
+    /// The same energy with every texel read by an indexed read per lane (the portable reads,
+    /// gathers; the window reads of AVX-512 give the same values, and tests check that they
+    /// do).
+    pub fn with_gathers_only(mut self) -> Self {
+        self.column_major = None;
+        self
     }
 
     /// The rest grid.
@@ -804,9 +882,13 @@ impl<'a> AaEnergy<'a> {
     /// D_t's, if it has another resolution), and the cells' slopes.
     fn warped_axes(&self, g: &Grid) -> WarpedAxes {
         let r = &*self.rest;
-        let texels = |f: &Field| FieldTexels {
-            columns: AxisTexels::along(&g.s, &r.column_slots, f.width, 1),
-            rows: AxisTexels::along(&g.t, &r.row_slots, f.height, f.width),
+        let texels = |f: &Field| {
+            let rows = AxisTexels::along(&g.t, &r.row_slots, f.height, f.width);
+            FieldTexels {
+                columns: AxisTexels::along(&g.s, &r.column_slots, f.width, 1),
+                windows: rows.windows(f.width, r.chunk_columns),
+                rows,
+            }
         };
         let (d_s, d_t) = (&self.deformed.d_s, &self.deformed.d_t);
         let slopes = |lines: &[f64], rest: &[f64]| -> Vec<f64> {
@@ -839,6 +921,7 @@ impl<'a> AaEnergy<'a> {
     #[inline(always)]
     fn chunk<'c, const COLUMNS: usize>(
         &'c self,
+        reads: impl TexelReads,
         w: &'c WarpedAxes,
         cell: usize,
         a0: usize,
@@ -857,17 +940,22 @@ impl<'a> AaEnergy<'a> {
             sigma: lanes(&r.sigma, at),
             o_s: lanes(&r.o_s, at),
             o_t: lanes(&r.o_t, at),
-            columns_s: ts.columns_at(column),
-            columns_t: tt.columns_at(column),
-            rows_s: ts.rows_at(row),
-            rows_t: tt.rows_at(row),
+            fields: [
+                LaneTexels::read(reads, 0, &ts.columns_at(column), &ts.rows_at(row)),
+                LaneTexels::read(reads, 1, &tt.columns_at(column), &tt.rows_at(row)),
+            ],
         }
     }
 
     /// Σ r² over cell `cell`'s residuals: values only, no field gradients (an energy-only
     /// evaluation of a damping trial); per-lane sums added in lane order.
     #[inline(always)]
-    fn cell_energy<const COLUMNS: usize>(&self, w: &WarpedAxes, cell: usize) -> f64 {
+    fn cell_energy<const COLUMNS: usize>(
+        &self,
+        reads: impl TexelReads,
+        w: &WarpedAxes,
+        cell: usize,
+    ) -> f64 {
         if !self.rest.active[cell] {
             return 0.0;
         }
@@ -875,9 +963,9 @@ impl<'a> AaEnergy<'a> {
         let mut sums = [0.0; LANES];
         for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
             for b0 in (0..self.rest.stride).step_by(LANES / COLUMNS) {
-                let chunk = self.chunk::<COLUMNS>(w, cell, a0, b0);
+                let chunk = self.chunk::<COLUMNS>(reads, w, cell, a0, b0);
                 for (lane, sum) in sums.iter_mut().enumerate() {
-                    let c = chunk.values(self.deformed, lane);
+                    let c = chunk.values(lane);
                     let [rs, rt] = chunk.residuals(warped, c, lane);
                     *sum += rs * rs;
                     *sum += rt * rt;
@@ -891,6 +979,7 @@ impl<'a> AaEnergy<'a> {
     #[inline(always)]
     fn cell_block<const COLUMNS: usize>(
         &self,
+        reads: impl TexelReads,
         w: &WarpedAxes,
         cell: usize,
     ) -> LocalNormalEquations<4> {
@@ -901,13 +990,13 @@ impl<'a> AaEnergy<'a> {
         let mut sums = LaneSums::<4, 10>::new();
         for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
             for b0 in (0..self.rest.stride).step_by(LANES / COLUMNS) {
-                let chunk = self.chunk::<COLUMNS>(w, cell, a0, b0);
+                let chunk = self.chunk::<COLUMNS>(reads, w, cell, a0, b0);
                 // Residuals and derivatives of all lanes, then their sums: two simple
                 // loops over the lanes (each one vector operation per line).
                 let mut r = [[0.0; LANES]; 2];
                 let mut d = [[[0.0; LANES]; 4]; 2];
                 for lane in 0..LANES {
-                    let c = chunk.samples(self.deformed, lane);
+                    let c = chunk.samples(lane);
                     let rd = chunk.residuals_and_derivatives(warped, c, lane);
                     for (axis, (r_axis, d_axis)) in rd.into_iter().enumerate() {
                         r[axis][lane] = r_axis;
@@ -926,11 +1015,17 @@ impl<'a> AaEnergy<'a> {
 
     /// `out[c] = cell_energy(first + c)`, with the chunk layout of these rest samples.
     #[inline(always)]
-    fn fill_energies_baseline(&self, w: &WarpedAxes, first: usize, out: &mut [f64]) {
+    fn fill_energies_baseline(
+        &self,
+        reads: impl TexelReads,
+        w: &WarpedAxes,
+        first: usize,
+        out: &mut [f64],
+    ) {
         for (c, e) in out.iter_mut().enumerate() {
             *e = match self.rest.chunk_columns {
-                2 => self.cell_energy::<2>(w, first + c),
-                _ => self.cell_energy::<1>(w, first + c),
+                2 => self.cell_energy::<2>(reads, w, first + c),
+                _ => self.cell_energy::<1>(reads, w, first + c),
             };
         }
     }
@@ -939,25 +1034,32 @@ impl<'a> AaEnergy<'a> {
     #[inline(always)]
     fn fill_blocks_baseline(
         &self,
+        reads: impl TexelReads,
         w: &WarpedAxes,
         first: usize,
         out: &mut [LocalNormalEquations<4>],
     ) {
         for (c, block) in out.iter_mut().enumerate() {
             *block = match self.rest.chunk_columns {
-                2 => self.cell_block::<2>(w, first + c),
-                _ => self.cell_block::<1>(w, first + c),
+                2 => self.cell_block::<2>(reads, w, first + c),
+                _ => self.cell_block::<1>(reads, w, first + c),
             };
         }
     }
 
-    /// [`AaEnergy::fill_energies_baseline`] compiled with AVX-512 (8 lanes in one register,
-    /// gathers for the texel reads): the same IEEE operations in the same order (Rust never
-    /// fuses a multiply and an add by itself), so the same results bit for bit.
+    /// [`AaEnergy::fill_energies_baseline`] compiled with AVX-512 (8 lanes in one register):
+    /// the same IEEE operations in the same order (Rust never fuses a multiply and an add by
+    /// itself), so the same results bit for bit.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn fill_energies_avx512(&self, w: &WarpedAxes, first: usize, out: &mut [f64]) {
-        self.fill_energies_baseline(w, first, out)
+    fn fill_energies_avx512(
+        &self,
+        reads: impl TexelReads,
+        w: &WarpedAxes,
+        first: usize,
+        out: &mut [f64],
+    ) {
+        self.fill_energies_baseline(reads, w, first, out)
     }
 
     /// [`AaEnergy::fill_blocks_baseline`] compiled with AVX-512 (same results bit for bit).
@@ -965,31 +1067,52 @@ impl<'a> AaEnergy<'a> {
     #[target_feature(enable = "avx512f")]
     fn fill_blocks_avx512(
         &self,
+        reads: impl TexelReads,
         w: &WarpedAxes,
         first: usize,
         out: &mut [LocalNormalEquations<4>],
     ) {
-        self.fill_blocks_baseline(w, first, out)
+        self.fill_blocks_baseline(reads, w, first, out)
     }
 
-    /// Cell energies `first..` into `out`, AVX-512 if the CPU has it.
+    /// The portable texel reads.
+    fn gathers(&self) -> Gathers<'_> {
+        Gathers {
+            fields: [&self.deformed.d_s, &self.deformed.d_t],
+        }
+    }
+
+    /// Window reads, if this energy stores its fields column by column and the CPU has
+    /// AVX-512F.
+    fn windows(&self) -> Option<Windows<'_>> {
+        let columns = self.column_major.as_deref()?;
+        Windows::new([&self.deformed.d_s, &self.deformed.d_t], columns)
+    }
+
+    /// Cell energies `first..` into `out`: AVX-512 and [`Windows`] reads if the CPU has it.
     fn fill_energies(&self, w: &WarpedAxes, first: usize, out: &mut [f64]) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx512f") {
             // SAFETY: the CPU supports AVX-512F, checked just above.
-            return unsafe { self.fill_energies_avx512(w, first, out) };
+            return match self.windows() {
+                Some(reads) => unsafe { self.fill_energies_avx512(reads, w, first, out) },
+                None => unsafe { self.fill_energies_avx512(self.gathers(), w, first, out) },
+            };
         }
-        self.fill_energies_baseline(w, first, out)
+        self.fill_energies_baseline(self.gathers(), w, first, out)
     }
 
-    /// Cell blocks `first..` into `out`, AVX-512 if the CPU has it.
+    /// Cell blocks `first..` into `out`: AVX-512 and [`Windows`] reads if the CPU has it.
     fn fill_blocks(&self, w: &WarpedAxes, first: usize, out: &mut [LocalNormalEquations<4>]) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx512f") {
             // SAFETY: the CPU supports AVX-512F, checked just above.
-            return unsafe { self.fill_blocks_avx512(w, first, out) };
+            return match self.windows() {
+                Some(reads) => unsafe { self.fill_blocks_avx512(reads, w, first, out) },
+                None => unsafe { self.fill_blocks_avx512(self.gathers(), w, first, out) },
+            };
         }
-        self.fill_blocks_baseline(w, first, out)
+        self.fill_blocks_baseline(self.gathers(), w, first, out)
     }
 
     /// Fill `out` (one entry per cell) by `fill(first cell, part)`, in parallel tasks of about
@@ -1023,11 +1146,11 @@ impl<'a> AaEnergy<'a> {
         let rows_per_chunk = LANES / COLUMNS;
         for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
             for b0 in (0..self.rest.stride).step_by(rows_per_chunk) {
-                let chunk = self.chunk::<COLUMNS>(w, cell, a0, b0);
+                let chunk = self.chunk::<COLUMNS>(self.gathers(), w, cell, a0, b0);
                 for lane in 0..LANES {
                     let (a, b) = (a0 + lane / rows_per_chunk, b0 + lane % rows_per_chunk);
                     if a < self.rest.k && b < self.rest.l && chunk.sigma[lane] != 0.0 {
-                        let c = chunk.samples(self.deformed, lane);
+                        let c = chunk.samples(lane);
                         for (r, d) in chunk.residuals_and_derivatives(warped, c, lane) {
                             visit(r, &d);
                         }

@@ -37,6 +37,7 @@ pub mod remap;
 pub mod rigidity;
 pub mod scene;
 pub mod solve;
+mod texel_reads;
 
 pub use energy::{AaEnergy, DeformedFields, RestFields, RestSamples};
 pub use energy_naa::{

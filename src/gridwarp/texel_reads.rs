@@ -1,0 +1,224 @@
+//! Reading the four texels around the warped points of [`LANES`] samples at once: the axis-
+//! aligned energy's lane loops ([`super::energy`]) interpolate ‖D_s‖ and ‖D_t‖ bilinearly
+//! between f₀₀ = f(x, y), f₁₀ = f(x', y), f₀₁ = f(x, y'), f₁₁ = f(x', y') with (x, y) the lower
+//! and (x', y') the upper texel of each lane's point ([`super::field::Axis`]).
+//!
+//! Two ways to read them, giving the same values bit for bit (they read the same texels):
+//! - [`Gathers`]: one indexed read per lane and texel. Portable; with AVX-512 each of the four
+//!   reads is one gather instruction, about 40 % of the normal-equations pass when measured.
+//! - [`Windows`] (AVX-512 only): the lanes of a chunk share their texel columns (one column
+//!   sample, or two) and their texel rows lie within a few texels of each other (the L row
+//!   samples of one cell). With the field stored column by column ([`ColumnMajor`]), each of
+//!   the four texels of all lanes is picked out of 16 consecutive values (two vector loads) by
+//!   one permutation (`vpermt2pd`). The row offsets of a chunk row ([`RowWindow`]) are found
+//!   once per evaluation, shared by every cell column. A chunk row whose texel rows span more
+//!   than the loads cover (a cell taller than ≈ 15 texels with 8 row samples) falls back to
+//!   gathers.
+
+use super::energy::LANES;
+use super::field::Field;
+
+/// The four texels of every lane, [f₀₀, f₁₀, f₀₁, f₁₁].
+pub(super) type Quads = [[f64; LANES]; 4];
+
+/// The texel columns of a chunk's lanes on one field (x and x', as column indices).
+pub(super) struct LaneColumns<'c> {
+    pub lower: &'c [usize; LANES],
+    pub upper: &'c [usize; LANES],
+}
+
+/// The texel rows of a chunk's lanes on one field, as offsets y·W into the row-major values.
+pub(super) struct LaneRows<'c> {
+    pub lower: &'c [usize; LANES],
+    pub upper: &'c [usize; LANES],
+}
+
+/// A field's values column by column, value of texel (x, y) at x·H + y, followed by 16
+/// padding values so that a window's two loads never run past the end.
+pub(super) struct ColumnMajor {
+    height: usize,
+    values: Vec<f64>,
+}
+
+impl ColumnMajor {
+    /// The transpose of `field`'s row-major values (padding 0), in tiles of 8×8 texels (each
+    /// tile reads 8 rows and writes 8 columns: a few cache lines, where a row-by-row
+    /// transpose writes one line per value).
+    pub fn of(field: &Field) -> ColumnMajor {
+        const TILE: usize = 8;
+        let (w, h) = (field.width, field.height);
+        let mut values = vec![0.0; w * h + 2 * LANES];
+        for y0 in (0..h).step_by(TILE) {
+            for x0 in (0..w).step_by(TILE) {
+                for x in x0..(x0 + TILE).min(w) {
+                    for y in y0..(y0 + TILE).min(h) {
+                        values[x * h + y] = field.values[y * w + x];
+                    }
+                }
+            }
+        }
+        ColumnMajor { height: h, values }
+    }
+}
+
+/// Where a chunk row's lanes read inside a window of 16 texels: the window starts at texel row
+/// `first` of the lanes' lower column (values 0–7) and continues at `second` (values 8–15):
+/// the next 8 rows of the same column when the chunk has one column sample (`second` = 8),
+/// the same rows of the second column sample's column (`second` = 0, and lanes 4–7 add 8 to
+/// their offsets). `lower[l]`, `upper[l]`: lane l's texel rows y, y' as positions in the window.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct RowWindow {
+    first: usize,
+    second: usize,
+    lower: [i64; LANES],
+    upper: [i64; LANES],
+}
+
+impl RowWindow {
+    /// The window of a chunk row whose lanes have texel rows `lower`, `upper` (row indices) and
+    /// `columns` column samples (1 or 2, the chunk layout); None if they span more texel rows
+    /// than one window holds (16 with one column sample, 8 with two).
+    pub fn of(lower: &[usize; LANES], upper: &[usize; LANES], columns: usize) -> Option<Self> {
+        let first = *lower.iter().min()?;
+        let last = *upper.iter().max()?;
+        let rows_per_column = 2 * LANES / columns;
+        if last - first >= rows_per_column {
+            return None;
+        }
+        // Lane l belongs to the column sample l / (LANES / columns): its values start at 8 times that.
+        let offset = |lane: usize, row: usize| {
+            let column = lane / (LANES / columns);
+            (row - first + column * LANES) as i64
+        };
+        Some(RowWindow {
+            first,
+            second: if columns == 1 { LANES } else { 0 },
+            lower: std::array::from_fn(|lane| offset(lane, lower[lane])),
+            upper: std::array::from_fn(|lane| offset(lane, upper[lane])),
+        })
+    }
+}
+
+/// How the lane loops read the texels of the two deformed fields ‖D_s‖ (field 0) and ‖D_t‖
+/// (field 1).
+pub(super) trait TexelReads: Copy {
+    /// The quads of every lane on field `field`, the lanes at the texel columns `x` and rows
+    /// `y`, `window` their chunk row's window on that field (if it has one).
+    fn quads(self, field: usize, x: LaneColumns, y: LaneRows, window: Option<&RowWindow>) -> Quads;
+}
+
+/// One indexed read per lane and texel.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Gathers<'a> {
+    pub fields: [&'a Field; 2],
+}
+
+impl Gathers<'_> {
+    /// f(row + column) of every lane. (The tables hold only valid indices; reading through
+    /// `get` with a fallback instead of indexing leaves the lane loop without a panic branch,
+    /// so that it vectorises.)
+    #[inline(always)]
+    fn read(values: &[f64], rows: &[usize; LANES], columns: &[usize; LANES]) -> [f64; LANES] {
+        std::array::from_fn(|lane| {
+            values
+                .get(rows[lane] + columns[lane])
+                .copied()
+                .unwrap_or(0.0)
+        })
+    }
+}
+
+impl TexelReads for Gathers<'_> {
+    #[inline(always)]
+    fn quads(self, field: usize, x: LaneColumns, y: LaneRows, _: Option<&RowWindow>) -> Quads {
+        let v = &self.fields[field].values;
+        [
+            Self::read(v, y.lower, x.lower),
+            Self::read(v, y.lower, x.upper),
+            Self::read(v, y.upper, x.lower),
+            Self::read(v, y.upper, x.upper),
+        ]
+    }
+}
+
+/// Permutations of two vector loads (AVX-512F) from the fields stored column by column,
+/// gathers where a chunk row has no window. Holding one proves the CPU has AVX-512F
+/// ([`Windows::new`]).
+#[derive(Clone, Copy)]
+pub(super) struct Windows<'a> {
+    gathers: Gathers<'a>,
+    column_major: &'a [ColumnMajor; 2],
+}
+
+impl<'a> Windows<'a> {
+    /// Whether this CPU can read by windows (has AVX-512F).
+    pub fn available() -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            return true;
+        }
+        false
+    }
+
+    /// Reads of `fields`, stored column by column as `column_major`; None unless this CPU
+    /// has AVX-512F.
+    pub fn new(fields: [&'a Field; 2], column_major: &'a [ColumnMajor; 2]) -> Option<Self> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            return Some(Windows {
+                gathers: Gathers { fields },
+                column_major,
+            });
+        }
+        None
+    }
+
+    /// Lane l gets value `at[l]` of the 16 values `values[base..base + 8]`,
+    /// `values[second..second + 8]`.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn select(self, values: &[f64], base: usize, second: usize, at: &[i64; LANES]) -> [f64; 8] {
+        use std::arch::x86_64::{_mm512_loadu_epi64, _mm512_loadu_pd, _mm512_permutex2var_pd};
+        let low: &[f64; LANES] = values[base..base + LANES].try_into().expect("LANES values");
+        let high: &[f64; LANES] = values[second..second + LANES]
+            .try_into()
+            .expect("LANES values");
+        // SAFETY: a `Windows` exists only if the CPU has AVX-512F (`detect`); the loads read
+        // the two arrays above, `at` is 8 i64 (only their low 4 bits are used).
+        unsafe {
+            let selected = _mm512_permutex2var_pd(
+                _mm512_loadu_pd(low.as_ptr()),
+                _mm512_loadu_epi64(at.as_ptr()),
+                _mm512_loadu_pd(high.as_ptr()),
+            );
+            std::mem::transmute::<std::arch::x86_64::__m512d, [f64; LANES]>(selected)
+        }
+    }
+}
+
+impl TexelReads for Windows<'_> {
+    #[inline(always)]
+    fn quads(self, field: usize, x: LaneColumns, y: LaneRows, window: Option<&RowWindow>) -> Quads {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(w) = window {
+            let (h, v) = (
+                self.column_major[field].height,
+                &self.column_major[field].values,
+            );
+            // The window in the columns of lanes 0 and LANES − 1 (the same column with one
+            // column sample per chunk).
+            let bases = |columns: &[usize; LANES]| {
+                let base = columns[0] * h + w.first;
+                (base, columns[LANES - 1] * h + w.first + w.second)
+            };
+            let (lower, upper) = (bases(x.lower), bases(x.upper));
+            return [
+                self.select(v, lower.0, lower.1, &w.lower),
+                self.select(v, upper.0, upper.1, &w.lower),
+                self.select(v, lower.0, lower.1, &w.upper),
+                self.select(v, upper.0, upper.1, &w.upper),
+            ];
+        }
+        self.gathers.quads(field, x, y, window)
+    }
+}
