@@ -398,8 +398,10 @@ fn residuals_equal_the_formula_with_fields_of_different_resolutions() {
                     let f = g.s[i] + al * (g.s[i + 1] - g.s[i]);
                     let gt = g.t[j] + be * (g.t[j + 1] - g.t[j]);
                     let (cs, ct) = (frame.d_s.bilinear(f, gt), frame.d_t.bilinear(f, gt));
-                    expected.push(sigma * (cs.value * a - rest.o_s.bilinear(s, t).value));
-                    expected.push(sigma * (ct.value * b - rest.o_t.bilinear(s, t).value));
+                    // c a − o rounded once (a fused multiply-add), then times σ.
+                    let (os, ot) = (rest.o_s.bilinear(s, t).value, rest.o_t.bilinear(s, t).value);
+                    expected.push(sigma * cs.value.mul_add(a, -os));
+                    expected.push(sigma * ct.value.mul_add(b, -ot));
                 }
             }
         }
@@ -408,53 +410,77 @@ fn residuals_equal_the_formula_with_fields_of_different_resolutions() {
 }
 
 #[test]
-fn window_reads_give_the_gather_reads_bit_for_bit() {
-    // With AVX-512 the lane loops read each chunk's texels by permuting two vector loads
-    // from fields stored column by column ("windows"), where the chunk's rows fit in one
-    // window, and by gathers elsewhere. Both read the same texels, so F, JᵀJ and Jᵀr must be
+fn every_lane_code_gives_the_same_bits() {
+    // The AA lane loops run as AVX-512 code reading each chunk's texels by permuting two
+    // vector loads from fields stored column by column ("windows", where the chunk's texel
+    // rows fit), as AVX-512 code or AVX2 + FMA code reading them by gathers, or as portable
+    // code (each as far as the CPU has the instructions).
+    // All read the same texels and do the same IEEE operations in the same order (a fused
+    // multiply-add rounds once with or without the instruction), so F, JᵀJ and Jᵀr must be
     // equal bit for bit. Covered: both chunk layouts (L ≤ 4: two column samples per chunk,
     // windows of 8 rows; L > 4: one, windows of 16), two chunk rows per column sample
     // (L = 12), padded samples, and cells too tall for a window (3×3 lines) next to cells
-    // that fit (16×16 lines). The saddle's ‖D_s‖ varies along t and ‖D_t‖ along s, so that
-    // reading a wrong texel row or column changes the sums. On a CPU without AVX-512 both
-    // energies read by gathers.
-    let scene = analytic_scene("saddle", 2)
-        .expect("built-in scene")
-        .fields(64);
-    let frame = &scene.frames[1];
+    // that fit (16×16 lines); fields of 64² texels, of 61² (sides not multiples of the 8×8
+    // tiles in which the fields are transposed), and ‖D_t‖ at 40² beside ‖D_s‖ at 64². The
+    // saddle's ‖D_s‖ varies along t and ‖D_t‖ along s, so that reading a wrong texel row or
+    // column changes the sums.
+    let saddle = analytic_scene("saddle", 2).expect("built-in scene");
+    let (fine, odd, coarse) = (saddle.fields(64), saddle.fields(61), saddle.fields(40));
+    let mixed = DeformedFields {
+        d_s: fine.frames[1].d_s.clone(),
+        d_t: coarse.frames[1].d_t.clone(),
+    };
+    let cases = [
+        (
+            &fine.rest,
+            &fine.frames[1],
+            [(16, 16), (7, 6), (3, 3)].as_slice(),
+        ),
+        (&odd.rest, &odd.frames[1], &[(16, 16), (5, 9)]),
+        (&fine.rest, &mixed, &[(16, 16), (7, 6)]),
+    ];
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     let mut rng = common::Rng(11);
     let mut windowed = 0;
-    for (m, n) in [(16, 16), (7, 6), (3, 3)] {
-        let grid = Grid::uniform(m, n);
-        for (k, l) in [(8, 8), (4, 3), (3, 4), (5, 12), (1, 1)] {
-            let mut windows = AaEnergy::new(&scene.rest, &grid, frame, k, l);
-            let mut gathers = AaEnergy::new(&scene.rest, &grid, frame, k, l).with_gathers_only();
-            for _ in 0..2 {
-                // Lines moved by at most 0.4 of the rest spacing: still strictly increasing.
-                let spacing = 1.0 / (m.max(n) - 1) as f64;
-                let x: Vec<f64> = grid
-                    .to_unknowns()
-                    .iter()
-                    .map(|v| v + rng.uniform(-0.4, 0.4) * spacing)
-                    .collect();
-                windowed += windows.chunk_rows_read_by_windows(&x).0;
-                assert_eq!(gathers.chunk_rows_read_by_windows(&x).0, 0);
-                let (a, b) = (windows.normal_equations(&x), gathers.normal_equations(&x));
-                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                let what = format!("{m}×{n} lines, {k}×{l} samples");
-                assert_eq!(a.energy.to_bits(), b.energy.to_bits(), "F, {what}");
-                assert_eq!(
-                    bits(a.jtr.as_slice()),
-                    bits(b.jtr.as_slice()),
-                    "Jᵀr, {what}"
-                );
-                assert_eq!(
-                    bits(a.jtj.as_slice()),
-                    bits(b.jtj.as_slice()),
-                    "JᵀJ, {what}"
-                );
-                let (ea, eb) = (windows.energy(&x), gathers.energy(&x));
-                assert_eq!(ea.to_bits(), eb.to_bits(), "energy(), {what}");
+    for (rest, frame, grids) in cases {
+        for &(m, n) in grids {
+            let grid = Grid::uniform(m, n);
+            for (k, l) in [(8, 8), (4, 3), (3, 4), (5, 12), (1, 1)] {
+                let energy = |code| AaEnergy::new(rest, &grid, frame, k, l).with_lane_code(code);
+                let mut fastest = energy(LaneCode::Fastest);
+                let mut others =
+                    [LaneCode::Gathers, LaneCode::Avx2, LaneCode::Portable].map(energy);
+                for _ in 0..2 {
+                    // Lines moved by at most 0.4 of the rest spacing: still increasing.
+                    let spacing = 1.0 / (m.max(n) - 1) as f64;
+                    let x: Vec<f64> = grid
+                        .to_unknowns()
+                        .iter()
+                        .map(|v| v + rng.uniform(-0.4, 0.4) * spacing)
+                        .collect();
+                    windowed += fastest.chunk_rows_read_by_windows(&x).0;
+                    let a = fastest.normal_equations(&x);
+                    let e = fastest.energy(&x);
+                    for other in &mut others {
+                        assert_eq!(other.chunk_rows_read_by_windows(&x).0, 0);
+                        let b = other.normal_equations(&x);
+                        let what =
+                            format!("{m}×{n} lines, {k}×{l} samples, {} texels", frame.d_s.width);
+                        assert_eq!(a.energy.to_bits(), b.energy.to_bits(), "F, {what}");
+                        assert_eq!(
+                            bits(a.jtr.as_slice()),
+                            bits(b.jtr.as_slice()),
+                            "Jᵀr, {what}"
+                        );
+                        assert_eq!(
+                            bits(a.jtj.as_slice()),
+                            bits(b.jtj.as_slice()),
+                            "JᵀJ, {what}"
+                        );
+                        let f = other.energy(&x);
+                        assert_eq!(e.to_bits(), f.to_bits(), "energy(), {what}");
+                    }
+                }
             }
         }
     }
@@ -468,7 +494,7 @@ fn window_reads_give_the_gather_reads_bit_for_bit() {
             "with AVX-512, some chunk rows are read by windows"
         );
     } else {
-        println!("no AVX-512: both energies read by gathers");
+        println!("no AVX-512: no texel read by windows");
     }
 }
 

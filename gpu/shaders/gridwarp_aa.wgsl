@@ -114,23 +114,26 @@ fn field_bilinear(offset: u32, width: u32, height: u32, s: f32, t: f32) -> Field
     let f10 = field_at(offset, width, x1, y0);
     let f01 = field_at(offset, width, x0, y1);
     let f11 = field_at(offset, width, x1, y1);
+    // `bilinear_formula`: along s on the two texel rows, then along t between them.
+    let along_0 = f10 - f00;
+    let along_1 = f11 - f01;
+    let f0 = f00 + alpha * along_0;
+    let f1 = f01 + alpha * along_1;
+    let across = f1 - f0;
     return FieldSample(
-        (1.0 - alpha) * (1.0 - beta) * f00
-            + alpha * (1.0 - beta) * f10
-            + (1.0 - alpha) * beta * f01
-            + alpha * beta * f11,
-        ax.grad * ((1.0 - beta) * (f10 - f00) + beta * (f11 - f01)),
-        ay.grad * ((1.0 - alpha) * (f01 - f00) + alpha * (f11 - f10)),
+        f0 + beta * across,
+        ax.grad * (along_0 + beta * (along_1 - along_0)),
+        ay.grad * across,
     );
 }
 
 // Add residual r with partial derivatives d (slot order) to the cell's sums.
 fn accumulate(out: ptr<function, CellContribution>, r: f32, d: array<f32, 4>) {
-    (*out).energy += r * r;
+    (*out).energy = fma(r, r, (*out).energy);
     for (var u = 0u; u < 4u; u++) {
-        (*out).jtr[u] += d[u] * r;
+        (*out).jtr[u] = fma(d[u], r, (*out).jtr[u]);
         for (var v = 0u; v < 4u; v++) {
-            (*out).jtj[u * 4u + v] += d[u] * d[v];
+            (*out).jtj[u * 4u + v] = fma(d[u], d[v], (*out).jtj[u * 4u + v]);
         }
     }
 }
@@ -175,19 +178,29 @@ fn gridwarp_aa_cell(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
         let al = p.alpha;
         let be = p.beta;
         let sg = p.sigma;
+        // `residuals_and_derivatives`: σ a, σ b, then σ a ∂c_s/∂s, σ c_s/h, σ a ∂c_s/∂t and
+        // the same for c_t.
+        let sa = sg * a;
+        let sb = sg * b;
+        let us = sa * cs.ds;
+        let vs = (sg / h) * cs.value;
+        let ws = sa * cs.dt;
+        let ut = sb * ct.dt;
+        let vt = (sg / kj) * ct.value;
+        let wt = sb * ct.ds;
         // r^s = σ (c_s a − o_s) and its four partial derivatives.
-        accumulate(&out, sg * (cs.value * a - p.o_s), array<f32, 4>(
-            sg * (a * cs.ds * (1.0 - al) - cs.value / h),
-            sg * (a * cs.ds * al + cs.value / h),
-            sg * a * cs.dt * (1.0 - be),
-            sg * a * cs.dt * be,
+        accumulate(&out, sg * fma(cs.value, a, -p.o_s), array<f32, 4>(
+            fma(us, 1.0 - al, -vs),
+            fma(us, al, vs),
+            ws * (1.0 - be),
+            ws * be,
         ));
         // r^t = σ (c_t b − o_t), symmetric (the reference lists t_j, t_{j+1} first).
-        accumulate(&out, sg * (ct.value * b - p.o_t), array<f32, 4>(
-            sg * b * ct.ds * (1.0 - al),
-            sg * b * ct.ds * al,
-            sg * (b * ct.dt * (1.0 - be) - ct.value / kj),
-            sg * (b * ct.dt * be + ct.value / kj),
+        accumulate(&out, sg * fma(ct.value, b, -p.o_t), array<f32, 4>(
+            wt * (1.0 - al),
+            wt * al,
+            fma(ut, 1.0 - be, -vt),
+            fma(ut, be, vt),
         ));
     }
     cells[cell] = out;

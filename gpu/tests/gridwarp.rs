@@ -80,10 +80,13 @@ fn bilinear(f: &FieldF32, s: f64, t: f64) -> (f64, f64, f64) {
     let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
     let at = |x: usize, y: usize| f.values[y * w + x] as f64;
     let (f00, f10, f01, f11) = (at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1));
+    let (along_0, along_1) = (f10 - f00, f11 - f01);
+    let (f0, f1) = (f00 + a * along_0, f01 + a * along_1);
+    let across = f1 - f0;
     (
-        (1.0 - a) * (1.0 - b) * f00 + a * (1.0 - b) * f10 + (1.0 - a) * b * f01 + a * b * f11,
-        gx * ((1.0 - b) * (f10 - f00) + b * (f11 - f01)),
-        gy * ((1.0 - a) * (f01 - f00) + a * (f11 - f10)),
+        f0 + b * across,
+        gx * (along_0 + b * (along_1 - along_0)),
+        gy * across,
     )
 }
 
@@ -103,30 +106,33 @@ fn cells_f64(input: &AaInput) -> Vec<(f64, [f64; 16], [f64; 4])> {
             let (f, g) = (s0 + al * (s1 - s0), t0 + be * (t1 - t0));
             let cs = bilinear(&input.d_s, f, g);
             let ct = bilinear(&input.d_t, f, g);
+            let (sa, sb) = (sg * a, sg * b);
+            let (us, vs, ws) = (sa * cs.1, (sg / h) * cs.0, sa * cs.2);
+            let (ut, vt, wt) = (sb * ct.2, (sg / kj) * ct.0, sb * ct.1);
             let rs = (
-                sg * (cs.0 * a - p.o_s as f64),
+                sg * cs.0.mul_add(a, -(p.o_s as f64)),
                 [
-                    sg * (a * cs.1 * (1.0 - al) - cs.0 / h),
-                    sg * (a * cs.1 * al + cs.0 / h),
-                    sg * a * cs.2 * (1.0 - be),
-                    sg * a * cs.2 * be,
+                    us.mul_add(1.0 - al, -vs),
+                    us.mul_add(al, vs),
+                    ws * (1.0 - be),
+                    ws * be,
                 ],
             );
             let rt = (
-                sg * (ct.0 * b - p.o_t as f64),
+                sg * ct.0.mul_add(b, -(p.o_t as f64)),
                 [
-                    sg * b * ct.1 * (1.0 - al),
-                    sg * b * ct.1 * al,
-                    sg * (b * ct.2 * (1.0 - be) - ct.0 / kj),
-                    sg * (b * ct.2 * be + ct.0 / kj),
+                    wt * (1.0 - al),
+                    wt * al,
+                    ut.mul_add(1.0 - be, -vt),
+                    ut.mul_add(be, vt),
                 ],
             );
             for (r, d) in [rs, rt] {
-                e += r * r;
+                e = r.mul_add(r, e);
                 for u in 0..4 {
-                    jtr[u] += d[u] * r;
+                    jtr[u] = d[u].mul_add(r, jtr[u]);
                     for v in 0..4 {
-                        jtj[u * 4 + v] += d[u] * d[v];
+                        jtj[u * 4 + v] = d[u].mul_add(d[v], jtj[u * 4 + v]);
                     }
                 }
             }

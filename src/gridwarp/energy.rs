@@ -299,8 +299,55 @@ pub struct AaEnergy<'a> {
     deformed: &'a DeformedFields,
     /// Built for this energy ([`AaEnergy::new`]) or shared by a sequence's frames.
     rest: Cow<'a, RestSamples>,
-    /// ‖D_s‖ and ‖D_t‖ stored column by column, for [`Windows`] (None: gathers only).
+    /// Which compiled form of the lane loops runs.
+    code: LaneCode,
+    /// ‖D_s‖ and ‖D_t‖ stored column by column, for the window reads (None: gathers only).
     column_major: Option<Box<[ColumnMajor; 2]>>,
+}
+
+/// Which compiled form of the lane loops an [`AaEnergy`] runs. All give the same results bit
+/// for bit (the same IEEE operations in the same order, and a fused multiply-add rounds once
+/// whether the CPU has the instruction or not); tests compare them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LaneCode {
+    /// The fastest this CPU has: AVX-512 with texels read by permuting vector loads where a
+    /// chunk's texel rows fit, else AVX2 + FMA, else portable code.
+    #[default]
+    Fastest,
+    /// AVX-512 or AVX2 + FMA as the CPU has them, every texel read by a gather.
+    Gathers,
+    /// AVX2 + FMA if the CPU has them (else portable), texels read by gathers.
+    Avx2,
+    /// Portable code (no instruction-set extension; on an x86-64 CPU each fused
+    /// multiply-add is a library call).
+    Portable,
+}
+
+/// The instruction set a pass runs with ([`LaneCode`] and what the CPU has).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum InstructionSet {
+    Avx512,
+    Avx2Fma,
+    Portable,
+}
+
+impl InstructionSet {
+    /// The best this CPU has for `code`.
+    fn for_code(code: LaneCode) -> InstructionSet {
+        #[cfg(target_arch = "x86_64")]
+        if code != LaneCode::Portable {
+            if code != LaneCode::Avx2 && std::arch::is_x86_feature_detected!("avx512f") {
+                return InstructionSet::Avx512;
+            }
+            if std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("fma")
+            {
+                return InstructionSet::Avx2Fma;
+            }
+        }
+        let _ = code;
+        InstructionSet::Portable
+    }
 }
 
 /// Where the warped samples of one grid fall on one deformed field's texels, separable
@@ -414,13 +461,18 @@ impl WarpedAxes {
 }
 
 /// What a cell's residuals need of the grid: the slopes a_i = (s_{i+1} − s_i)/h_i,
-/// b_j = (t_{j+1} − t_j)/k_j and the inverse rest sizes 1/h_i, 1/k_j.
+/// b_j = (t_{j+1} − t_j)/k_j and the inverse rest sizes 1/h_i, 1/k_j; and where the cell's
+/// entries start in the rest samples, the column tables and the row tables (found once per
+/// cell, not once per chunk).
 #[derive(Clone, Copy)]
 struct WarpedCell {
     a: f64,
     b: f64,
     inv_h: f64,
     inv_k: f64,
+    first_sample: usize,
+    first_column: usize,
+    first_row: usize,
 }
 
 /// The column samples' texel positions on one field, per lane (lane l belongs to column
@@ -525,20 +577,23 @@ impl Chunk<'_> {
         [self.fields[0].sample(lane), self.fields[1].sample(lane)]
     }
 
-    /// Lane `lane`'s residuals r^s = σ (c_s a_i − o_s), r^t = σ (c_t b_j − o_t).
+    /// Lane `lane`'s residuals r^s = σ (c_s a_i − o_s), r^t = σ (c_t b_j − o_t), c a − o
+    /// rounded once (a fused multiply-add: exactly 0 where c a = o).
     #[inline(always)]
     fn residuals(&self, w: WarpedCell, [cs, ct]: [f64; 2], lane: usize) -> [f64; 2] {
         let sigma = self.sigma[lane];
         [
-            sigma * (cs * w.a - self.o_s[lane]),
-            sigma * (ct * w.b - self.o_t[lane]),
+            sigma * cs.mul_add(w.a, -self.o_s[lane]),
+            sigma * ct.mul_add(w.b, -self.o_t[lane]),
         ]
     }
 
     /// Lane `lane`'s two residuals with their derivatives in slot order (s_i, s_{i+1}, t_j,
     /// t_{j+1}) (notes, "Analytic Jacobian"):
     ///   ∂r^s = σ [a c_s,x (1−α) − c_s/h, a c_s,x α + c_s/h, a c_s,y (1−β), a c_s,y β],
-    ///   ∂r^t = σ [b c_t,x (1−α), b c_t,x α, b c_t,y (1−β) − c_t/k, b c_t,y β + c_t/k].
+    ///   ∂r^t = σ [b c_t,x (1−α), b c_t,x α, b c_t,y (1−β) − c_t/k, b c_t,y β + c_t/k],
+    /// computed from u = σ a c_s,x, v = σ c_s/h, w = σ a c_s,y (and the same for c_t) as
+    /// [u(1−α) − v, uα + v, w(1−β), wβ], the first two by fused multiply-adds.
     #[inline(always)]
     fn residuals_and_derivatives(
         &self,
@@ -548,24 +603,27 @@ impl Chunk<'_> {
     ) -> [(f64, [f64; 4]); 2] {
         let [rs, rt] = self.residuals(w, [cs.value, ct.value], lane);
         let (al, be, sg) = (self.alpha[lane], self.beta[lane], self.sigma[lane]);
-        let (a, b) = (w.a, w.b);
+        let (sa, sb) = (sg * w.a, sg * w.b);
+        // σ a ∂c_s/∂s, σ c_s/h, σ a ∂c_s/∂t and the same for c_t.
+        let (us, vs, ws) = (sa * cs.ds, (sg * w.inv_h) * cs.value, sa * cs.dt);
+        let (ut, vt, wt) = (sb * ct.dt, (sg * w.inv_k) * ct.value, sb * ct.ds);
         [
             (
                 rs,
                 [
-                    sg * (a * cs.ds * (1.0 - al) - cs.value * w.inv_h),
-                    sg * (a * cs.ds * al + cs.value * w.inv_h),
-                    sg * a * cs.dt * (1.0 - be),
-                    sg * a * cs.dt * be,
+                    us.mul_add(1.0 - al, -vs),
+                    us.mul_add(al, vs),
+                    ws * (1.0 - be),
+                    ws * be,
                 ],
             ),
             (
                 rt,
                 [
-                    sg * b * ct.ds * (1.0 - al),
-                    sg * b * ct.ds * al,
-                    sg * (b * ct.dt * (1.0 - be) - ct.value * w.inv_k),
-                    sg * (b * ct.dt * be + ct.value * w.inv_k),
+                    wt * (1.0 - al),
+                    wt * al,
+                    ut.mul_add(1.0 - be, -vt),
+                    ut.mul_add(be, vt),
                 ],
             ),
         ]
@@ -617,16 +675,26 @@ impl<const N: usize, const T: usize> LaneSums<N, T> {
     }
 
     /// F += r², Jᵀr += d r, JᵀJ += d dᵀ (upper triangle), one residual per lane: `r[lane]`
-    /// with derivatives `d[p][lane]`, p the slot.
+    /// with derivatives `d[p][lane]`, p the slot; each term added by a fused multiply-add.
     #[inline(always)]
     pub(super) fn accumulate(&mut self, r: &[f64; LANES], d: &[[f64; LANES]; N]) {
         for lane in 0..LANES {
-            self.energy[lane] += r[lane] * r[lane];
+            self.energy[lane] = r[lane].mul_add(r[lane], self.energy[lane]);
             for (sum, d_p) in self.jtr.iter_mut().zip(d) {
-                sum[lane] += d_p[lane] * r[lane];
+                sum[lane] = d_p[lane].mul_add(r[lane], sum[lane]);
             }
             for (sum, &(p, q)) in self.jtj.iter_mut().zip(&Self::UPPER) {
-                sum[lane] += d[p][lane] * d[q][lane];
+                sum[lane] = d[p][lane].mul_add(d[q][lane], sum[lane]);
+            }
+        }
+    }
+
+    /// [`LaneSums::accumulate`] of every chunk's residuals in order, axis s then t.
+    #[inline(always)]
+    pub(super) fn accumulate_chunks(&mut self, chunks: &[LaneResiduals<N>]) {
+        for chunk in chunks {
+            for axis in 0..2 {
+                self.accumulate(&chunk.r[axis], &chunk.d[axis]);
             }
         }
     }
@@ -660,6 +728,16 @@ pub(super) struct LaneResiduals<const N: usize> {
     pub r: [[f64; LANES]; 2],
     pub d: [[[f64; LANES]; N]; 2],
 }
+
+impl<const N: usize> LaneResiduals<N> {
+    pub(super) const ZERO: Self = LaneResiduals {
+        r: [[0.0; LANES]; 2],
+        d: [[[0.0; LANES]; N]; 2],
+    };
+}
+
+/// Chunks whose residuals the axis-aligned normal equations compute before summing them.
+const BATCH: usize = 8;
 
 /// Slots per side of the tiles in which [`cell_block_of`] sums JᵀJ.
 const TILE: usize = 4;
@@ -810,16 +888,30 @@ impl<'a> AaEnergy<'a> {
         Self::with_rest(deformed, Cow::Borrowed(samples))
     }
 
-    /// The energy of `deformed` over `rest`; the fields stored column by column too if the
-    /// CPU can read them by [`Windows`].
+    /// The energy of `deformed` over `rest`, with the fastest lane code.
     fn with_rest(deformed: &'a DeformedFields, rest: Cow<'a, RestSamples>) -> Self {
-        let fields = [&deformed.d_s, &deformed.d_t];
-        let column_major = Windows::available().then(|| Box::new(fields.map(ColumnMajor::of)));
         AaEnergy {
             deformed,
             rest,
-            column_major,
+            code: LaneCode::Fastest,
+            column_major: None,
         }
+        .with_lane_code(LaneCode::Fastest)
+    }
+
+    /// The same energy run with the lane code `code` (the same results; for tests and
+    /// comparisons). [`LaneCode::Fastest`] stores the deformed fields column by column too
+    /// if the CPU can read them by permuting vector loads.
+    pub fn with_lane_code(mut self, code: LaneCode) -> Self {
+        let windows = code == LaneCode::Fastest && Windows::available();
+        if !windows {
+            self.column_major = None;
+        } else if self.column_major.is_none() {
+            let fields = [&self.deformed.d_s, &self.deformed.d_t];
+            self.column_major = Some(Box::new(fields.map(ColumnMajor::of)));
+        }
+        self.code = code;
+        self
     }
 
     /// (Chunk rows of ‖D_s‖ read by windows at `x`, all chunk rows): how many of this energy's
@@ -833,14 +925,6 @@ impl<'a> AaEnergy<'a> {
             0
         };
         (used, windows.len())
-    }
-
-    /// The same energy with every texel read by an indexed read per lane (the portable reads,
-    /// gathers; the window reads of AVX-512 give the same values, and tests check that they
-    /// do).
-    pub fn with_gathers_only(mut self) -> Self {
-        self.column_major = None;
-        self
     }
 
     /// The rest grid.
@@ -904,36 +988,39 @@ impl<'a> AaEnergy<'a> {
         }
     }
 
-    /// Cell `cell` = (i, j)'s slopes and inverse rest sizes.
+    /// Cell `cell` = (i, j)'s slopes and inverse rest sizes, and where its entries start.
     #[inline(always)]
     fn warped_cell(&self, w: &WarpedAxes, cell: usize) -> WarpedCell {
         let (i, j) = (cell / self.rows(), cell % self.rows());
+        let r = &*self.rest;
         WarpedCell {
             a: w.slope_s[i],
             b: w.slope_t[j],
-            inv_h: self.rest.inv_h[i],
-            inv_k: self.rest.inv_k[j],
+            inv_h: r.inv_h[i],
+            inv_k: r.inv_k[j],
+            first_sample: cell * r.padded_k * r.stride,
+            first_column: i * r.padded_k,
+            first_row: j * r.chunk_columns * r.stride,
         }
     }
 
-    /// The chunk of cell `cell` = (i, j) from column sample a₀ and row sample b₀ (a₀ a
+    /// The chunk of the cell `cell` from column sample a₀ and row sample b₀ (a₀ a
     /// multiple of C, b₀ of LANES/C), C = `COLUMNS` ([`chunk_layout`]).
     #[inline(always)]
     fn chunk<'c, const COLUMNS: usize>(
         &'c self,
         reads: impl TexelReads,
         w: &'c WarpedAxes,
-        cell: usize,
+        cell: &WarpedCell,
         a0: usize,
         b0: usize,
     ) -> Chunk<'c> {
         let r = &*self.rest;
-        let (i, j) = (cell / self.rows(), cell % self.rows());
-        let at = (cell * r.padded_k + a0) * r.stride + b0;
-        let row = j * COLUMNS * r.stride + b0;
+        let at = cell.first_sample + a0 * r.stride + b0;
+        let row = cell.first_row + b0;
         let (ts, tt) = (&w.d_s, w.d_t());
         // Lane l reads column sample a₀ + l / (LANES/C): one value broadcast (C = 1) or two.
-        let column = |lane: usize| i * r.padded_k + a0 + lane / (LANES / COLUMNS);
+        let column = |lane: usize| cell.first_column + a0 + lane / (LANES / COLUMNS);
         Chunk {
             alpha: std::array::from_fn(|lane| r.alpha[a0 + lane / (LANES / COLUMNS)]),
             beta: lanes(&r.beta, b0),
@@ -963,12 +1050,12 @@ impl<'a> AaEnergy<'a> {
         let mut sums = [0.0; LANES];
         for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
             for b0 in (0..self.rest.stride).step_by(LANES / COLUMNS) {
-                let chunk = self.chunk::<COLUMNS>(reads, w, cell, a0, b0);
+                let chunk = self.chunk::<COLUMNS>(reads, w, &warped, a0, b0);
                 for (lane, sum) in sums.iter_mut().enumerate() {
                     let c = chunk.values(lane);
                     let [rs, rt] = chunk.residuals(warped, c, lane);
-                    *sum += rs * rs;
-                    *sum += rt * rt;
+                    *sum = rs.mul_add(rs, *sum);
+                    *sum = rt.mul_add(rt, *sum);
                 }
             }
         }
@@ -988,28 +1075,33 @@ impl<'a> AaEnergy<'a> {
         }
         let warped = self.warped_cell(w, cell);
         let mut sums = LaneSums::<4, 10>::new();
+        // Residuals and derivatives of BATCH chunks, then their sums: the sums' loop then
+        // holds its 15 partial sums in registers.
+        let mut batch = [LaneResiduals::<4>::ZERO; BATCH];
+        let mut filled = 0;
         for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
             for b0 in (0..self.rest.stride).step_by(LANES / COLUMNS) {
-                let chunk = self.chunk::<COLUMNS>(reads, w, cell, a0, b0);
-                // Residuals and derivatives of all lanes, then their sums: two simple
-                // loops over the lanes (each one vector operation per line).
-                let mut r = [[0.0; LANES]; 2];
-                let mut d = [[[0.0; LANES]; 4]; 2];
+                let chunk = self.chunk::<COLUMNS>(reads, w, &warped, a0, b0);
+                // One simple loop over the lanes (each one vector operation per line).
+                let out = &mut batch[filled];
                 for lane in 0..LANES {
                     let c = chunk.samples(lane);
                     let rd = chunk.residuals_and_derivatives(warped, c, lane);
                     for (axis, (r_axis, d_axis)) in rd.into_iter().enumerate() {
-                        r[axis][lane] = r_axis;
-                        for p in 0..4 {
-                            d[axis][p][lane] = d_axis[p];
+                        out.r[axis][lane] = r_axis;
+                        for (d, d_p) in out.d[axis].iter_mut().zip(d_axis) {
+                            d[lane] = d_p;
                         }
                     }
                 }
-                for axis in 0..2 {
-                    sums.accumulate(&r[axis], &d[axis]);
+                filled += 1;
+                if filled == BATCH {
+                    sums.accumulate_chunks(&batch);
+                    filled = 0;
                 }
             }
         }
+        sums.accumulate_chunks(&batch[..filled]);
         sums.reduce()
     }
 
@@ -1075,6 +1167,34 @@ impl<'a> AaEnergy<'a> {
         self.fill_blocks_baseline(reads, w, first, out)
     }
 
+    /// [`AaEnergy::fill_energies_baseline`] compiled with AVX2 and FMA (4 lanes a register,
+    /// fused multiply-adds in hardware; same results bit for bit).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn fill_energies_avx2(
+        &self,
+        reads: impl TexelReads,
+        w: &WarpedAxes,
+        first: usize,
+        out: &mut [f64],
+    ) {
+        self.fill_energies_baseline(reads, w, first, out)
+    }
+
+    /// [`AaEnergy::fill_blocks_baseline`] compiled with AVX2 and FMA (same results bit for
+    /// bit).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn fill_blocks_avx2(
+        &self,
+        reads: impl TexelReads,
+        w: &WarpedAxes,
+        first: usize,
+        out: &mut [LocalNormalEquations<4>],
+    ) {
+        self.fill_blocks_baseline(reads, w, first, out)
+    }
+
     /// The portable texel reads.
     fn gathers(&self) -> Gathers<'_> {
         Gathers {
@@ -1089,30 +1209,46 @@ impl<'a> AaEnergy<'a> {
         Windows::new([&self.deformed.d_s, &self.deformed.d_t], columns)
     }
 
-    /// Cell energies `first..` into `out`: AVX-512 and [`Windows`] reads if the CPU has it.
+    /// Cell energies `first..` into `out`, with this energy's [`LaneCode`].
     fn fill_energies(&self, w: &WarpedAxes, first: usize, out: &mut [f64]) {
+        let gathers = self.gathers();
+        // SAFETY (each unsafe call): `InstructionSet::for_code` returned the instruction set
+        // only after checking that the CPU has it.
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F, checked just above.
-            return match self.windows() {
-                Some(reads) => unsafe { self.fill_energies_avx512(reads, w, first, out) },
-                None => unsafe { self.fill_energies_avx512(self.gathers(), w, first, out) },
-            };
+        match InstructionSet::for_code(self.code) {
+            InstructionSet::Avx512 => {
+                return match self.windows() {
+                    Some(reads) => unsafe { self.fill_energies_avx512(reads, w, first, out) },
+                    None => unsafe { self.fill_energies_avx512(gathers, w, first, out) },
+                }
+            }
+            InstructionSet::Avx2Fma => {
+                return unsafe { self.fill_energies_avx2(gathers, w, first, out) }
+            }
+            InstructionSet::Portable => {}
         }
-        self.fill_energies_baseline(self.gathers(), w, first, out)
+        self.fill_energies_baseline(gathers, w, first, out)
     }
 
-    /// Cell blocks `first..` into `out`: AVX-512 and [`Windows`] reads if the CPU has it.
+    /// Cell blocks `first..` into `out`, with this energy's [`LaneCode`].
     fn fill_blocks(&self, w: &WarpedAxes, first: usize, out: &mut [LocalNormalEquations<4>]) {
+        let gathers = self.gathers();
+        // SAFETY (each unsafe call): `InstructionSet::for_code` returned the instruction set
+        // only after checking that the CPU has it.
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU supports AVX-512F, checked just above.
-            return match self.windows() {
-                Some(reads) => unsafe { self.fill_blocks_avx512(reads, w, first, out) },
-                None => unsafe { self.fill_blocks_avx512(self.gathers(), w, first, out) },
-            };
+        match InstructionSet::for_code(self.code) {
+            InstructionSet::Avx512 => {
+                return match self.windows() {
+                    Some(reads) => unsafe { self.fill_blocks_avx512(reads, w, first, out) },
+                    None => unsafe { self.fill_blocks_avx512(gathers, w, first, out) },
+                }
+            }
+            InstructionSet::Avx2Fma => {
+                return unsafe { self.fill_blocks_avx2(gathers, w, first, out) }
+            }
+            InstructionSet::Portable => {}
         }
-        self.fill_blocks_baseline(self.gathers(), w, first, out)
+        self.fill_blocks_baseline(gathers, w, first, out)
     }
 
     /// Fill `out` (one entry per cell) by `fill(first cell, part)`, in parallel tasks of about
@@ -1146,7 +1282,7 @@ impl<'a> AaEnergy<'a> {
         let rows_per_chunk = LANES / COLUMNS;
         for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
             for b0 in (0..self.rest.stride).step_by(rows_per_chunk) {
-                let chunk = self.chunk::<COLUMNS>(self.gathers(), w, cell, a0, b0);
+                let chunk = self.chunk::<COLUMNS>(self.gathers(), w, &warped, a0, b0);
                 for lane in 0..LANES {
                     let (a, b) = (a0 + lane / rows_per_chunk, b0 + lane % rows_per_chunk);
                     if a < self.rest.k && b < self.rest.l && chunk.sigma[lane] != 0.0 {

@@ -115,28 +115,34 @@ pub fn interpolate(x: &Axis, y: &Axis, f: [f64; 4]) -> Sample {
 
 /// [`interpolate`] given each axis as (fraction, scale) = (α, du/ds) and (β, dv/dt): the one
 /// place the formula is written, so that every caller (a single sample, or a lane of a
-/// vectorised loop) gets the same operations in the same order.
+/// vectorised loop) gets the same operations in the same order. Interpolated along s on the
+/// two texel rows, then along t between them:
+///
+///   f₀ = f₀₀ + α (f₁₀ − f₀₀),  f₁ = f₀₁ + α (f₁₁ − f₀₁),  f = f₀ + β (f₁ − f₀),
+///   ∂f/∂s = du/ds ((f₁₀ − f₀₀) + β ((f₁₁ − f₀₁) − (f₁₀ − f₀₀))),  ∂f/∂t = dv/dt (f₁ − f₀),
+///
+/// (1−α)(1−β) f₀₀ + α(1−β) f₁₀ + (1−α)β f₀₁ + αβ f₁₁ written with the fewest operations.
 #[inline(always)]
 pub fn bilinear_formula(
     (alpha, scale_s): (f64, f64),
     (beta, scale_t): (f64, f64),
     [f00, f10, f01, f11]: [f64; 4],
 ) -> Sample {
+    let (along_0, along_1) = (f10 - f00, f11 - f01);
+    let (f0, f1) = (f00 + alpha * along_0, f01 + alpha * along_1);
+    let across = f1 - f0;
     Sample {
-        value: bilinear_value(alpha, beta, [f00, f10, f01, f11]),
-        ds: scale_s * ((1.0 - beta) * (f10 - f00) + beta * (f11 - f01)),
-        dt: scale_t * ((1.0 - alpha) * (f01 - f00) + alpha * (f11 - f10)),
+        value: f0 + beta * across,
+        ds: scale_s * (along_0 + beta * (along_1 - along_0)),
+        dt: scale_t * across,
     }
 }
 
-/// The value part of [`bilinear_formula`]:
-/// (1−α)(1−β) f₀₀ + α(1−β) f₁₀ + (1−α)β f₀₁ + αβ f₁₁.
+/// The value part of [`bilinear_formula`] (the same operations): f₀ + β (f₁ − f₀).
 #[inline(always)]
 pub fn bilinear_value(alpha: f64, beta: f64, [f00, f10, f01, f11]: [f64; 4]) -> f64 {
-    (1.0 - alpha) * (1.0 - beta) * f00
-        + alpha * (1.0 - beta) * f10
-        + (1.0 - alpha) * beta * f01
-        + alpha * beta * f11
+    let (f0, f1) = (f00 + alpha * (f10 - f00), f01 + alpha * (f11 - f01));
+    f0 + beta * (f1 - f0)
 }
 
 /// Where a coordinate s falls on one axis of `texels` texel centres: u = s·n − ½ = lower + frac,

@@ -39,7 +39,7 @@ pub mod scene;
 pub mod solve;
 mod texel_reads;
 
-pub use energy::{AaEnergy, DeformedFields, RestFields, RestSamples};
+pub use energy::{AaEnergy, DeformedFields, LaneCode, RestFields, RestSamples};
 pub use energy_naa::{
     solve_naa_frame, solve_naa_frame_with_rest_samples, DeformedJacobian, NaaEnergy,
     NaaFrameSolution, NaaModel, NaaRestSamples, VertexGrid,

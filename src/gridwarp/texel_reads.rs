@@ -41,20 +41,34 @@ pub(super) struct ColumnMajor {
 }
 
 impl ColumnMajor {
-    /// The transpose of `field`'s row-major values (padding 0), in tiles of 8×8 texels (each
-    /// tile reads 8 rows and writes 8 columns: a few cache lines, where a row-by-row
-    /// transpose writes one line per value).
+    /// The transpose of `field`'s row-major values (padding 0), in tiles of 8×8 texels read
+    /// as 8 rows and written as 8 columns (contiguous reads and writes, the transpose in
+    /// registers; a field whose sides are not multiples of 8 finishes its last rows and
+    /// columns one value at a time).
     pub fn of(field: &Field) -> ColumnMajor {
-        const TILE: usize = 8;
+        const T: usize = 8;
         let (w, h) = (field.width, field.height);
         let mut values = vec![0.0; w * h + 2 * LANES];
-        for y0 in (0..h).step_by(TILE) {
-            for x0 in (0..w).step_by(TILE) {
-                for x in x0..(x0 + TILE).min(w) {
-                    for y in y0..(y0 + TILE).min(h) {
-                        values[x * h + y] = field.values[y * w + x];
-                    }
+        let source = &field.values;
+        let (full_w, full_h) = (w - w % T, h - h % T);
+        for y0 in (0..full_h).step_by(T) {
+            for x0 in (0..full_w).step_by(T) {
+                let tile: [[f64; T]; T] = std::array::from_fn(|dy| {
+                    source[(y0 + dy) * w + x0..][..T]
+                        .try_into()
+                        .expect("T values")
+                });
+                for dx in 0..T {
+                    let column: &mut [f64; T] = (&mut values[(x0 + dx) * h + y0..][..T])
+                        .try_into()
+                        .expect("T values");
+                    *column = std::array::from_fn(|dy| tile[dy][dx]);
                 }
+            }
+        }
+        for y in 0..h {
+            for x in (0..w).filter(|&x| x >= full_w || y >= full_h) {
+                values[x * h + y] = source[y * w + x];
             }
         }
         ColumnMajor { height: h, values }
@@ -114,17 +128,19 @@ pub(super) struct Gathers<'a> {
 }
 
 impl Gathers<'_> {
-    /// f(row + column) of every lane. (The tables hold only valid indices; reading through
-    /// `get` with a fallback instead of indexing leaves the lane loop without a panic branch,
-    /// so that it vectorises.)
+    /// f(row + column) of every lane. (The tables hold only valid indices; clamping them to
+    /// the last value anyway, instead of a checked index, leaves the lane loop without a
+    /// branch, so that it becomes one gather.)
     #[inline(always)]
     fn read(values: &[f64], rows: &[usize; LANES], columns: &[usize; LANES]) -> [f64; LANES] {
-        std::array::from_fn(|lane| {
-            values
-                .get(rows[lane] + columns[lane])
-                .copied()
-                .unwrap_or(0.0)
-        })
+        let mut out = [0.0; LANES];
+        let Some(last) = values.len().checked_sub(1) else {
+            return out;
+        };
+        for lane in 0..LANES {
+            out[lane] = values[(rows[lane] + columns[lane]).min(last)];
+        }
+        out
     }
 }
 
@@ -179,17 +195,20 @@ impl<'a> Windows<'a> {
     #[inline(always)]
     fn select(self, values: &[f64], base: usize, second: usize, at: &[i64; LANES]) -> [f64; 8] {
         use std::arch::x86_64::{_mm512_loadu_epi64, _mm512_loadu_pd, _mm512_permutex2var_pd};
-        let low: &[f64; LANES] = values[base..base + LANES].try_into().expect("LANES values");
-        let high: &[f64; LANES] = values[second..second + LANES]
-            .try_into()
-            .expect("LANES values");
-        // SAFETY: a `Windows` exists only if the CPU has AVX-512F (`detect`); the loads read
-        // the two arrays above, `at` is 8 i64 (only their low 4 bits are used).
+        // Texel indices come from `Axis`, within the field: base, second ≤ W·H − 1 and the
+        // loads end within the padding. Clamping them to the last LANES values anyway keeps
+        // every load in bounds whatever the tables hold (one instruction, where a checked
+        // slice costs two compares and branches).
+        let last = values.len() - LANES;
+        let (base, second) = (base.min(last), second.min(last));
+        // SAFETY: a `Windows` exists only if the CPU has AVX-512F (`new`); both loads read
+        // LANES values from an index ≤ len − LANES (clamped just above); `at` is 8 i64 (the
+        // permutation uses their low 4 bits).
         unsafe {
             let selected = _mm512_permutex2var_pd(
-                _mm512_loadu_pd(low.as_ptr()),
+                _mm512_loadu_pd(values.as_ptr().add(base)),
                 _mm512_loadu_epi64(at.as_ptr()),
-                _mm512_loadu_pd(high.as_ptr()),
+                _mm512_loadu_pd(values.as_ptr().add(second)),
             );
             std::mem::transmute::<std::arch::x86_64::__m512d, [f64; LANES]>(selected)
         }
