@@ -30,6 +30,7 @@
 //!   sample layout only, never on the number of threads.
 
 use std::borrow::Cow;
+use std::mem::MaybeUninit;
 
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -126,6 +127,9 @@ pub struct RestSamples {
     inv_k: Vec<f64>,
     /// Cell c has a sample with σ ≠ 0 (a cell without one contributes exactly nothing).
     active: Vec<bool>,
+    /// The unknowns of cell c in slot order (s_i, s_{i+1}, t_j, t_{j+1}); None for the fixed
+    /// lines 0 and 1 ([`AaEnergy::cell_unknowns`]).
+    cell_unknowns: Vec<[Option<usize>; 4]>,
 }
 
 /// One coordinate of the rest samples along one axis: the rest coordinate ŝ_i + α h_i, its
@@ -212,6 +216,7 @@ impl RestSamples {
                 .map(|w| 1.0 / (w[1] - w[0]))
                 .collect(),
             active: Vec::new(),
+            cell_unknowns: Vec::new(),
         };
         // Cell column i's samples.
         let fill = |i: usize, sigma: &mut [f64], os: &mut [f64], ot: &mut [f64]| {
@@ -247,6 +252,7 @@ impl RestSamples {
                 .enumerate()
                 .for_each(|(i, ((sigma, os), ot))| fill(i, sigma, os, ot));
         }
+        out.cell_unknowns = (0..m * n).map(|c| out.unknowns_of(c)).collect();
         out.active = out
             .sigma
             .chunks_exact(padded_k * stride)
@@ -258,6 +264,16 @@ impl RestSamples {
     /// The rest grid these samples belong to.
     pub fn grid(&self) -> &Grid {
         &self.grid
+    }
+
+    /// The unknowns of cell `cell` = (i, j) in slot order (s_i, s_{i+1}, t_j, t_{j+1}): s_i
+    /// is unknown i − 1 for 0 < i < M − 1, t_j unknown M − 2 + j − 1 for 0 < j < N − 1.
+    fn unknowns_of(&self, cell: usize) -> [Option<usize>; 4] {
+        let (m, rows) = (self.grid.s.len(), self.rows());
+        let (i, j) = (cell / rows, cell % rows);
+        let s_index = |i: usize| (i > 0 && i < m - 1).then(|| i - 1);
+        let t_index = |j: usize| (j > 0 && j < rows).then(|| m - 2 + j - 1);
+        [s_index(i), s_index(i + 1), t_index(j), t_index(j + 1)]
     }
 
     /// Samples per cell (K, L).
@@ -546,6 +562,14 @@ impl LaneTexels {
     }
 }
 
+/// What the chunks of one chunk row of a cell (row samples b₀ … b₀ + LANES/C − 1) share: β
+/// and the texel rows of ‖D_s‖ and ‖D_t‖, found once per cell and chunk row.
+struct ChunkRow<'c> {
+    b0: usize,
+    beta: &'c [f64; LANES],
+    rows: [RowTexels<'c>; 2],
+}
+
 /// LANES samples of a cell: C column samples a₀ … a₀ + C − 1, each with LANES/C row samples
 /// b₀ …: what the lane loops read.
 struct Chunk<'c> {
@@ -738,6 +762,15 @@ impl<const N: usize> LaneResiduals<N> {
 
 /// Chunks whose residuals the axis-aligned normal equations compute before summing them.
 const BATCH: usize = 8;
+
+/// The first `filled` entries of `batch`, which the caller has written.
+#[inline(always)]
+fn written<T>(batch: &[MaybeUninit<T>; BATCH], filled: usize) -> &[T] {
+    let filled = filled.min(BATCH);
+    // SAFETY: the caller wrote entries 0 … filled − 1 (`MaybeUninit::write`) since it last
+    // read them; `MaybeUninit<T>` has the layout of `T`.
+    unsafe { std::slice::from_raw_parts(batch.as_ptr().cast::<T>(), filled) }
+}
 
 /// Slots per side of the tiles in which [`cell_block_of`] sums JᵀJ.
 const TILE: usize = 4;
@@ -940,26 +973,10 @@ impl<'a> AaEnergy<'a> {
         self.rest.cells()
     }
 
-    /// Index of line s_i in the unknowns (None for the fixed lines 0 and 1).
-    fn s_index(&self, i: usize) -> Option<usize> {
-        (i > 0 && i < self.rest.grid.s.len() - 1).then(|| i - 1)
-    }
-
-    /// Index of line t_j in the unknowns.
-    fn t_index(&self, j: usize) -> Option<usize> {
-        let m = self.rest.grid.s.len();
-        (j > 0 && j < self.rest.grid.t.len() - 1).then(|| m - 2 + j - 1)
-    }
-
-    /// The unknowns of cell `cell` = (i, j) in slot order (s_i, s_{i+1}, t_j, t_{j+1}).
+    /// The unknowns of cell `cell` = (i, j) in slot order (s_i, s_{i+1}, t_j, t_{j+1}); None
+    /// for the fixed lines 0 and 1.
     pub fn cell_unknowns(&self, cell: usize) -> [Option<usize>; 4] {
-        let (i, j) = (cell / self.rows(), cell % self.rows());
-        [
-            self.s_index(i),
-            self.s_index(i + 1),
-            self.t_index(j),
-            self.t_index(j + 1),
-        ]
+        self.rest.cell_unknowns[cell]
     }
 
     /// The texel tables of every column and row sample of the grid `g` on D_s's texels (and
@@ -1004,32 +1021,43 @@ impl<'a> AaEnergy<'a> {
         }
     }
 
-    /// The chunk of the cell `cell` from column sample a₀ and row sample b₀ (a₀ a
-    /// multiple of C, b₀ of LANES/C), C = `COLUMNS` ([`chunk_layout`]).
+    /// The chunk row of the cell `cell` from row sample b₀ (a multiple of LANES/C): what
+    /// its chunks share.
+    #[inline(always)]
+    fn chunk_row<'c>(&'c self, w: &'c WarpedAxes, cell: &WarpedCell, b0: usize) -> ChunkRow<'c> {
+        let row = cell.first_row + b0;
+        ChunkRow {
+            b0,
+            beta: lanes(&self.rest.beta, b0),
+            rows: [w.d_s.rows_at(row), w.d_t().rows_at(row)],
+        }
+    }
+
+    /// The chunk of the cell `cell` in the chunk row `row` from column sample a₀ (a multiple
+    /// of C, C = `COLUMNS`, [`chunk_layout`]).
     #[inline(always)]
     fn chunk<'c, const COLUMNS: usize>(
         &'c self,
         reads: impl TexelReads,
         w: &'c WarpedAxes,
         cell: &WarpedCell,
+        row: &ChunkRow<'c>,
         a0: usize,
-        b0: usize,
     ) -> Chunk<'c> {
         let r = &*self.rest;
-        let at = cell.first_sample + a0 * r.stride + b0;
-        let row = cell.first_row + b0;
+        let at = cell.first_sample + a0 * r.stride + row.b0;
         let (ts, tt) = (&w.d_s, w.d_t());
         // Lane l reads column sample a₀ + l / (LANES/C): one value broadcast (C = 1) or two.
         let column = |lane: usize| cell.first_column + a0 + lane / (LANES / COLUMNS);
         Chunk {
             alpha: std::array::from_fn(|lane| r.alpha[a0 + lane / (LANES / COLUMNS)]),
-            beta: lanes(&r.beta, b0),
+            beta: row.beta,
             sigma: lanes(&r.sigma, at),
             o_s: lanes(&r.o_s, at),
             o_t: lanes(&r.o_t, at),
             fields: [
-                LaneTexels::read(reads, 0, &ts.columns_at(column), &ts.rows_at(row)),
-                LaneTexels::read(reads, 1, &tt.columns_at(column), &tt.rows_at(row)),
+                LaneTexels::read(reads, 0, &ts.columns_at(column), &row.rows[0]),
+                LaneTexels::read(reads, 1, &tt.columns_at(column), &row.rows[1]),
             ],
         }
     }
@@ -1048,9 +1076,10 @@ impl<'a> AaEnergy<'a> {
         }
         let warped = self.warped_cell(w, cell);
         let mut sums = [0.0; LANES];
-        for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
-            for b0 in (0..self.rest.stride).step_by(LANES / COLUMNS) {
-                let chunk = self.chunk::<COLUMNS>(reads, w, &warped, a0, b0);
+        for b0 in (0..self.rest.stride).step_by(LANES / COLUMNS) {
+            let row = self.chunk_row(w, &warped, b0);
+            for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
+                let chunk = self.chunk::<COLUMNS>(reads, w, &warped, &row, a0);
                 for (lane, sum) in sums.iter_mut().enumerate() {
                     let c = chunk.values(lane);
                     let [rs, rt] = chunk.residuals(warped, c, lane);
@@ -1076,14 +1105,16 @@ impl<'a> AaEnergy<'a> {
         let warped = self.warped_cell(w, cell);
         let mut sums = LaneSums::<4, 10>::new();
         // Residuals and derivatives of BATCH chunks, then their sums: the sums' loop then
-        // holds its 15 partial sums in registers.
-        let mut batch = [LaneResiduals::<4>::ZERO; BATCH];
+        // holds its 15 partial sums in registers. (The batch is not zeroed first: it would
+        // cost as much as writing it; only written entries are read.)
+        let mut batch = [const { MaybeUninit::<LaneResiduals<4>>::uninit() }; BATCH];
         let mut filled = 0;
-        for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
-            for b0 in (0..self.rest.stride).step_by(LANES / COLUMNS) {
-                let chunk = self.chunk::<COLUMNS>(reads, w, &warped, a0, b0);
+        for b0 in (0..self.rest.stride).step_by(LANES / COLUMNS) {
+            let row = self.chunk_row(w, &warped, b0);
+            for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
+                let chunk = self.chunk::<COLUMNS>(reads, w, &warped, &row, a0);
                 // One simple loop over the lanes (each one vector operation per line).
-                let out = &mut batch[filled];
+                let mut out = LaneResiduals::ZERO;
                 for lane in 0..LANES {
                     let c = chunk.samples(lane);
                     let rd = chunk.residuals_and_derivatives(warped, c, lane);
@@ -1094,14 +1125,15 @@ impl<'a> AaEnergy<'a> {
                         }
                     }
                 }
+                batch[filled].write(out);
                 filled += 1;
                 if filled == BATCH {
-                    sums.accumulate_chunks(&batch);
+                    sums.accumulate_chunks(written(&batch, filled));
                     filled = 0;
                 }
             }
         }
-        sums.accumulate_chunks(&batch[..filled]);
+        sums.accumulate_chunks(written(&batch, filled));
         sums.reduce()
     }
 
@@ -1282,7 +1314,8 @@ impl<'a> AaEnergy<'a> {
         let rows_per_chunk = LANES / COLUMNS;
         for a0 in (0..self.rest.padded_k).step_by(COLUMNS) {
             for b0 in (0..self.rest.stride).step_by(rows_per_chunk) {
-                let chunk = self.chunk::<COLUMNS>(self.gathers(), w, &warped, a0, b0);
+                let row = self.chunk_row(w, &warped, b0);
+                let chunk = self.chunk::<COLUMNS>(self.gathers(), w, &warped, &row, a0);
                 for lane in 0..LANES {
                     let (a, b) = (a0 + lane / rows_per_chunk, b0 + lane % rows_per_chunk);
                     if a < self.rest.k && b < self.rest.l && chunk.sigma[lane] != 0.0 {
@@ -1356,8 +1389,6 @@ impl Residuals for AaEnergy<'_> {
         self.per_cell(&mut blocks, |first, out| {
             self.fill_blocks(&axes, first, out)
         });
-        let slots: Vec<[Option<usize>; 4]> =
-            (0..self.cells()).map(|c| self.cell_unknowns(c)).collect();
-        NormalEquations::assemble(self.dim(), slots.iter().zip(&blocks))
+        NormalEquations::assemble(self.dim(), self.rest.cell_unknowns.iter().zip(&blocks))
     }
 }
