@@ -523,6 +523,30 @@ impl LaneTexels {
     /// Read with `reads` on field `field` (0: ‖D_s‖, 1: ‖D_t‖).
     #[inline(always)]
     fn read(reads: impl TexelReads, field: usize, x: &ColumnTexels, y: &RowTexels) -> Self {
+        let (columns, rows) = Self::positions(x, y);
+        LaneTexels {
+            quads: reads.quads(field, columns, rows, y.window),
+            s: (x.frac, x.scale),
+            t: (*y.frac, *y.scale),
+        }
+    }
+
+    /// Both fields read with `reads` at the same texel positions (fields of one resolution).
+    #[inline(always)]
+    fn read_both(reads: impl TexelReads, x: &ColumnTexels, y: &RowTexels) -> [Self; 2] {
+        let (columns, rows) = Self::positions(x, y);
+        let [s, t] = reads.quads_of_both(columns, rows, y.window);
+        let field = |quads| LaneTexels {
+            quads,
+            s: (x.frac, x.scale),
+            t: (*y.frac, *y.scale),
+        };
+        [field(s), field(t)]
+    }
+
+    /// The texel positions of the lanes, as the reads take them.
+    #[inline(always)]
+    fn positions<'c>(x: &'c ColumnTexels, y: &RowTexels<'c>) -> (LaneColumns<'c>, LaneRows<'c>) {
         let columns = LaneColumns {
             lower: &x.lower,
             upper: &x.upper,
@@ -531,11 +555,7 @@ impl LaneTexels {
             lower: y.lower,
             upper: y.upper,
         };
-        LaneTexels {
-            quads: reads.quads(field, columns, rows, y.window),
-            s: (x.frac, x.scale),
-            t: (*y.frac, *y.scale),
-        }
+        (columns, rows)
     }
 
     /// [f₀₀, f₁₀, f₀₁, f₁₁] of lane `lane`.
@@ -1055,10 +1075,14 @@ impl<'a> AaEnergy<'a> {
             sigma: lanes(&r.sigma, at),
             o_s: lanes(&r.o_s, at),
             o_t: lanes(&r.o_t, at),
-            fields: [
-                LaneTexels::read(reads, 0, &ts.columns_at(column), &row.rows[0]),
-                LaneTexels::read(reads, 1, &tt.columns_at(column), &row.rows[1]),
-            ],
+            // ‖D_t‖ at ‖D_s‖'s resolution (no tables of its own): the same texel positions.
+            fields: match &w.d_t {
+                None => LaneTexels::read_both(reads, &ts.columns_at(column), &row.rows[0]),
+                Some(_) => [
+                    LaneTexels::read(reads, 0, &ts.columns_at(column), &row.rows[0]),
+                    LaneTexels::read(reads, 1, &tt.columns_at(column), &row.rows[1]),
+                ],
+            },
         }
     }
 

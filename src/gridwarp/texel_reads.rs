@@ -10,10 +10,13 @@
 //!   sample, or two) and their texel rows lie within a few texels of each other (the L row
 //!   samples of one cell). With the field stored column by column ([`ColumnMajor`]), each of
 //!   the four texels of all lanes is picked out of 16 consecutive values (two vector loads) by
-//!   one permutation (`vpermt2pd`). The row offsets of a chunk row ([`RowWindow`]) are found
-//!   once per evaluation, shared by every cell column. A chunk row whose texel rows span more
-//!   than the loads cover (a cell taller than ≈ 15 texels with 8 row samples) falls back to
-//!   gathers.
+//!   one permutation (`vpermt2pd`; one load and `vpermpd` when they lie within 8). The row
+//!   offsets of a chunk row ([`RowWindow`]) are found once per evaluation, shared by every
+//!   cell column. A chunk row whose texel rows span more than the loads cover (a cell taller
+//!   than ≈ 15 texels with 8 row samples) falls back to gathers.
+//!
+//! When ‖D_t‖ has ‖D_s‖'s resolution the lanes' texel positions are the same on both, and
+//! [`TexelReads::quads_of_both`] finds the indices (or the window loads' addresses) once.
 
 use super::energy::LANES;
 use super::field::Field;
@@ -22,12 +25,14 @@ use super::field::Field;
 pub(super) type Quads = [[f64; LANES]; 4];
 
 /// The texel columns of a chunk's lanes on one field (x and x', as column indices).
+#[derive(Clone, Copy)]
 pub(super) struct LaneColumns<'c> {
     pub lower: &'c [usize; LANES],
     pub upper: &'c [usize; LANES],
 }
 
 /// The texel rows of a chunk's lanes on one field, as offsets y·W into the row-major values.
+#[derive(Clone, Copy)]
 pub(super) struct LaneRows<'c> {
     pub lower: &'c [usize; LANES],
     pub upper: &'c [usize; LANES],
@@ -80,10 +85,13 @@ impl ColumnMajor {
 /// the next 8 rows of the same column when the chunk has one column sample (`second` = 8),
 /// the same rows of the second column sample's column (`second` = 0, and lanes 4–7 add 8 to
 /// their offsets). `lower[l]`, `upper[l]`: lane l's texel rows y, y' as positions in the window.
+/// With one column sample whose rows all lie within the first 8 (`one_load`), the second 8
+/// are not needed: one load and a one-register permutation (`vpermpd`) per texel column.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct RowWindow {
     first: usize,
     second: usize,
+    one_load: bool,
     lower: [i64; LANES],
     upper: [i64; LANES],
 }
@@ -107,6 +115,7 @@ impl RowWindow {
         Some(RowWindow {
             first,
             second: if columns == 1 { LANES } else { 0 },
+            one_load: columns == 1 && last - first < LANES,
             lower: std::array::from_fn(|lane| offset(lane, lower[lane])),
             upper: std::array::from_fn(|lane| offset(lane, upper[lane])),
         })
@@ -119,6 +128,10 @@ pub(super) trait TexelReads: Copy {
     /// The quads of every lane on field `field`, the lanes at the texel columns `x` and rows
     /// `y`, `window` their chunk row's window on that field (if it has one).
     fn quads(self, field: usize, x: LaneColumns, y: LaneRows, window: Option<&RowWindow>) -> Quads;
+
+    /// The quads of both fields, which have the same width and height (so the same texel
+    /// positions): the indices found once.
+    fn quads_of_both(self, x: LaneColumns, y: LaneRows, window: Option<&RowWindow>) -> [Quads; 2];
 }
 
 /// One indexed read per lane and texel.
@@ -155,6 +168,11 @@ impl TexelReads for Gathers<'_> {
             Self::read(v, y.upper, x.upper),
         ]
     }
+
+    #[inline(always)]
+    fn quads_of_both(self, x: LaneColumns, y: LaneRows, window: Option<&RowWindow>) -> [Quads; 2] {
+        [self.quads(0, x, y, window), self.quads(1, x, y, window)]
+    }
 }
 
 /// Permutations of two vector loads (AVX-512F) from the fields stored column by column,
@@ -187,6 +205,52 @@ impl<'a> Windows<'a> {
             });
         }
         None
+    }
+
+    /// The quads of the lanes in the window `w`, whose loads start at `lower` in the lanes'
+    /// lower texel columns and at `upper` in their upper ones (first and second 8 values).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn window_quads(
+        self,
+        values: &[f64],
+        lower: (usize, usize),
+        upper: (usize, usize),
+        w: &RowWindow,
+    ) -> Quads {
+        if w.one_load {
+            return [
+                self.select_one(values, lower.0, &w.lower),
+                self.select_one(values, upper.0, &w.lower),
+                self.select_one(values, lower.0, &w.upper),
+                self.select_one(values, upper.0, &w.upper),
+            ];
+        }
+        [
+            self.select(values, lower.0, lower.1, &w.lower),
+            self.select(values, upper.0, upper.1, &w.lower),
+            self.select(values, lower.0, lower.1, &w.upper),
+            self.select(values, upper.0, upper.1, &w.upper),
+        ]
+    }
+
+    /// Lane l gets value `at[l]` (< 8) of the 8 values `values[base..base + 8]`.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn select_one(self, values: &[f64], base: usize, at: &[i64; LANES]) -> [f64; 8] {
+        use std::arch::x86_64::{_mm512_loadu_epi64, _mm512_loadu_pd, _mm512_permutexvar_pd};
+        // As in `select`: clamped so that the load stays in bounds whatever the tables hold.
+        let base = base.min(values.len() - LANES);
+        // SAFETY: a `Windows` exists only if the CPU has AVX-512F (`new`); the load reads
+        // LANES values from an index ≤ len − LANES; `at` is 8 i64 (the permutation uses their
+        // low 3 bits).
+        unsafe {
+            let selected = _mm512_permutexvar_pd(
+                _mm512_loadu_epi64(at.as_ptr()),
+                _mm512_loadu_pd(values.as_ptr().add(base)),
+            );
+            std::mem::transmute::<std::arch::x86_64::__m512d, [f64; LANES]>(selected)
+        }
     }
 
     /// Lane l gets value `at[l]` of the 16 values `values[base..base + 8]`,
@@ -231,13 +295,27 @@ impl TexelReads for Windows<'_> {
                 (base, columns[LANES - 1] * h + w.first + w.second)
             };
             let (lower, upper) = (bases(x.lower), bases(x.upper));
-            return [
-                self.select(v, lower.0, lower.1, &w.lower),
-                self.select(v, upper.0, upper.1, &w.lower),
-                self.select(v, lower.0, lower.1, &w.upper),
-                self.select(v, upper.0, upper.1, &w.upper),
-            ];
+            return self.window_quads(v, lower, upper, w);
         }
         self.gathers.quads(field, x, y, window)
+    }
+
+    #[inline(always)]
+    fn quads_of_both(self, x: LaneColumns, y: LaneRows, window: Option<&RowWindow>) -> [Quads; 2] {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(w) = window {
+            let h = self.column_major[0].height;
+            let bases = |columns: &[usize; LANES]| {
+                let base = columns[0] * h + w.first;
+                (base, columns[LANES - 1] * h + w.first + w.second)
+            };
+            let (lower, upper) = (bases(x.lower), bases(x.upper));
+            let [s, t] = self.column_major;
+            return [
+                self.window_quads(&s.values, lower, upper, w),
+                self.window_quads(&t.values, lower, upper, w),
+            ];
+        }
+        self.gathers.quads_of_both(x, y, window)
     }
 }
