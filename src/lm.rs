@@ -206,8 +206,30 @@ impl NormalEquations {
         parts: impl IntoIterator<Item = (&'a [Option<usize>; N], &'a LocalNormalEquations<N>)>,
     ) -> Self {
         let mut total = NormalEquations::zeros(n);
+        // The upper triangle only (as `add_local` would add to it), then mirrored: entry
+        // (c_a, c_b) receives the same local entries in the same order either way.
+        let jtj = total.jtj.as_mut_slice();
         for (slots, local) in parts {
-            total.add_local(slots, local);
+            total.energy += local.energy;
+            for (a, ca) in slots.iter().enumerate() {
+                let Some(ca) = *ca else { continue };
+                total.jtr[ca] += local.jtr[a];
+                for (b, cb) in slots.iter().enumerate().skip(a) {
+                    let Some(cb) = *cb else { continue };
+                    let (row, column) = (ca.min(cb), ca.max(cb));
+                    // Column-major storage: (row, column) at column·n + row.
+                    jtj[column * n + row] += local.jtj[a][b];
+                    if a != b && ca == cb {
+                        // Two slots of one unknown: add_local adds [a][b] and [b][a] there.
+                        jtj[column * n + row] += local.jtj[a][b];
+                    }
+                }
+            }
+        }
+        for column in 0..n {
+            for row in 0..column {
+                jtj[row * n + column] = jtj[column * n + row];
+            }
         }
         total
     }

@@ -1076,3 +1076,77 @@ fn speculative_normal_equations_change_the_calls_not_the_run() {
         &LmOptions::default(),
     );
 }
+
+#[test]
+fn assembled_normal_equations_equal_the_local_parts_added_one_by_one() {
+    // `NormalEquations::assemble` adds each part's upper triangle and mirrors it at the end;
+    // `add_local` adds every entry. With distinct unknowns per part (every grid cell's case)
+    // entry (p, q) receives the same local entries in the same order either way: equal bit
+    // for bit. Parts with fixed slots (None) and with two slots of one unknown (equal up to
+    // rounding: the order within the part differs) are covered too.
+    let mut rng = Rng(5);
+    let n = 7;
+    let mut part = |slots: [Option<usize>; 4]| {
+        let d: [[f64; 4]; 3] =
+            std::array::from_fn(|_| std::array::from_fn(|_| rng.uniform(-1.0, 1.0)));
+        let mut local = LocalNormalEquations::<4>::default();
+        for row in &d {
+            local.energy += 0.5 * row[0] * row[0];
+            for a in 0..4 {
+                local.jtr[a] += row[a] * 0.3;
+                for b in 0..4 {
+                    local.jtj[a][b] += row[a] * row[b];
+                }
+            }
+        }
+        (slots, local)
+    };
+    let distinct: Vec<_> = [
+        [Some(0), Some(1), Some(4), Some(5)],
+        [Some(1), Some(2), Some(5), Some(6)],
+        [None, Some(0), Some(6), Some(3)],
+        [Some(3), None, Some(2), None],
+        [Some(6), Some(4), Some(1), Some(0)],
+    ]
+    .into_iter()
+    .map(&mut part)
+    .collect();
+    let repeated: Vec<_> = [
+        [Some(2), Some(2), Some(3), None],
+        [Some(5), Some(1), Some(5), Some(0)],
+    ]
+    .into_iter()
+    .map(&mut part)
+    .collect();
+    let one_by_one = |parts: &[([Option<usize>; 4], LocalNormalEquations<4>)]| {
+        let mut total = NormalEquations::zeros(n);
+        for (slots, local) in parts {
+            total.add_local(slots, local);
+        }
+        total
+    };
+    let bits = |m: &[f64]| m.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    let assembled = NormalEquations::assemble(n, distinct.iter().map(|(s, l)| (s, l)));
+    let expected = one_by_one(&distinct);
+    assert_eq!(assembled.energy.to_bits(), expected.energy.to_bits());
+    assert_eq!(
+        bits(assembled.jtr.as_slice()),
+        bits(expected.jtr.as_slice())
+    );
+    assert_eq!(
+        bits(assembled.jtj.as_slice()),
+        bits(expected.jtj.as_slice())
+    );
+    let all: Vec<_> = distinct.iter().chain(&repeated).cloned().collect();
+    let assembled = NormalEquations::assemble(n, all.iter().map(|(s, l)| (s, l)));
+    let expected = one_by_one(&all);
+    // Entries are sums of a few products of magnitude ≤ 3·1·1 per part (7 parts): a
+    // different order of the additions changes them by a few ulps of ≈ 20.
+    let close = (&assembled.jtj - &expected.jtj).abs().max();
+    assert!(close <= 1e-13, "JᵀJ differs by {close}");
+    assert_eq!(assembled.jtj, assembled.jtj.transpose(), "mirrored exactly");
+    assert_eq!(
+        bits(assembled.jtr.as_slice()),
+        bits(expected.jtr.as_slice())
+    );
+}

@@ -24,10 +24,18 @@
 //!   by permuting two vector loads from the fields stored column by column, where a chunk's
 //!   texel rows fit in 16 (module `texel_reads`; the same values either way).
 //! - Inside a cell, samples are processed 8 (`LANES`) at a time (L row samples of one column
-//!   sample, or two column samples of ≤ 4 rows each) in plain loops over fixed-size arrays that
-//!   the compiler turns into vector instructions; each lane keeps its own partial sums of F,
-//!   Jᵀr and JᵀJ, added in lane order at the end of the cell. The sums therefore depend on the
-//!   sample layout only, never on the number of threads.
+//!   sample, or two column samples of ≤ 4 rows each: a "chunk") in plain loops over
+//!   fixed-size arrays that the compiler turns into vector instructions. The chunks of a cell
+//!   go chunk row by chunk row (what a row of chunks shares, β and the texel rows, is found
+//!   once), column sample by column sample within a row. The normal equations compute the
+//!   residuals and derivatives of up to 8 chunks, then add them to the sums (two short loops
+//!   rather than one long one: the 15 sums then stay in registers). Each lane keeps its own
+//!   partial sums of F, Jᵀr and JᵀJ, added in lane order at the end of the cell. The sums
+//!   therefore depend on the sample layout only, never on the number of threads.
+//! - Products are added to the sums by fused multiply-adds (one rounding; the same result
+//!   whether the CPU has the instruction or not), and c a − o is rounded once. The lane loops
+//!   are compiled for AVX-512, for AVX2 + FMA and for no extension, and the fastest the CPU
+//!   has runs ([`LaneCode`]); all give the same bits.
 
 use std::borrow::Cow;
 use std::mem::MaybeUninit;
@@ -744,7 +752,8 @@ impl<const N: usize, const T: usize> LaneSums<N, T> {
     }
 
     /// The cell's block: lanes summed in order ([`lane_total`]), the lower triangle
-    /// mirrored from the upper.
+    /// mirrored from the upper. (Inlined: compiled with the caller's instruction set.)
+    #[inline(always)]
     pub(super) fn reduce(&self) -> LocalNormalEquations<N> {
         let mut block = LocalNormalEquations {
             energy: lane_total(&self.energy),
