@@ -327,6 +327,8 @@ pub struct AaEnergy<'a> {
     code: LaneCode,
     /// ‖D_s‖ and ‖D_t‖ stored column by column, for the window reads (None: gathers only).
     column_major: Option<Box<[ColumnMajor; 2]>>,
+    /// The cells' blocks of the last normal equations (a buffer kept between evaluations).
+    blocks: Vec<LocalNormalEquations<4>>,
 }
 
 /// Which compiled form of the lane loops an [`AaEnergy`] runs. All give the same results bit
@@ -957,6 +959,7 @@ impl<'a> AaEnergy<'a> {
             rest,
             code: LaneCode::Fastest,
             column_major: None,
+            blocks: Vec::new(),
         }
         .with_lane_code(LaneCode::Fastest)
     }
@@ -1418,10 +1421,15 @@ impl Residuals for AaEnergy<'_> {
     /// (deterministic for any number of threads; the GPU kernel computes the same blocks).
     fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
         let axes = self.warped_axes(&self.rest.grid.with_unknowns(x));
-        let mut blocks = vec![LocalNormalEquations::default(); self.cells()];
+        // Every entry is overwritten: the buffer is kept from one evaluation to the next.
+        let mut blocks = std::mem::take(&mut self.blocks);
+        blocks.resize(self.cells(), LocalNormalEquations::default());
         self.per_cell(&mut blocks, |first, out| {
             self.fill_blocks(&axes, first, out)
         });
-        NormalEquations::assemble(self.dim(), self.rest.cell_unknowns.iter().zip(&blocks))
+        let normal =
+            NormalEquations::assemble(self.dim(), self.rest.cell_unknowns.iter().zip(&blocks));
+        self.blocks = blocks;
+        normal
     }
 }
