@@ -39,6 +39,7 @@
 
 use std::borrow::Cow;
 use std::mem::MaybeUninit;
+use std::sync::OnceLock;
 
 use nalgebra::DMatrix;
 use rayon::prelude::*;
@@ -326,7 +327,11 @@ pub struct AaEnergy<'a> {
     /// Which compiled form of the lane loops runs.
     code: LaneCode,
     /// ‖D_s‖ and ‖D_t‖ stored column by column, for the window reads (None: gathers only).
-    column_major: Option<Box<[ColumnMajor; 2]>>,
+    /// Built at the first evaluation (on the solver's pool thread, both fields at once) if
+    /// `windows`.
+    column_major: OnceLock<Box<[ColumnMajor; 2]>>,
+    /// Whether this energy reads texels by windows (its [`LaneCode`] and the CPU allow it).
+    windows: bool,
     /// The cells' blocks of the last normal equations (a buffer kept between evaluations).
     blocks: Vec<LocalNormalEquations<4>>,
 }
@@ -958,7 +963,8 @@ impl<'a> AaEnergy<'a> {
             deformed,
             rest,
             code: LaneCode::Fastest,
-            column_major: None,
+            column_major: OnceLock::new(),
+            windows: false,
             blocks: Vec::new(),
         }
         .with_lane_code(LaneCode::Fastest)
@@ -966,17 +972,28 @@ impl<'a> AaEnergy<'a> {
 
     /// The same energy run with the lane code `code` (the same results; for tests and
     /// comparisons). [`LaneCode::Fastest`] stores the deformed fields column by column too
-    /// if the CPU can read them by permuting vector loads.
+    /// (at the first evaluation) if the CPU can read them by permuting vector loads.
     pub fn with_lane_code(mut self, code: LaneCode) -> Self {
-        let windows = code == LaneCode::Fastest && Windows::available();
-        if !windows {
-            self.column_major = None;
-        } else if self.column_major.is_none() {
-            let fields = [&self.deformed.d_s, &self.deformed.d_t];
-            self.column_major = Some(Box::new(fields.map(ColumnMajor::of)));
+        self.windows = code == LaneCode::Fastest && Windows::available();
+        if !self.windows {
+            self.column_major = OnceLock::new();
         }
         self.code = code;
         self
+    }
+
+    /// ‖D_s‖ and ‖D_t‖ column by column if this energy reads by windows, transposed the
+    /// first time (the two fields side by side on rayon's pool).
+    fn column_major(&self) -> Option<&[ColumnMajor; 2]> {
+        if !self.windows {
+            return None;
+        }
+        let (d_s, d_t) = (&self.deformed.d_s, &self.deformed.d_t);
+        let both = self.column_major.get_or_init(|| {
+            let (s, t) = rayon::join(|| ColumnMajor::of(d_s), || ColumnMajor::of(d_t));
+            Box::new([s, t])
+        });
+        Some(both)
     }
 
     /// (Chunk rows of ‖D_s‖ read by windows at `x`, all chunk rows): how many of this energy's
@@ -1273,7 +1290,7 @@ impl<'a> AaEnergy<'a> {
     /// Window reads, if this energy stores its fields column by column and the CPU has
     /// AVX-512F.
     fn windows(&self) -> Option<Windows<'_>> {
-        let columns = self.column_major.as_deref()?;
+        let columns = self.column_major()?;
         Windows::new([&self.deformed.d_s, &self.deformed.d_t], columns)
     }
 
@@ -1409,6 +1426,7 @@ impl Residuals for AaEnergy<'_> {
 
     /// F(x) = Σ r², per cell (cells in parallel), then summed in cell order (deterministic).
     fn energy(&mut self, x: &[f64]) -> f64 {
+        self.column_major(); // before the cells are forked
         let axes = self.warped_axes(&self.rest.grid.with_unknowns(x));
         let mut per_cell = vec![0.0; self.cells()];
         self.per_cell(&mut per_cell, |first, out| {
@@ -1420,6 +1438,7 @@ impl Residuals for AaEnergy<'_> {
     /// F, JᵀJ and Jᵀr: each cell's 4×4 block (cells in parallel), scattered in cell order
     /// (deterministic for any number of threads; the GPU kernel computes the same blocks).
     fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
+        self.column_major(); // before the cells are forked
         let axes = self.warped_axes(&self.rest.grid.with_unknowns(x));
         // Every entry is overwritten: the buffer is kept from one evaluation to the next.
         let mut blocks = std::mem::take(&mut self.blocks);
