@@ -334,6 +334,9 @@ pub struct AaEnergy<'a> {
     windows: bool,
     /// The cells' blocks of the last normal equations (a buffer kept between evaluations).
     blocks: Vec<LocalNormalEquations<4>>,
+    /// The grid and the texel tables of the last evaluation (buffers kept likewise).
+    grid: Grid,
+    axes: WarpedAxes,
 }
 
 /// Which compiled form of the lane loops an [`AaEnergy`] runs. All give the same results bit
@@ -386,6 +389,7 @@ impl InstructionSet {
 /// and α only, g = t_j + β_b (t_{j+1} − t_j) on the row and β only. Found once per column
 /// sample (index i·K + a) and row sample (j·S + b, padded as [`RestSamples`]), not once per
 /// sample.
+#[derive(Default)]
 struct FieldTexels {
     columns: AxisTexels,
     /// Texel rows stored as offsets y·W into the field's values.
@@ -421,6 +425,7 @@ impl FieldTexels {
 }
 
 /// [`Axis`] positions of many coordinates, structure-of-arrays (what a lane loop reads).
+#[derive(Default)]
 struct AxisTexels {
     lower: Vec<usize>,
     upper: Vec<usize>,
@@ -433,14 +438,18 @@ impl AxisTexels {
     /// each; None: padding at the texels of the entry before, frac = scale = 0), on an axis
     /// of `texels` texels; texel indices multiplied by `step` (1 along s, the field's width
     /// along t).
-    fn along(lines: &[f64], slots: &[Option<f64>], texels: usize, step: usize) -> Self {
+    /// (Refilled in place: the tables are kept from one evaluation to the next.)
+    fn refill(&mut self, lines: &[f64], slots: &[Option<f64>], texels: usize, step: usize) {
         let size = (lines.len() - 1) * slots.len();
-        let mut out = AxisTexels {
-            lower: vec![0; size],
-            upper: vec![0; size],
-            frac: vec![0.0; size],
-            scale: vec![0.0; size],
-        };
+        let out = self;
+        for v in [&mut out.lower, &mut out.upper] {
+            v.clear();
+            v.resize(size, 0);
+        }
+        for v in [&mut out.frac, &mut out.scale] {
+            v.clear();
+            v.resize(size, 0.0);
+        }
         for (i, cell) in lines.windows(2).enumerate() {
             for (a, slot) in slots.iter().enumerate() {
                 let at = i * slots.len() + a;
@@ -460,24 +469,26 @@ impl AxisTexels {
                 out.scale[at] = axis.scale;
             }
         }
-        out
     }
 
     /// The windows of the chunk rows of a row table (entries with texel rows `lower`/`step`,
     /// LANES consecutive entries a chunk row), for chunks of `columns` column samples.
-    fn windows(&self, step: usize, columns: usize) -> Vec<Option<RowWindow>> {
+    fn windows_into(&self, step: usize, columns: usize, out: &mut Vec<Option<RowWindow>>) {
         let row = |v: &[usize]| -> [usize; LANES] { std::array::from_fn(|l| v[l] / step.max(1)) };
         let lower = self.lower.chunks_exact(LANES);
         let upper = self.upper.chunks_exact(LANES);
-        lower
-            .zip(upper)
-            .map(|(lower, upper)| RowWindow::of(&row(lower), &row(upper), columns))
-            .collect()
+        out.clear();
+        out.extend(
+            lower
+                .zip(upper)
+                .map(|(lower, upper)| RowWindow::of(&row(lower), &row(upper), columns)),
+        );
     }
 }
 
 /// Everything an evaluation at the grid g needs besides the rest samples: the texel tables of
 /// D_s and (if its resolution differs) D_t, and the cell slopes a_i, b_j.
+#[derive(Default)]
 struct WarpedAxes {
     d_s: FieldTexels,
     d_t: Option<FieldTexels>,
@@ -961,11 +972,13 @@ impl<'a> AaEnergy<'a> {
     fn with_rest(deformed: &'a DeformedFields, rest: Cow<'a, RestSamples>) -> Self {
         AaEnergy {
             deformed,
-            rest,
             code: LaneCode::Fastest,
             column_major: OnceLock::new(),
             windows: false,
             blocks: Vec::new(),
+            grid: rest.grid.clone(),
+            axes: WarpedAxes::default(),
+            rest,
         }
         .with_lane_code(LaneCode::Fastest)
     }
@@ -1031,27 +1044,44 @@ impl<'a> AaEnergy<'a> {
     /// The texel tables of every column and row sample of the grid `g` on D_s's texels (and
     /// D_t's, if it has another resolution), and the cells' slopes.
     fn warped_axes(&self, g: &Grid) -> WarpedAxes {
+        let mut axes = WarpedAxes::default();
+        self.refill_warped_axes(g, &mut axes);
+        axes
+    }
+
+    /// [`AaEnergy::warped_axes`] into `axes` (its tables reused).
+    fn refill_warped_axes(&self, g: &Grid, axes: &mut WarpedAxes) {
         let r = &*self.rest;
-        let texels = |f: &Field| {
-            let rows = AxisTexels::along(&g.t, &r.row_slots, f.height, f.width);
-            FieldTexels {
-                columns: AxisTexels::along(&g.s, &r.column_slots, f.width, 1),
-                windows: rows.windows(f.width, r.chunk_columns),
-                rows,
-            }
+        let refill = |f: &Field, out: &mut FieldTexels| {
+            out.rows.refill(&g.t, &r.row_slots, f.height, f.width);
+            out.columns.refill(&g.s, &r.column_slots, f.width, 1);
+            out.rows
+                .windows_into(f.width, r.chunk_columns, &mut out.windows);
         };
         let (d_s, d_t) = (&self.deformed.d_s, &self.deformed.d_t);
-        let slopes = |lines: &[f64], rest: &[f64]| -> Vec<f64> {
-            let widths = |v: &[f64]| v.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>();
-            let (warped, rest) = (widths(lines), widths(rest));
-            warped.iter().zip(&rest).map(|(w, h)| w / h).collect()
-        };
-        WarpedAxes {
-            d_s: texels(d_s),
-            d_t: ((d_t.width, d_t.height) != (d_s.width, d_s.height)).then(|| texels(d_t)),
-            slope_s: slopes(&g.s, &r.grid.s),
-            slope_t: slopes(&g.t, &r.grid.t),
+        refill(d_s, &mut axes.d_s);
+        if (d_t.width, d_t.height) != (d_s.width, d_s.height) {
+            refill(d_t, axes.d_t.get_or_insert_with(FieldTexels::default));
+        } else {
+            axes.d_t = None;
         }
+        // a_i = (s_{i+1} − s_i)/h_i, b_j likewise.
+        let slopes = |lines: &[f64], rest: &[f64], out: &mut Vec<f64>| {
+            let widths = lines.windows(2).zip(rest.windows(2));
+            out.clear();
+            out.extend(widths.map(|(w, h)| (w[1] - w[0]) / (h[1] - h[0])));
+        };
+        slopes(&g.s, &r.grid.s, &mut axes.slope_s);
+        slopes(&g.t, &r.grid.t, &mut axes.slope_t);
+    }
+
+    /// This energy's evaluation tables at `x`, in the buffers kept from the last evaluation
+    /// (taken out; the caller puts them back).
+    fn axes_at(&mut self, x: &[f64]) -> WarpedAxes {
+        let mut axes = std::mem::take(&mut self.axes);
+        self.grid.set_unknowns(x);
+        self.refill_warped_axes(&self.grid, &mut axes);
+        axes
     }
 
     /// Cell `cell` = (i, j)'s slopes and inverse rest sizes, and where its entries start.
@@ -1427,11 +1457,12 @@ impl Residuals for AaEnergy<'_> {
     /// F(x) = Σ r², per cell (cells in parallel), then summed in cell order (deterministic).
     fn energy(&mut self, x: &[f64]) -> f64 {
         self.column_major(); // before the cells are forked
-        let axes = self.warped_axes(&self.rest.grid.with_unknowns(x));
+        let axes = self.axes_at(x);
         let mut per_cell = vec![0.0; self.cells()];
         self.per_cell(&mut per_cell, |first, out| {
             self.fill_energies(&axes, first, out)
         });
+        self.axes = axes;
         per_cell.iter().sum()
     }
 
@@ -1439,7 +1470,7 @@ impl Residuals for AaEnergy<'_> {
     /// (deterministic for any number of threads; the GPU kernel computes the same blocks).
     fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
         self.column_major(); // before the cells are forked
-        let axes = self.warped_axes(&self.rest.grid.with_unknowns(x));
+        let axes = self.axes_at(x);
         // Every entry is overwritten: the buffer is kept from one evaluation to the next.
         let mut blocks = std::mem::take(&mut self.blocks);
         blocks.resize(self.cells(), LocalNormalEquations::default());
@@ -1449,6 +1480,7 @@ impl Residuals for AaEnergy<'_> {
         let normal =
             NormalEquations::assemble(self.dim(), self.rest.cell_unknowns.iter().zip(&blocks));
         self.blocks = blocks;
+        self.axes = axes;
         normal
     }
 }

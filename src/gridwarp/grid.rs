@@ -59,12 +59,17 @@ impl Grid {
 
     /// The grid with interior lines taken from `x` (the inverse of [`Grid::to_unknowns`]).
     pub fn with_unknowns(&self, x: &[f64]) -> Grid {
-        let m = self.s.len();
         let mut g = self.clone();
-        g.s[1..m - 1].copy_from_slice(&x[..m - 2]);
-        let n = g.t.len();
-        g.t[1..n - 1].copy_from_slice(&x[m - 2..]);
+        g.set_unknowns(x);
         g
+    }
+
+    /// Set the interior lines to `x` (as [`Grid::with_unknowns`], in place).
+    pub fn set_unknowns(&mut self, x: &[f64]) {
+        let m = self.s.len();
+        self.s[1..m - 1].copy_from_slice(&x[..m - 2]);
+        let n = self.t.len();
+        self.t[1..n - 1].copy_from_slice(&x[m - 2..]);
     }
 }
 
