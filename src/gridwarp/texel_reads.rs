@@ -120,6 +120,19 @@ impl RowWindow {
             upper: std::array::from_fn(|lane| offset(lane, upper[lane])),
         })
     }
+
+    /// Where the two loads of the window start in a field of height `h` stored column by
+    /// column, in the lanes' lower texel columns and in their upper ones: the window's rows
+    /// in the columns of lanes 0 and LANES − 1 (the same column with one column sample per
+    /// chunk).
+    #[inline(always)]
+    fn loads(&self, h: usize, x: LaneColumns) -> ((usize, usize), (usize, usize)) {
+        let starts = |columns: &[usize; LANES]| {
+            let base = columns[0] * h + self.first;
+            (base, columns[LANES - 1] * h + self.first + self.second)
+        };
+        (starts(x.lower), starts(x.upper))
+    }
 }
 
 /// How the lane loops read the texels of the two deformed fields ‖D_s‖ (field 0) and ‖D_t‖
@@ -284,18 +297,9 @@ impl TexelReads for Windows<'_> {
     fn quads(self, field: usize, x: LaneColumns, y: LaneRows, window: Option<&RowWindow>) -> Quads {
         #[cfg(target_arch = "x86_64")]
         if let Some(w) = window {
-            let (h, v) = (
-                self.column_major[field].height,
-                &self.column_major[field].values,
-            );
-            // The window in the columns of lanes 0 and LANES − 1 (the same column with one
-            // column sample per chunk).
-            let bases = |columns: &[usize; LANES]| {
-                let base = columns[0] * h + w.first;
-                (base, columns[LANES - 1] * h + w.first + w.second)
-            };
-            let (lower, upper) = (bases(x.lower), bases(x.upper));
-            return self.window_quads(v, lower, upper, w);
+            let field = &self.column_major[field];
+            let (lower, upper) = w.loads(field.height, x);
+            return self.window_quads(&field.values, lower, upper, w);
         }
         self.gathers.quads(field, x, y, window)
     }
@@ -304,13 +308,8 @@ impl TexelReads for Windows<'_> {
     fn quads_of_both(self, x: LaneColumns, y: LaneRows, window: Option<&RowWindow>) -> [Quads; 2] {
         #[cfg(target_arch = "x86_64")]
         if let Some(w) = window {
-            let h = self.column_major[0].height;
-            let bases = |columns: &[usize; LANES]| {
-                let base = columns[0] * h + w.first;
-                (base, columns[LANES - 1] * h + w.first + w.second)
-            };
-            let (lower, upper) = (bases(x.lower), bases(x.upper));
             let [s, t] = self.column_major;
+            let (lower, upper) = w.loads(s.height, x);
             return [
                 self.window_quads(&s.values, lower, upper, w),
                 self.window_quads(&t.values, lower, upper, w),
