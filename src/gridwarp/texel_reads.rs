@@ -58,16 +58,15 @@ impl ColumnMajor {
         let (full_w, full_h) = (w - w % T, h - h % T);
         for y0 in (0..full_h).step_by(T) {
             for x0 in (0..full_w).step_by(T) {
-                let tile: [[f64; T]; T] = std::array::from_fn(|dy| {
-                    source[(y0 + dy) * w + x0..][..T]
-                        .try_into()
-                        .expect("T values")
-                });
+                let mut tile = [[0.0; T]; T];
+                for (dy, row) in tile.iter_mut().enumerate() {
+                    row.copy_from_slice(&source[(y0 + dy) * w + x0..][..T]);
+                }
                 for dx in 0..T {
-                    let column: &mut [f64; T] = (&mut values[(x0 + dx) * h + y0..][..T])
-                        .try_into()
-                        .expect("T values");
-                    *column = std::array::from_fn(|dy| tile[dy][dx]);
+                    let column = &mut values[(x0 + dx) * h + y0..][..T];
+                    for (value, row) in column.iter_mut().zip(&tile) {
+                        *value = row[dx];
+                    }
                 }
             }
         }
