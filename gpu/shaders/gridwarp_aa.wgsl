@@ -3,9 +3,13 @@
 //
 // Twin of the f64 reference src/gridwarp/energy.rs (`AaEnergy::for_each_residual`) and
 // src/gridwarp/field.rs (`Field::bilinear`, here `field_bilinear`), name for name and in the
-// same order of operations. One difference of place, not of value: the reference finds a sample's
-// texel position (`Axis`, here `axis`) once per column and once per row of samples, since an
-// axis-aligned grid's samples share them; the kernel recomputes it per sample.
+// same order of operations per sample (bilinear as two lerps, the factored derivatives of
+// `Chunk::residuals_and_derivatives`, fma where the reference uses `mul_add`). Differences of
+// place, not of formula: the reference finds a sample's texel position (`Axis`, here `axis`)
+// once per column and once per row of samples, since an axis-aligned grid's samples share them,
+// where the kernel recomputes it per sample; it multiplies by a stored 1/h_i, 1/k_j where the
+// kernel divides; and it sums 8 samples side by side (per-lane partial sums, upper triangle of
+// JᵀJ) where the kernel sums one sample after another (all 16 entries).
 //
 // One invocation per cell, looping over the cell's K×L samples in the reference's order
 // (a outer, b inner): the simplest correct choice. It needs no workgroup memory or barriers,
