@@ -201,36 +201,165 @@ impl NormalEquations {
 
     /// The sum of local parts (slots, normal equations) taken in their order: a fixed-order
     /// reduction, so the result does not depend on how the parts were computed in parallel.
+    /// Each part adds its terms ([`terms_of_part`]) to the entries they go to; an
+    /// [`AssemblyPlan`] computes the same sums, bit for bit, entry by entry.
     pub fn assemble<'a, const N: usize>(
         n: usize,
         parts: impl IntoIterator<Item = (&'a [Option<usize>; N], &'a LocalNormalEquations<N>)>,
     ) -> Self {
         let mut total = NormalEquations::zeros(n);
-        // The upper triangle only (as `add_local` would add to it), then mirrored: entry
-        // (c_a, c_b) receives the same local entries in the same order either way.
         let jtj = total.jtj.as_mut_slice();
         for (slots, local) in parts {
             total.energy += local.energy;
-            for (a, ca) in slots.iter().enumerate() {
-                let Some(ca) = *ca else { continue };
-                total.jtr[ca] += local.jtr[a];
-                for (b, cb) in slots.iter().enumerate().skip(a) {
-                    let Some(cb) = *cb else { continue };
-                    let (row, column) = (ca.min(cb), ca.max(cb));
-                    // Column-major storage: (row, column) at column·n + row.
-                    jtj[column * n + row] += local.jtj[a][b];
-                    if a != b && ca == cb {
-                        // Two slots of one unknown: add_local adds [a][b] and [b][a] there.
-                        jtj[column * n + row] += local.jtj[a][b];
-                    }
-                }
+            terms_of_part(n, slots, |target, term| match target {
+                Target::Jtr(c) => total.jtr[c] += local.jtr[term.a],
+                Target::Jtj(at) => jtj[at] += local.jtj[term.a][term.b],
+            });
+        }
+        mirror_upper_triangle(&mut total.jtj);
+        total
+    }
+}
+
+/// Where a term of [`NormalEquations::assemble`] goes: Jᵀr\[c\], or the upper-triangle entry
+/// (row, column), row ≤ column, of JᵀJ at `column·n + row` (column-major storage).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Target {
+    Jtr(usize),
+    Jtj(usize),
+}
+
+/// Which entry of a part a term reads: its Jᵀr\[a\] (b unused) or its JᵀJ\[a\]\[b\], a ≤ b.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Term {
+    a: usize,
+    b: usize,
+}
+
+/// The terms of one part in the order they are added: for each slot a with an unknown c_a,
+/// Jᵀr\[c_a\] += Jᵀr_local\[a\], then for each slot b ≥ a with an unknown c_b,
+/// JᵀJ\[min, max of c_a, c_b\] += JᵀJ_local\[a\]\[b\] (the upper triangle only; it is mirrored
+/// at the end). Two slots a ≠ b of one unknown add JᵀJ_local\[a\]\[b\] twice there, as
+/// scattering the whole block ([`NormalEquations::add_local`]) adds \[a\]\[b\] and \[b\]\[a\].
+#[inline(always)]
+fn terms_of_part<const N: usize>(
+    n: usize,
+    slots: &[Option<usize>; N],
+    mut add: impl FnMut(Target, Term),
+) {
+    for (a, ca) in slots.iter().enumerate() {
+        let Some(ca) = *ca else { continue };
+        add(Target::Jtr(ca), Term { a, b: a });
+        for (b, cb) in slots.iter().enumerate().skip(a) {
+            let Some(cb) = *cb else { continue };
+            let at = ca.max(cb) * n + ca.min(cb);
+            add(Target::Jtj(at), Term { a, b });
+            if a != b && ca == cb {
+                add(Target::Jtj(at), Term { a, b });
             }
         }
-        for column in 0..n {
-            for row in 0..column {
-                jtj[row * n + column] = jtj[column * n + row];
+    }
+}
+
+/// JᵀJ's lower triangle set from its upper one (column-major n×n).
+fn mirror_upper_triangle(jtj: &mut DMatrix<f64>) {
+    let n = jtj.nrows();
+    let jtj = jtj.as_mut_slice();
+    for column in 0..n {
+        for row in 0..column {
+            jtj[row * n + column] = jtj[column * n + row];
+        }
+    }
+}
+
+/// [`NormalEquations::assemble`] for parts with fixed slots, planned once: for every entry of
+/// Jᵀr and of JᵀJ's upper triangle, the list of the part entries that add up to it, in part
+/// order. [`AssemblyPlan::assemble`] then sums entry by entry, each sum in a register,
+/// instead of scattering part by part (where neighbouring parts add to the same entries, a
+/// chain of reads and writes of memory): the same additions in the same order, so the same
+/// bits. A problem whose parts keep their slots from one evaluation to the next (a grid's
+/// cells) builds it once.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AssemblyPlan<const N: usize> {
+    n: usize,
+    parts: usize,
+    /// The entries that receive terms, in the order Jᵀr\[0 … n−1\], then JᵀJ column by
+    /// column: (target, end of its sources in `sources`; the start is the previous end).
+    sums: Vec<(Target, u32)>,
+    /// The terms, as positions in the parts read as one array of values
+    /// ([`LocalNormalEquations::values`]).
+    sources: Vec<u32>,
+}
+
+impl<const N: usize> AssemblyPlan<N> {
+    /// The plan for parts with these slots (part k has `slots[k]`), unknowns 0 … n − 1.
+    /// Panics if the parts hold 2³² values or more.
+    pub fn new(n: usize, slots: &[[Option<usize>; N]]) -> Self {
+        let stride = LocalNormalEquations::<N>::VALUES;
+        u32::try_from(slots.len() * stride).expect("fewer than 2³² values in the parts");
+        // Every term with its target, in the order `assemble` adds them; then sorted by
+        // target, stably, so that each target's terms keep that order. Jᵀr's targets sort
+        // before JᵀJ's.
+        let mut terms: Vec<((u8, usize), u32)> = Vec::new();
+        for (k, s) in slots.iter().enumerate() {
+            terms_of_part(n, s, |target, term| {
+                let (key, at) = match target {
+                    Target::Jtr(c) => ((0, c), LocalNormalEquations::<N>::jtr_value(term.a)),
+                    Target::Jtj(at) => (
+                        (1, at),
+                        LocalNormalEquations::<N>::jtj_value(term.a, term.b),
+                    ),
+                };
+                // Within the u32 range checked above.
+                terms.push((key, (k * stride + at) as u32));
+            });
+        }
+        terms.sort_by_key(|&(key, _)| key);
+        let mut sums: Vec<(Target, u32)> = Vec::new();
+        for (end, &((kind, at), _)) in terms.iter().enumerate() {
+            let target = if kind == 0 {
+                Target::Jtr(at)
+            } else {
+                Target::Jtj(at)
+            };
+            match sums.last_mut() {
+                Some((last, last_end)) if *last == target => *last_end = end as u32 + 1,
+                _ => sums.push((target, end as u32 + 1)),
             }
         }
+        AssemblyPlan {
+            n,
+            parts: slots.len(),
+            sums,
+            sources: terms.into_iter().map(|(_, at)| at).collect(),
+        }
+    }
+
+    /// [`NormalEquations::assemble`] of `parts` with the slots of the plan (the same bits).
+    /// Panics if `parts` has another length than the slots the plan was made for.
+    pub fn assemble(&self, parts: &[LocalNormalEquations<N>]) -> NormalEquations {
+        assert_eq!(
+            parts.len(),
+            self.parts,
+            "one local part per planned slot list"
+        );
+        let values = LocalNormalEquations::values(parts);
+        let mut total = NormalEquations::zeros(self.n);
+        total.energy = parts.iter().fold(0.0, |sum, part| sum + part.energy);
+        let jtj = total.jtj.as_mut_slice();
+        let mut start = 0;
+        for &(target, end) in &self.sums {
+            let sources = &self.sources[start..end as usize];
+            start = end as usize;
+            let sum = sources
+                .iter()
+                .fold(0.0, |sum, &at| sum + values[at as usize]);
+            match target {
+                Target::Jtr(c) => total.jtr[c] = sum,
+                Target::Jtj(at) => jtj[at] = sum,
+            }
+        }
+        mirror_upper_triangle(&mut total.jtj);
         total
     }
 }
@@ -240,7 +369,11 @@ impl NormalEquations {
 /// stays in registers, and the group is scattered once ([`NormalEquations::add_local`]).
 /// Only the upper triangle a ≤ b of `jtj` is read when scattered (JᵀJ is symmetric, and
 /// d_a d_b = d_b d_a exactly, so nothing is lost).
+///
+/// Laid out as 1 + N² + N consecutive f64 (`repr(C)`): F, JᵀJ row by row, Jᵀr
+/// ([`LocalNormalEquations::values`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct LocalNormalEquations<const N: usize> {
     pub energy: f64,
     pub jtj: [[f64; N]; N],
@@ -258,6 +391,30 @@ impl<const N: usize> Default for LocalNormalEquations<N> {
 }
 
 impl<const N: usize> LocalNormalEquations<N> {
+    /// The number of values of one part: F, the N² entries of JᵀJ and the N of Jᵀr.
+    pub const VALUES: usize = 1 + N * N + N;
+
+    /// The position of JᵀJ\[a\]\[b\] among a part's values.
+    const fn jtj_value(a: usize, b: usize) -> usize {
+        1 + a * N + b
+    }
+
+    /// The position of Jᵀr\[a\] among a part's values.
+    const fn jtr_value(a: usize) -> usize {
+        1 + N * N + a
+    }
+
+    /// The values of `parts`, part k's from k·[`Self::VALUES`] on.
+    fn values(parts: &[Self]) -> &[f64] {
+        const { assert!(std::mem::size_of::<Self>() == Self::VALUES * std::mem::size_of::<f64>()) };
+        // SAFETY: `repr(C)` with f64 fields only (an f64, an array of arrays of f64, an array
+        // of f64): Self is exactly VALUES f64 with no padding, aligned as f64, so `parts` is
+        // parts.len()·VALUES initialised f64, borrowed for as long as `parts`.
+        unsafe {
+            std::slice::from_raw_parts(parts.as_ptr().cast::<f64>(), parts.len() * Self::VALUES)
+        }
+    }
+
     /// Add one residual r with partial derivatives d (slot order): F += r², Jᵀr += d r,
     /// JᵀJ += d dᵀ. The whole N×N block is updated, row a by d_a·d: one vector operation
     /// per row on wide registers, and the lower triangle equals the upper one bit for bit

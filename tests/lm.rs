@@ -1150,3 +1150,59 @@ fn assembled_normal_equations_equal_the_local_parts_added_one_by_one() {
         bits(expected.jtr.as_slice())
     );
 }
+
+#[test]
+fn an_assembly_plan_gives_the_bits_of_assemble() {
+    // `AssemblyPlan` sums entry by entry what `NormalEquations::assemble` scatters part by
+    // part: the same terms in the same order, so the same bits, with fixed slots (None), a
+    // slot used twice within a part, unknowns no part touches, and parts that share entries
+    // in every pattern (diagonal, off-diagonal, both orders of two unknowns).
+    let mut rng = Rng(11);
+    let n = 9;
+    let slots: Vec<[Option<usize>; 4]> = vec![
+        [Some(0), Some(1), Some(4), Some(5)],
+        [Some(1), Some(2), Some(5), Some(6)],
+        [None, Some(0), Some(6), Some(3)],
+        [Some(3), None, Some(2), None],
+        [Some(6), Some(4), Some(1), Some(0)],
+        [Some(2), Some(2), Some(3), None],
+        [Some(5), Some(1), Some(5), Some(0)],
+        [None, None, None, None],
+        [Some(7), Some(0), Some(7), Some(7)],
+    ];
+    let parts: Vec<LocalNormalEquations<4>> = slots
+        .iter()
+        .map(|_| LocalNormalEquations {
+            energy: rng.uniform(0.0, 2.0),
+            jtj: std::array::from_fn(|_| std::array::from_fn(|_| rng.uniform(-3.0, 3.0))),
+            jtr: std::array::from_fn(|_| rng.uniform(-1.0, 1.0)),
+        })
+        .collect();
+    let bits = |m: &[f64]| m.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    let expected = NormalEquations::assemble(n, slots.iter().zip(&parts));
+    let planned = AssemblyPlan::new(n, &slots).assemble(&parts);
+    assert_eq!(planned.energy.to_bits(), expected.energy.to_bits());
+    assert_eq!(bits(planned.jtr.as_slice()), bits(expected.jtr.as_slice()));
+    assert_eq!(bits(planned.jtj.as_slice()), bits(expected.jtj.as_slice()));
+    assert_eq!(planned.jtr[8], 0.0, "an unknown no part touches stays 0");
+    // The plan is the slots' alone: other parts with the same slots, the same bits again.
+    let other: Vec<_> = parts
+        .iter()
+        .map(|p| LocalNormalEquations {
+            energy: p.energy * 0.5,
+            jtj: p.jtj.map(|row| row.map(|v| v - 0.25)),
+            jtr: p.jtr.map(|v| v * 3.0),
+        })
+        .collect();
+    let expected = NormalEquations::assemble(n, slots.iter().zip(&other));
+    let planned = AssemblyPlan::new(n, &slots).assemble(&other);
+    assert_eq!(bits(planned.jtj.as_slice()), bits(expected.jtj.as_slice()));
+    assert_eq!(bits(planned.jtr.as_slice()), bits(expected.jtr.as_slice()));
+}
+
+#[test]
+#[should_panic(expected = "one local part per planned slot list")]
+fn an_assembly_plan_refuses_parts_of_another_count() {
+    let plan = AssemblyPlan::new(2, &[[Some(0), Some(1)]]);
+    plan.assemble(&[LocalNormalEquations::<2>::default(); 2]);
+}

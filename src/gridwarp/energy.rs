@@ -11,7 +11,8 @@
 //! Gauss–Newton model of the integral (notes). A cell's residuals depend on its four lines
 //! only (s_i, s_{i+1}, t_j, t_{j+1}, the cell's "slots"), so JᵀJ and Jᵀr are accumulated per cell
 //! in a 4×4 block ([`LocalNormalEquations`], the GPU kernel's `CellContribution`), cells in
-//! parallel, and the blocks scattered in cell order; J is never stored.
+//! parallel, and the blocks added up in cell order (entry by entry, by an
+//! [`crate::lm::AssemblyPlan`] made once per [`RestSamples`]); J is never stored.
 //!
 //! # Evaluation layout
 //! - The rest side of every sample (σ, o_s, o_t) depends only on the rest fields, the rest grid
@@ -49,7 +50,7 @@ use super::grid::Grid;
 use super::texel_reads::{
     ColumnMajor, Gathers, LaneColumns, LaneRows, Quads, RowWindow, TexelReads, Windows,
 };
-use crate::lm::{LocalNormalEquations, NormalEquations, Residuals};
+use crate::lm::{AssemblyPlan, LocalNormalEquations, NormalEquations, Residuals};
 
 /// The fields of the rest pose: ‖O_s‖, ‖O_t‖ and the rigidity R.
 #[derive(Clone, Debug)]
@@ -139,6 +140,8 @@ pub struct RestSamples {
     /// The unknowns of cell c in slot order (s_i, s_{i+1}, t_j, t_{j+1}); None for the fixed
     /// lines 0 and 1 ([`AaEnergy::cell_unknowns`]).
     cell_unknowns: Vec<[Option<usize>; 4]>,
+    /// The fixed-order sum of the cells' blocks over `cell_unknowns`, planned once.
+    assembly: AssemblyPlan<4>,
 }
 
 /// One coordinate of the rest samples along one axis: the rest coordinate ŝ_i + α h_i, its
@@ -226,6 +229,7 @@ impl RestSamples {
                 .collect(),
             active: Vec::new(),
             cell_unknowns: Vec::new(),
+            assembly: AssemblyPlan::new(0, &[]),
         };
         // Cell column i's samples.
         let fill = |i: usize, sigma: &mut [f64], os: &mut [f64], ot: &mut [f64]| {
@@ -262,6 +266,7 @@ impl RestSamples {
                 .for_each(|(i, ((sigma, os), ot))| fill(i, sigma, os, ot));
         }
         out.cell_unknowns = (0..m * n).map(|c| out.unknowns_of(c)).collect();
+        out.assembly = AssemblyPlan::new(rest_grid.unknowns(), &out.cell_unknowns);
         out.active = out
             .sigma
             .chunks_exact(padded_k * stride)
@@ -1466,8 +1471,9 @@ impl Residuals for AaEnergy<'_> {
         per_cell.iter().sum()
     }
 
-    /// F, JᵀJ and Jᵀr: each cell's 4×4 block (cells in parallel), scattered in cell order
-    /// (deterministic for any number of threads; the GPU kernel computes the same blocks).
+    /// F, JᵀJ and Jᵀr: each cell's 4×4 block (cells in parallel), the blocks added up in cell
+    /// order by the rest samples' [`AssemblyPlan`] (deterministic for any number of threads;
+    /// the GPU kernel computes the same blocks).
     fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
         self.column_major(); // before the cells are forked
         let axes = self.axes_at(x);
@@ -1477,8 +1483,7 @@ impl Residuals for AaEnergy<'_> {
         self.per_cell(&mut blocks, |first, out| {
             self.fill_blocks(&axes, first, out)
         });
-        let normal =
-            NormalEquations::assemble(self.dim(), self.rest.cell_unknowns.iter().zip(&blocks));
+        let normal = self.rest.assembly.assemble(&blocks);
         self.blocks = blocks;
         self.axes = axes;
         normal
