@@ -201,8 +201,11 @@ impl NormalEquations {
 
     /// The sum of local parts (slots, normal equations) taken in their order: a fixed-order
     /// reduction, so the result does not depend on how the parts were computed in parallel.
-    /// Each part adds its terms ([`terms_of_part`]) to the entries they go to; an
-    /// [`AssemblyPlan`] computes the same sums, bit for bit, entry by entry.
+    /// Each part adds its terms to the entries they go to: for each slot a with an unknown
+    /// c_a, Jᵀr\[c_a\] += Jᵀr_local\[a\], then for each slot b ≥ a with an unknown c_b,
+    /// JᵀJ\[c_a, c_b\] += JᵀJ_local\[a\]\[b\] (upper triangle, mirrored at the end; twice when
+    /// c_a = c_b, a ≠ b). An [`AssemblyPlan`] computes the same sums, bit for bit, entry by
+    /// entry.
     pub fn assemble<'a, const N: usize>(
         n: usize,
         parts: impl IntoIterator<Item = (&'a [Option<usize>; N], &'a LocalNormalEquations<N>)>,
@@ -370,8 +373,8 @@ impl<const N: usize> AssemblyPlan<N> {
 /// Only the upper triangle a ≤ b of `jtj` is read when scattered (JᵀJ is symmetric, and
 /// d_a d_b = d_b d_a exactly, so nothing is lost).
 ///
-/// Laid out as 1 + N² + N consecutive f64 (`repr(C)`): F, JᵀJ row by row, Jᵀr
-/// ([`LocalNormalEquations::values`]).
+/// Laid out as 1 + N² + N consecutive f64 (`repr(C)`): F, JᵀJ row by row, Jᵀr (what
+/// [`AssemblyPlan`] reads).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C)]
 pub struct LocalNormalEquations<const N: usize> {
