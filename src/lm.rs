@@ -225,8 +225,9 @@ impl NormalEquations {
 }
 
 /// Where a term of [`NormalEquations::assemble`] goes: Jᵀr\[c\], or the upper-triangle entry
-/// (row, column), row ≤ column, of JᵀJ at `column·n + row` (column-major storage).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// (row, column), row ≤ column, of JᵀJ at `column·n + row` (column-major storage). Ordered
+/// Jᵀr's entries first, then JᵀJ's, each by index.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum Target {
     Jtr(usize),
     Jtj(usize),
@@ -288,46 +289,34 @@ pub struct AssemblyPlan<const N: usize> {
     parts: usize,
     /// The entries that receive terms, in the order Jᵀr\[0 … n−1\], then JᵀJ column by
     /// column: (target, end of its sources in `sources`; the start is the previous end).
-    sums: Vec<(Target, u32)>,
+    sums: Vec<(Target, usize)>,
     /// The terms, as positions in the parts read as one array of values
     /// ([`LocalNormalEquations::values`]).
-    sources: Vec<u32>,
+    sources: Vec<usize>,
 }
 
 impl<const N: usize> AssemblyPlan<N> {
     /// The plan for parts with these slots (part k has `slots[k]`), unknowns 0 … n − 1.
-    /// Panics if the parts hold 2³² values or more.
     pub fn new(n: usize, slots: &[[Option<usize>; N]]) -> Self {
         let stride = LocalNormalEquations::<N>::VALUES;
-        u32::try_from(slots.len() * stride).expect("fewer than 2³² values in the parts");
         // Every term with its target, in the order `assemble` adds them; then sorted by
-        // target, stably, so that each target's terms keep that order. Jᵀr's targets sort
-        // before JᵀJ's.
-        let mut terms: Vec<((u8, usize), u32)> = Vec::new();
+        // target (Jᵀr's before JᵀJ's), stably, so that each target's terms keep that order.
+        let mut terms: Vec<(Target, usize)> = Vec::new();
         for (k, s) in slots.iter().enumerate() {
             terms_of_part(n, s, |target, term| {
-                let (key, at) = match target {
-                    Target::Jtr(c) => ((0, c), LocalNormalEquations::<N>::jtr_value(term.a)),
-                    Target::Jtj(at) => (
-                        (1, at),
-                        LocalNormalEquations::<N>::jtj_value(term.a, term.b),
-                    ),
+                let at = match target {
+                    Target::Jtr(_) => LocalNormalEquations::<N>::jtr_value(term.a),
+                    Target::Jtj(_) => LocalNormalEquations::<N>::jtj_value(term.a, term.b),
                 };
-                // Within the u32 range checked above.
-                terms.push((key, (k * stride + at) as u32));
+                terms.push((target, k * stride + at));
             });
         }
-        terms.sort_by_key(|&(key, _)| key);
-        let mut sums: Vec<(Target, u32)> = Vec::new();
-        for (end, &((kind, at), _)) in terms.iter().enumerate() {
-            let target = if kind == 0 {
-                Target::Jtr(at)
-            } else {
-                Target::Jtj(at)
-            };
+        terms.sort_by_key(|&(target, _)| target);
+        let mut sums: Vec<(Target, usize)> = Vec::new();
+        for (end, &(target, _)) in terms.iter().enumerate() {
             match sums.last_mut() {
-                Some((last, last_end)) if *last == target => *last_end = end as u32 + 1,
-                _ => sums.push((target, end as u32 + 1)),
+                Some((last, last_end)) if *last == target => *last_end = end + 1,
+                _ => sums.push((target, end + 1)),
             }
         }
         AssemblyPlan {
@@ -352,11 +341,9 @@ impl<const N: usize> AssemblyPlan<N> {
         let jtj = total.jtj.as_mut_slice();
         let mut start = 0;
         for &(target, end) in &self.sums {
-            let sources = &self.sources[start..end as usize];
-            start = end as usize;
-            let sum = sources
-                .iter()
-                .fold(0.0, |sum, &at| sum + values[at as usize]);
+            let sources = &self.sources[start..end];
+            start = end;
+            let sum = sources.iter().fold(0.0, |sum, &at| sum + values[at]);
             match target {
                 Target::Jtr(c) => total.jtr[c] = sum,
                 Target::Jtj(at) => jtj[at] = sum,

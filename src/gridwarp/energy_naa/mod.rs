@@ -1096,15 +1096,12 @@ impl Residuals for NaaEnergy<'_> {
         self.per_cell(&mut blocks, BLOCK_SAMPLES_PER_TASK, |first, out| {
             self.fill_blocks(&g, first, out)
         });
-        if self.assembly.is_none() {
+        let assembly = self.assembly.take().unwrap_or_else(|| {
             let slots: Vec<[Option<usize>; 8]> = (0..self.cells())
                 .map(|c| self.cell_unknowns(&g, c))
                 .collect();
-            self.assembly = Some(AssemblyPlan::new(n, &slots));
-        }
-        let Some(assembly) = &self.assembly else {
-            unreachable!("planned just above")
-        };
+            AssemblyPlan::new(n, &slots)
+        });
         let part = |pick: fn(&CellBlock) -> &LocalNormalEquations<8>| -> Vec<_> {
             blocks.iter().map(pick).copied().collect()
         };
@@ -1113,6 +1110,7 @@ impl Residuals for NaaEnergy<'_> {
             let s = assembly.assemble(&part(|b| &b.curvature)).jtj;
             self.pending_curvature = Some((x.to_vec(), s));
         }
+        self.assembly = Some(assembly);
         normal
     }
 
