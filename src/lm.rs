@@ -282,7 +282,10 @@ fn mirror_upper_triangle(jtj: &mut DMatrix<f64>) {
 /// instead of scattering part by part (where neighbouring parts add to the same entries, a
 /// chain of reads and writes of memory): the same additions in the same order, so the same
 /// bits. A problem whose parts keep their slots from one evaluation to the next (a grid's
-/// cells) builds it once.
+/// cells) builds it once. It pays where many parts add to one entry: the axis-aligned
+/// energy's lines are shared by a whole row or column of cells (at aa 38, the normal
+/// equations' pass took 3 µs less); a vertex of the non-axis-aligned grid belongs to four
+/// cells at most, and that energy keeps [`NormalEquations::assemble`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct AssemblyPlan<const N: usize> {
     n: usize,

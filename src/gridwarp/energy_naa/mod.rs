@@ -35,8 +35,7 @@
 //! ∂φ_c/∂s = (∂φ_c/∂α)/h_i; r^t likewise with ∂φ_c/∂t = (∂φ_c/∂β)/k_j and W_t. At most 8
 //! non-zeros per row, all among the cell's 8 slots (its corners' coordinates): F, Jᵀr and JᵀJ
 //! are accumulated per cell in an 8×8 block ([`crate::lm::LocalNormalEquations`]), cells in
-//! parallel, and the blocks added up in cell order (deterministic for any number of threads;
-//! entry by entry, by a [`crate::lm::AssemblyPlan`] made at the first evaluation).
+//! parallel, and the blocks scattered in cell order (deterministic for any number of threads).
 //! Inside a cell, samples are processed 8 at a time (one per lane); each of the 1 + 8 + 36
 //! entries is summed per lane over the cell's samples (F and Jᵀr per axis too; JᵀJ in tiles
 //! of 4×4 slots), then added in a fixed order (`super::energy::cell_block_of`), so the sums
@@ -72,7 +71,7 @@ use super::field::{bilinear_formula, Axis, Field, Sample};
 use super::grid::Grid;
 use super::solve::{minimize_and_rest_energy, SolveOptions};
 use crate::error::{Error, Result};
-use crate::lm::{AssemblyPlan, Bounds, LmReport, LocalNormalEquations, NormalEquations, Residuals};
+use crate::lm::{Bounds, LmReport, LocalNormalEquations, NormalEquations, Residuals};
 
 /// A 3-vector field over the unit square: one scalar [`Field`] per component.
 #[derive(Clone, Debug, PartialEq)]
@@ -292,9 +291,6 @@ pub struct NaaEnergy<'a> {
     /// S at the point of the last normal equations, for [`Residuals::curvature`]
     /// ([`NaaModel::Adaptive`] only).
     pending_curvature: Option<(Vec<f64>, DMatrix<f64>)>,
-    /// The fixed-order sum of the cells' blocks over their slots, planned at the first
-    /// normal equations (the slots depend on the border mode only).
-    assembly: Option<AssemblyPlan<8>>,
 }
 
 /// The model Hessian the NAA energy hands to LM in place of JᵀJ.
@@ -479,7 +475,6 @@ impl<'a> NaaEnergy<'a> {
             packed: PackedJacobian::new(deformed),
             model: NaaModel::GaussNewton,
             pending_curvature: None,
-            assembly: None,
         }
     }
 
@@ -492,7 +487,6 @@ impl<'a> NaaEnergy<'a> {
     /// Let the non-corner border vertices slide along their edges (see the module docs).
     pub fn with_sliding_border(mut self, sliding: bool) -> Self {
         self.rest_vertices.sliding_border = sliding;
-        self.assembly = None;
         self
     }
 
@@ -1080,8 +1074,8 @@ impl Residuals for NaaEnergy<'_> {
         per_cell.iter().sum()
     }
 
-    /// F, JᵀJ and Jᵀr: each cell's 8×8 block (cells in parallel), the blocks added up in cell
-    /// order by the energy's [`AssemblyPlan`] (deterministic for any number of threads). At a folded grid: F = +∞ and zero JᵀJ, Jᵀr
+    /// F, JᵀJ and Jᵀr: each cell's 8×8 block (cells in parallel), scattered in cell order
+    /// (deterministic for any number of threads). At a folded grid: F = +∞ and zero JᵀJ, Jᵀr
     /// (the solver rejects such a starting point).
     fn normal_equations(&mut self, x: &[f64]) -> NormalEquations {
         let n = self.dim();
@@ -1096,22 +1090,16 @@ impl Residuals for NaaEnergy<'_> {
         self.per_cell(&mut blocks, BLOCK_SAMPLES_PER_TASK, |first, out| {
             self.fill_blocks(&g, first, out)
         });
-        let assembly = self.assembly.take().unwrap_or_else(|| {
-            let slots: Vec<[Option<usize>; 8]> = (0..self.cells())
-                .map(|c| self.cell_unknowns(&g, c))
-                .collect();
-            AssemblyPlan::new(n, &slots)
-        });
-        let part = |pick: fn(&CellBlock) -> &LocalNormalEquations<8>| -> Vec<_> {
-            blocks.iter().map(pick).copied().collect()
-        };
-        let normal = assembly.assemble(&part(|b| &b.normal));
+        let slots: Vec<[Option<usize>; 8]> = (0..self.cells())
+            .map(|c| self.cell_unknowns(&g, c))
+            .collect();
+        let model = blocks.iter().map(|b| &b.normal);
         if self.model == NaaModel::Adaptive {
-            let s = assembly.assemble(&part(|b| &b.curvature)).jtj;
+            let curvature = blocks.iter().map(|b| &b.curvature);
+            let s = NormalEquations::assemble(n, slots.iter().zip(curvature)).jtj;
             self.pending_curvature = Some((x.to_vec(), s));
         }
-        self.assembly = Some(assembly);
-        normal
+        NormalEquations::assemble(n, slots.iter().zip(model))
     }
 
     /// S = Σ r∇²r at x for [`NaaModel::Adaptive`] (computed by the normal equations at the
