@@ -225,9 +225,8 @@ impl NormalEquations {
 }
 
 /// Where a term of [`NormalEquations::assemble`] goes: Jᵀr\[c\], or the upper-triangle entry
-/// (row, column), row ≤ column, of JᵀJ at `column·n + row` (column-major storage). Ordered
-/// Jᵀr's entries first, then JᵀJ's, each by index.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+/// (row, column), row ≤ column, of JᵀJ at `column·n + row` (column-major storage).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Target {
     Jtr(usize),
     Jtj(usize),
@@ -299,34 +298,56 @@ pub struct AssemblyPlan<const N: usize> {
 }
 
 impl<const N: usize> AssemblyPlan<N> {
-    /// The plan for parts with these slots (part k has `slots[k]`), unknowns 0 … n − 1.
+    /// The plan for parts with these slots (part k has `slots[k]`), unknowns 0 … n − 1
+    /// (n + n² counters while it is made: O(n² + terms) time).
     pub fn new(n: usize, slots: &[[Option<usize>; N]]) -> Self {
         let stride = LocalNormalEquations::<N>::VALUES;
-        // Every term with its target, in the order `assemble` adds them; then sorted by
-        // target (Jᵀr's before JᵀJ's), stably, so that each target's terms keep that order.
-        let mut terms: Vec<(Target, usize)> = Vec::new();
+        // The terms bucketed by target (Jᵀr c → c, JᵀJ entry at → n + at) by a counting
+        // sort: counted, then placed in the order `assemble` adds them, so that each
+        // target's terms keep that order.
+        let bucket = |target: Target| match target {
+            Target::Jtr(c) => c,
+            Target::Jtj(at) => n + at,
+        };
+        let mut starts = vec![0; n + n * n + 1];
+        for s in slots {
+            terms_of_part(n, s, |target, _| starts[bucket(target) + 1] += 1);
+        }
+        for b in 1..starts.len() {
+            starts[b] += starts[b - 1];
+        }
+        let ends = starts[1..].to_vec();
+        let mut sources = vec![0; starts[n + n * n]];
         for (k, s) in slots.iter().enumerate() {
             terms_of_part(n, s, |target, term| {
                 let at = match target {
                     Target::Jtr(_) => LocalNormalEquations::<N>::jtr_value(term.a),
                     Target::Jtj(_) => LocalNormalEquations::<N>::jtj_value(term.a, term.b),
                 };
-                terms.push((target, k * stride + at));
+                let next = &mut starts[bucket(target)];
+                sources[*next] = k * stride + at;
+                *next += 1;
             });
         }
-        terms.sort_by_key(|&(target, _)| target);
-        let mut sums: Vec<(Target, usize)> = Vec::new();
-        for (end, &(target, _)) in terms.iter().enumerate() {
-            match sums.last_mut() {
-                Some((last, last_end)) if *last == target => *last_end = end + 1,
-                _ => sums.push((target, end + 1)),
+        // The targets that receive terms, each with the end of its terms.
+        let mut sums = Vec::new();
+        let mut start = 0;
+        for (b, &end) in ends.iter().enumerate() {
+            if end > start {
+                let target = if b < n {
+                    Target::Jtr(b)
+                } else {
+                    Target::Jtj(b - n)
+                };
+                sums.push((target, end));
             }
+            start = end;
         }
         AssemblyPlan {
             n,
             parts: slots.len(),
             sums,
-            sources: terms.into_iter().map(|(_, at)| at).collect(),
+            sources,
         }
     }
 
