@@ -6,88 +6,21 @@
 
 use std::time::Instant;
 
+use reparam::crosscheck::gridwarp::{
+    energy_bound, gradient_bound, jtj_bound, magnitudes, round, round_field, solve_bounds,
+    texel_margin, Magnitudes, EPS,
+};
 use reparam::gridwarp::energy::{AaEnergy, DeformedFields, RestFields};
-use reparam::gridwarp::gpu::{rest_samples, solve_sequence_gpu, GpuAaEnergy};
+use reparam::gridwarp::gpu::{solve_sequence_gpu, GpuAaEnergy};
 use reparam::gridwarp::scene::{disc_rigidity, plane_stretch};
-use reparam::gridwarp::{grid_from_rigidity, solve_sequence, Field, Grid, SolveOptions};
+use reparam::gridwarp::{grid_from_rigidity, solve_sequence, Grid, SolveOptions};
 use reparam::lm::Residuals;
 use reparam_gpu::gpu_or_skip;
 
-/// f32 unit roundoff (2⁻²⁴ ≈ 6e-8).
-const EPS: f64 = f32::EPSILON as f64 / 2.0;
-
-fn round_field(f: &Field) -> Field {
-    Field {
-        values: f.values.iter().map(|&v| v as f32 as f64).collect(),
-        ..f.clone()
-    }
-}
-
-fn round(v: &[f64]) -> Vec<f64> {
-    v.iter().map(|&x| x as f32 as f64).collect()
-}
-
-/// Distance from the nearest integer of u = p·n − ½ over every sample point p of `grid` (the
-/// current lines) along one axis of an n-texel field: how far each sample is from a texel-centre
-/// boundary, where the bilinear gradient jumps (and from the clamping edges u = 0, n − 1).
-fn texel_margin(lines: &[f64], k: usize, n: usize) -> f64 {
-    let mut margin = f64::INFINITY;
-    for w in lines.windows(2) {
-        for a in 0..k {
-            let alpha = (a as f64 + 0.5) / k as f64;
-            let u = (w[0] + alpha * (w[1] - w[0])) * n as f64 - 0.5;
-            margin = margin.min((u - u.round()).abs());
-        }
-    }
-    margin
-}
-
-/// At x: the residuals r, the dense Jacobian J, and per residual m_k = σ(|c·a| + |o|) =
-/// |r_k + σo| + σ|o| (the size of the terms that cancel in r_k), from the reference and the
-/// rest samples (in the reference's residual order: cell column, row, sample, axis).
-fn magnitudes(
-    cpu: &AaEnergy,
-    rest: &RestFields,
-    rest_grid: &Grid,
-    (k, l): (usize, usize),
-    x: &[f64],
-) -> (Vec<f64>, nalgebra::DMatrix<f64>, Vec<f64>) {
-    let r = cpu.residuals(x);
-    let jac = cpu.jacobian(x);
-    let samples: Vec<_> = rest_samples(rest, rest_grid, k, l)
-        .into_iter()
-        .filter(|p| p.sigma != 0.0)
-        .collect();
-    assert_eq!(r.len(), 2 * samples.len());
-    let m = r
-        .iter()
-        .enumerate()
-        .map(|(n, &rk)| {
-            let p = samples[n / 2];
-            let so = p.sigma as f64 * if n % 2 == 0 { p.o_s } else { p.o_t } as f64;
-            (rk + so).abs() + so.abs()
-        })
-        .collect();
-    (r, jac, m)
-}
-
-/// The bound C_r ε (2 Σ|r_k| m_k) + 32 ε F on |F̃ − F| derived in the first test.
-fn energy_tolerance(r: &[f64], m: &[f64]) -> f64 {
-    let f: f64 = r.iter().map(|v| v * v).sum();
-    let scale: f64 = r.iter().zip(m).map(|(rk, mk)| rk.abs() * mk).sum();
-    2.0 * 10.0 * EPS * scale + 32.0 * EPS * f
-}
-
-/// The bound 64 ε (|J|ᵀ(|r| + m))_u on |Δ(Jᵀr)_u| derived in the first test.
-fn gradient_tolerance(r: &[f64], jac: &nalgebra::DMatrix<f64>, m: &[f64]) -> Vec<f64> {
-    (0..jac.ncols())
-        .map(|u| {
-            64.0 * EPS
-                * (0..r.len())
-                    .map(|q| jac[(q, u)].abs() * (r[q].abs() + m[q]))
-                    .sum::<f64>()
-        })
-        .collect()
+/// The bounds of `reparam::crosscheck::gridwarp` at K = L = 4 (this test's samples) and 8 × 8
+/// (the solves'), written once there and used by `reparam crosscheck gridwarp` too.
+fn energy_tolerance(mg: &Magnitudes, kl: (usize, usize)) -> f64 {
+    energy_bound(&mg.r, &mg.m, kl)
 }
 
 #[test]
@@ -146,7 +79,7 @@ fn one_evaluation_matches_the_reference_within_the_derived_tolerance() {
     );
 
     // Magnitudes for the tolerances, from the reference.
-    let (r, jac, m) = magnitudes(&cpu, &rest, &rest_grid, (k, l), &x);
+    let mg = magnitudes(&mut cpu, &rest, &rest_grid, (k, l), &x);
 
     // Energy. Each f32 residual r̃ = σ̃(c̃ã − õ) has |r̃ − r| ≤ C_r ε m with C_r ≈ 10: σ, o rounded
     // to f32 on upload (ε each), a = (s₁ − s₀)/h (3ε: the difference, h's rounding, the
@@ -155,7 +88,7 @@ fn one_evaluation_matches_the_reference_within_the_derived_tolerance() {
     // |r̃² − r²| ≤ 2|r| C_r ε m + (C_r ε m)², and the kernel's f32 sum of 2KL = 32 squares per
     // cell adds ≤ 32ε Σ r² (the cross-cell sum is f64). Hence
     //   |ΔF| ≤ 2 C_r ε Σ|r_k| m_k + 32 ε F, with C_r = 10.
-    let e_tol = energy_tolerance(&r, &m);
+    let e_tol = energy_tolerance(&mg, (k, l));
     let e_err = (measured.energy - reference.energy).abs();
 
     // JᵀJ and Jᵀr, entry by entry, against |J|ᵀ|J| and |J|ᵀ(|r| + m): each derivative
@@ -170,14 +103,13 @@ fn one_evaluation_matches_the_reference_within_the_derived_tolerance() {
     let mut jtj_worst: f64 = 0.0; // max |Δ| / (ε·scale), to report
     let mut jtj_rel: f64 = 0.0; // max |Δ| / max |A|
     let a_max = reference.jtj.amax();
+    let jtj_tol = jtj_bound(&mg, (k, l));
     for u in 0..n {
         for v in 0..n {
-            let scale: f64 = (0..r.len())
-                .map(|q| jac[(q, u)].abs() * jac[(q, v)].abs())
-                .sum();
+            let scale = jtj_tol[(u, v)] / (64.0 * EPS);
             let d = (measured.jtj[(u, v)] - reference.jtj[(u, v)]).abs();
             assert!(
-                d <= 64.0 * EPS * scale,
+                d <= jtj_tol[(u, v)],
                 "JᵀJ[{u},{v}] {} vs {} (scale {scale:e})",
                 measured.jtj[(u, v)],
                 reference.jtj[(u, v)]
@@ -192,7 +124,7 @@ fn one_evaluation_matches_the_reference_within_the_derived_tolerance() {
     let mut jtr_rel: f64 = 0.0;
     let g_max = reference.jtr.amax();
     for u in 0..n {
-        let tol = gradient_tolerance(&r, &jac, &m)[u];
+        let tol = gradient_bound(&mg, (k, l))[u];
         let d = (measured.jtr[u] - reference.jtr[u]).abs();
         assert!(
             d <= tol,
@@ -279,25 +211,17 @@ fn solves_with_the_gpu_objective_match_the_cpu_solves() {
         // Judge the GPU's lines with the f64 energy.
         let mut reference = AaEnergy::new(&scene.rest, &grid, &scene.frames[j], 8, 8);
         let e_gpu = reference.energy(&g.lm.x);
-        // Tolerances, at the CPU's solution x* (A = JᵀJ, the Gauss–Newton Hessian / 2):
-        // - the GPU run stops where its f32 evaluations can no longer see a decrease, so its
-        //   excess energy is at most about twice the f32 energy error e (bound of the first
-        //   test), plus the excess of the point its f32 gradient (error Δg ≤ b, bound of the
-        //   first test) makes look stationary, x* + A⁻¹Δg: ½ ΔgᵀA⁻¹Δg ≤ ½ bᵀ|A⁻¹|b. The CPU
-        //   run itself stops within epsf = 1e-12 relative of its minimum.
-        //   |ΔF| ≤ 2e + ½ bᵀ|A⁻¹|b + 1e-12 F.
-        // - lines: the two displacements that give those excesses, ‖|A⁻¹| b‖∞ (gradient error)
-        //   and √(2·2e / λ_min(A)) (energy resolution along the flattest direction), summed.
-        //   Looser than the energy (a square root of it): the energy is flat along some line
-        //   moves. Bounds active at x* only remove directions, so these stay upper estimates.
-        let (r, jac, m) = magnitudes(&reference, &scene.rest, &grid, (8, 8), &c.lm.x);
-        let e = energy_tolerance(&r, &m);
-        let b = nalgebra::DVector::from_vec(gradient_tolerance(&r, &jac, &m));
-        let a = reference.normal_equations(&c.lm.x).jtj;
-        let a_inv_abs = a.clone().try_inverse().expect("A invertible").abs();
-        let lambda_min = a.symmetric_eigenvalues().min();
-        let e_tol = 2.0 * e + 0.5 * b.dot(&(&a_inv_abs * &b)) + 1e-12 * c.lm.energy;
-        let x_tol = (&a_inv_abs * &b).amax() + (4.0 * e / lambda_min).sqrt();
+        // The bounds derived in `crosscheck::gridwarp::solve_bounds` (energy and lines at the
+        // CPU's minimum), shared with `reparam crosscheck gridwarp`.
+        let (e_tol, x_tol) = solve_bounds(
+            &mut reference,
+            &scene.rest,
+            &grid,
+            (8, 8),
+            &c.lm.x,
+            c.lm.energy,
+        )
+        .expect("JᵀJ invertible at the CPU minimum");
         let rel = (e_gpu - c.lm.energy).abs() / c.lm.energy;
         let lines =
             c.lm.x

@@ -9,21 +9,17 @@
 // `!(e <= bound)` is meant: a NaN counts as over any bound.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use nalgebra::{Matrix4, Point3, Rotation3, Unit, Vector3};
+use nalgebra::{Matrix4, Rotation3, Unit, Vector3};
+use reparam::crosscheck::skinsimp::{cost_checks, lbs_bound, lbs_errors, quadric_checks, Checked};
 use reparam::mesh::procedural::torus;
 use reparam::skinsimp::gpu::{
-    crosscheck, edge_cost_position, edge_cost_quadric, CrossCheck, CrossCheckData, SkinsimpKernels,
-    COST_ABSOLUTE, COST_RELATIVE, POSITION_TOLERANCE, SKIP_CONDITION,
+    crosscheck, CrossCheck, CrossCheckData, SkinsimpKernels, SKIP_CONDITION,
 };
 use reparam::skinsimp::poses::{select_poses, skinned_input, PoseSelection};
 use reparam::skinsimp::tube::skinned_tube;
 use reparam::skinsimp::{Deformation, Input};
 use reparam::Error;
 use reparam_gpu::gpu_or_skip;
-use reparam_gpu::skinsimp::{PlaneSource, SOURCE_FACE};
-
-/// f32 unit roundoff u = 2⁻²⁴.
-const U32: f64 = f32::EPSILON as f64 / 2.0;
 
 /// The simplifier's defaults: constraint-plane weight and the position step's condition limit.
 const BOUNDARY_WEIGHT: f64 = 10.0;
@@ -100,49 +96,24 @@ fn kernels() -> Option<SkinsimpKernels> {
     gpu_or_skip().map(|gpu| SkinsimpKernels::new(gpu).unwrap())
 }
 
-/// Per vertex `(joint, weight)` lists and `[pose][joint]` matrices.
-type Skin<'a> = (&'a [Vec<(u32, f64)>], &'a [Vec<Matrix4<f64>>]);
-
-fn influences(data: &CrossCheckData) -> Skin<'_> {
-    match &data.input.deformation {
-        Deformation::Skinned { influences, joints } => (influences, joints),
-        Deformation::Frames { .. } => unreachable!("skinned inputs only"),
-    }
-}
-
 // ---------------------------------------------------------------------------------------------
 // Skinning
 
-/// Per posed coordinate: `(M_k h)_r` is a 4-term dot product, ≤ 4u Σ_c |M_rc h_c| (also with
-/// fused multiply-adds); scaling by w_k and summing K terms adds ≤ K u Σ_k w_k |(M_k h)_r|.
-/// So |Δp_r| ≤ (4 + K) u Σ_k w_k Σ_c |M_k,rc h_c| to first order (the reference on the same
-/// f32 inputs is exact to 1e-16).
+/// Every posed coordinate within its derived bound ([`lbs_bound`]); returns the worst
+/// error/bound.
 fn check_lbs(data: &CrossCheckData) -> f64 {
-    let (influences, joints) = influences(data);
-    let p = joints.len();
     let mut worst: f64 = 0.0;
-    for (x, (r, g)) in data.posed_ref.iter().zip(&data.posed_gpu).enumerate() {
-        let (i, j) = (x / p, x % p);
-        let h = data.input.mesh.positions[i].to_homogeneous();
-        let list = &influences[i];
-        let k = list.len() as f64;
-        for row in 0..3 {
-            let size: f64 = list
-                .iter()
-                .map(|&(joint, w)| {
-                    let m = &joints[j][joint as usize];
-                    w * (0..4).map(|c| (m[(row, c)] * h[c]).abs()).sum::<f64>()
-                })
-                .sum();
-            let bound = (4.0 + k) * U32 * size * (1.0 + 1e-6);
-            let error = (r[row] - g[row]).abs();
-            worst = worst.max(error / bound);
-            assert!(
-                error <= bound,
-                "{}: vertex {i} pose {j} coordinate {row}: error {error:e} > bound {bound:e}",
-                data.input.mesh.name
-            );
-        }
+    for (n, (error, bound)) in lbs_errors(data)
+        .into_iter()
+        .zip(lbs_bound(data).unwrap())
+        .enumerate()
+    {
+        worst = worst.max(error / bound);
+        assert!(
+            error <= bound,
+            "{}: posed coordinate {n} (vertex-major, pose, axis): error {error:e} > bound {bound:e}",
+            data.input.mesh.name
+        );
     }
     worst
 }
@@ -165,117 +136,28 @@ fn skinning_matches_the_reference_within_the_f32_bound() {
 // ---------------------------------------------------------------------------------------------
 // Quadrics
 
-/// Absolute error bound of each entry of a source quadric `w q qᵀ` computed in f32 from the
-/// same f32 corners (first order; derivation as in `gpu/tests/skinsimp.rs`, tilted triangle):
-///
-/// - face: edges round once, each cross-product component is a 2-product difference: |Δc| ≤
-///   4√3 u |e1||e2|; normalising gives n and the area with errors ≤ δ = 4√3 κ u + 3u,
-///   κ = |e1||e2| / |e1 × e2|; d = −n·p0 adds (δ + 3u)|p0|₁;
-/// - constraint of edge e in a face of normal n_f (error δ_f as above): m = e × n_f has
-///   |m| = |e| (e ⊥ n_f) and |Δm| ≤ |e| (√3 δ_f + 4√3 u), so the plane normal errs by
-///   δ_c = √3 δ_f + 4√3 u + 3u, d by (δ_c + 3u)|p0|₁, the weight W|e|² by 5u;
-/// - an entry `w q_r q_c` (2 products) then errs by ≤ w (Δq_r |q_c| + |q_r| Δq_c +
-///   |q_r q_c| (δ_w + 2u)), with q the reference's plane.
-fn source_bound(s: &PlaneSource, corners: [Point3<f64>; 3], weight: f64) -> [f64; 10] {
-    let e1 = corners[1] - corners[0];
-    let e2 = corners[2] - corners[0];
-    let cross = e1.cross(&e2);
-    let twice = cross.norm();
-    let mut out = [0.0; 10];
-    if twice == 0.0 {
-        return out;
+/// Every element within its bound; the worst error/bound.
+fn check_all(name: &str, checks: &[Checked]) -> f64 {
+    let mut worst: f64 = 0.0;
+    for c in checks {
+        assert!(
+            !c.is_over(),
+            "{name}: {}: error {:e} > bound {:e}",
+            c.what,
+            c.error,
+            c.bound
+        );
+        worst = worst.max(c.ratio());
     }
-    let kappa = e1.norm() * e2.norm() / twice;
-    let delta_face = (4.0 * 3f64.sqrt() * kappa + 3.0) * U32;
-    let n_face = cross / twice;
-    let (n, p0, w, dn, dw) = if s.kind == SOURCE_FACE {
-        (n_face, corners[0], 0.5 * twice, delta_face, delta_face)
-    } else {
-        let [i, k] = reparam::mesh::EDGE_CORNERS[s.kind as usize];
-        let e = corners[k] - corners[i];
-        let m = e.cross(&n_face);
-        if m.norm() == 0.0 {
-            return out;
-        }
-        let dc = 3f64.sqrt() * delta_face + (4.0 * 3f64.sqrt() + 3.0) * U32;
-        (
-            m / m.norm(),
-            corners[i],
-            weight * e.norm_squared(),
-            dc,
-            5.0 * U32,
-        )
-    };
-    let p0_1 = p0.coords.abs().sum();
-    let q = [n.x, n.y, n.z, -n.dot(&p0.coords)];
-    let dq = [dn, dn, dn, (dn + 3.0 * U32) * p0_1];
-    let mut k = 0;
-    for r in 0..4 {
-        for c in r..4 {
-            out[k] = w
-                * (dq[r] * q[c].abs()
-                    + q[r].abs() * dq[c]
-                    + (q[r] * q[c]).abs() * (dw + 2.0 * U32));
-            k += 1;
-        }
-    }
-    out
+    worst
 }
 
-/// Checks every source and vertex quadric; returns the worst error/bound of each.
+/// Checks every source and vertex quadric ([`quadric_checks`]); returns the worst error/bound of
+/// each.
 fn check_quadrics(data: &CrossCheckData) -> (f64, f64) {
-    let s = &data.sources;
-    let p = s.pose_count as usize;
-    let weight = s.boundary_weight as f64;
-    let mut bounds: Vec<[f64; 10]> = Vec::with_capacity(s.sources.len() * p);
-    let (mut worst_plane, mut worst_vertex): (f64, f64) = (0.0, 0.0);
-    for (x, (r, g)) in data.plane_ref.iter().zip(&data.plane_gpu).enumerate() {
-        let (src, j) = (s.sources[x / p], x % p);
-        let corners = src.corners.map(|c| data.posed_rounded[c as usize * p + j]);
-        let b = source_bound(&src, corners, weight);
-        for (k, bk) in b.iter().enumerate() {
-            // 1e-6 relative slack for the neglected second-order terms.
-            let bound = bk * (1.0 + 1e-6);
-            let error = (r.0[k] - g.0[k]).abs();
-            worst_plane = worst_plane.max(if error == 0.0 { 0.0 } else { error / bound });
-            assert!(
-                error <= bound,
-                "{}: source {} ({src:?}) pose {j} entry {k}: {} vs {} (bound {bound:e})",
-                data.input.mesh.name,
-                x / p,
-                r.0[k],
-                g.0[k]
-            );
-        }
-        bounds.push(b);
-    }
-    // A vertex sum of n sources in f32: Σ of the sources' bounds plus the summation's
-    // (n − 1) u Σ|K_s| (recursive summation from zero).
-    for (x, (r, g)) in data.vertex_ref.iter().zip(&data.vertex_gpu).enumerate() {
-        let (i, j) = (x / p, x % p);
-        let list =
-            &s.vertex_sources[s.vertex_offsets[i] as usize..s.vertex_offsets[i + 1] as usize];
-        let n = list.len() as f64;
-        for (k, (rk, gk)) in r.0.iter().zip(&g.0).enumerate() {
-            let terms: f64 = list
-                .iter()
-                .map(|&src| data.plane_ref[src as usize * p + j].0[k].abs())
-                .sum();
-            let own: f64 = list
-                .iter()
-                .map(|&src| bounds[src as usize * p + j][k])
-                .sum();
-            let bound = (own + (n - 1.0).max(0.0) * U32 * terms) * (1.0 + 1e-6);
-            let error = (rk - gk).abs();
-            worst_vertex = worst_vertex.max(if error == 0.0 { 0.0 } else { error / bound });
-            assert!(
-                error <= bound,
-                "{}: vertex {i} pose {j} entry {k}: {rk} vs {gk} (bound {bound:e})",
-                data.input.mesh.name,
-            );
-        }
-    }
-    (worst_plane, worst_vertex)
+    let (plane, vertex) = quadric_checks(data);
+    let name = &data.input.mesh.name;
+    (check_all(name, &plane), check_all(name, &vertex))
 }
 
 #[test]
@@ -302,15 +184,6 @@ fn quadrics_match_the_reference_within_the_f32_bound() {
 // ---------------------------------------------------------------------------------------------
 // Position step and costs
 
-/// `Σ_k α_k |M_k^j|` with the last row `(0, 0, 0, Σα)`: the magnitude of `A^j`.
-fn abs_blend(mats: &[Matrix4<f64>], item: &reparam_gpu::skinsimp::EdgeItem) -> Matrix4<f64> {
-    let mut a = Matrix4::zeros();
-    for k in 0..item.candidates as usize {
-        a += mats[item.joints[k] as usize].abs() * item.alpha[k] as f64;
-    }
-    a
-}
-
 /// What [`check_costs`] found.
 #[derive(Debug, Default)]
 struct CostCheck {
@@ -319,167 +192,34 @@ struct CostCheck {
     mismatched_choices: usize,
     worst_position: f64,
     worst_cost: f64,
-    /// Candidates where the notes' tolerance is expected to hold (see [`check_costs`]), and
-    /// how many of them exceed it.
     expected_positions: usize,
     over_notes_positions: usize,
     expected_costs: usize,
     over_notes_costs: usize,
-    /// Candidates beyond the notes' tolerance where it was not expected to hold.
     unexpected_positions_over: usize,
     unexpected_costs_over: usize,
 }
 
-/// Per compared candidate (cond_F(B) ≤ 10⁴, B = Q̃[0:3,0:3], b = Q̃[0:3,3]), first-order
-/// bounds with T^j = |Q_a^j| + |Q_b^j| (entrywise) and Ā^j = Σ α_k |M_k^j|:
-///
-/// 1. Q̃ entries: Q_a + Q_b rounds once; an entry of A^j is a K-term sum (≤ (K + 1) u, K ≤ 8);
-///    (AᵀQA)_rc is two 4-term dot products deep (≤ 8u); P poses add ≤ P u. So
-///    |ΔQ̃| ≤ η_Q Σ_j Ā^{jT} T^j Ā^j, η_Q = (1 + 2·9 + 8 + P) u, rounded up to (30 + P) u.
-/// 2. The solve: perturbing B, b by ΔB, Δb moves v by ≤ ‖B⁻¹‖_F (‖ΔB‖_F |v| + |Δb|). The
-///    adjugate solve itself (cofactors c_j × c_k: 3 roundings each; det = c0·(c1 × c2): 5 more;
-///    the quotient: 2) adds ≤ u (12 ‖B‖_F² |b| + 10 ‖B‖_F³ |v|) / |det B|.
-/// 3. The cost at the GPU's own position ṽ: E is quadratic in v with zero gradient at the
-///    reference's v, so E(ṽ) − E(v) = Δvᵀ B Δv ≤ ‖B‖_F |Δv|²; evaluating E in f32 adds
-///    ≤ η_E Σ_j (Ā^j |v̂|)ᵀ T^j (Ā^j |v̂|), η_E = (1 + 9 + 4 + 4 + 4 + P) u, rounded up to
-///    (25 + P) u (A^j, A^j v̂, Q p, p·Qp, the pose sum).
-///
-/// Where the GPU kept another point than the reference (solution / a / b / midpoint), the
-/// reference's values v̂ᵀQ̃v̂ at the two points must be closer than twice the value error bound
-/// η_E Σ |v̂|ᵀ|Q̃-terms||v̂| (a near tie); such candidates are counted and not compared further.
+/// Every candidate's edge quadric, near tie, position and cost within the bounds derived in
+/// [`cost_checks`].
 fn check_costs(data: &CrossCheckData) -> CostCheck {
-    let cd = &data.cost_data;
-    let p = cd.mats.len();
-    let items = cd.edge_items(&data.candidates).unwrap();
-    let eta_q = (30.0 + p as f64) * U32;
-    let eta_e = (25.0 + p as f64) * U32;
-    let mut out = CostCheck::default();
-    for ((c, item), (r, g)) in data
-        .candidates
-        .iter()
-        .zip(&items)
-        .zip(data.costs_ref.iter().zip(&data.costs_gpu))
-    {
-        if !(r.condition <= SKIP_CONDITION) {
-            out.skipped += 1;
-            continue;
-        }
-        let (a, b) = (c.a as usize, c.b as usize);
-        let mut t_q = Matrix4::zeros();
-        let mut t_mats = Vec::with_capacity(p);
-        for j in 0..p {
-            let t = cd.vertex_quadrics[a * p + j].matrix().abs()
-                + cd.vertex_quadrics[b * p + j].matrix().abs();
-            let abar = abs_blend(&cd.mats[j], item);
-            t_q += abar.transpose() * t * abar;
-            t_mats.push((abar, t));
-        }
-        // Q̃ entries (step 1).
-        let q_gpu = edge_cost_quadric(g);
-        for rr in 0..4 {
-            for cc in rr..4 {
-                let bound = eta_q * t_q[(rr, cc)] * (1.0 + 1e-6);
-                let error = (r.quadric[(rr, cc)] - q_gpu[(rr, cc)]).abs();
-                assert!(
-                    error <= bound,
-                    "{}: edge ({a}, {b}) endpoint {}: Q̃[{rr},{cc}] {} vs {} (bound {bound:e})",
-                    data.input.mesh.name,
-                    c.endpoint,
-                    r.quadric[(rr, cc)],
-                    q_gpu[(rr, cc)]
-                );
-            }
-        }
-        out.compared += 1;
-        let v_gpu = edge_cost_position(g);
-        if r.choice != g.choice {
-            let value = |v: &Point3<f64>| {
-                let h = v.to_homogeneous();
-                h.dot(&(r.quadric * h))
-            };
-            let size = |v: &Point3<f64>| {
-                let h = v.to_homogeneous().abs();
-                h.dot(&(t_q * h))
-            };
-            let gap = (value(&r.position) - value(&v_gpu)).abs();
-            let bound = 2.0 * eta_e * size(&r.position).max(size(&v_gpu));
-            assert!(
-                gap <= bound,
-                "{}: edge ({a}, {b}) endpoint {}: choice {} vs {} with values {gap:e} apart (bound {bound:e})",
-                data.input.mesh.name,
-                c.endpoint,
-                r.choice,
-                g.choice
-            );
-            out.mismatched_choices += 1;
-            continue;
-        }
-        // Position (step 2; exact for a fallback, which is an input).
-        let bm = r.quadric.fixed_view::<3, 3>(0, 0).into_owned();
-        let bv = Vector3::new(r.quadric[(0, 3)], r.quadric[(1, 3)], r.quadric[(2, 3)]);
-        let tb = t_q.fixed_view::<3, 3>(0, 0).into_owned();
-        let tbv = Vector3::new(t_q[(0, 3)], t_q[(1, 3)], t_q[(2, 3)]);
-        let v = r.position.coords.norm();
-        let position_bound = if r.choice == 0 {
-            let inv = bm.try_inverse().expect("cond ≤ 1e4");
-            let perturbation = inv.norm() * eta_q * (tb.norm() * v + tbv.norm());
-            let solve = U32 * (12.0 * bm.norm_squared() * bv.norm() + 10.0 * bm.norm().powi(3) * v)
-                / bm.determinant().abs();
-            (perturbation + solve) * (1.0 + 1e-6)
-        } else {
-            0.0
-        };
-        let position_error = (r.position - v_gpu).norm();
-        assert!(
-            position_error <= position_bound,
-            "{}: edge ({a}, {b}) endpoint {}: position error {position_error:e} > {position_bound:e} (cond {:.1e})",
-            data.input.mesh.name,
-            c.endpoint,
-            r.condition
-        );
-        // Cost (step 3).
-        let h = r.position.to_homogeneous().abs();
-        let terms: f64 = t_mats
-            .iter()
-            .map(|(abar, t)| {
-                let ph = abar * h;
-                ph.dot(&(t * ph))
-            })
-            .sum();
-        let cost_bound =
-            (eta_e * terms + bm.norm() * position_bound * position_bound) * (1.0 + 1e-6);
-        let cost_error = (r.cost - g.cost as f64).abs();
-        assert!(
-            cost_error <= cost_bound,
-            "{}: edge ({a}, {b}) endpoint {}: cost {} vs {} (error {cost_error:e} > {cost_bound:e})",
-            data.input.mesh.name,
-            c.endpoint,
-            r.cost,
-            g.cost
-        );
-        if position_bound > 0.0 {
-            out.worst_position = out.worst_position.max(position_error / position_bound);
-        }
-        out.worst_cost = out.worst_cost.max(cost_error / cost_bound);
-        // The notes' tolerances where f32 is expected to meet them: the bounds above add
-        // k = 30 + P (positions) or 25 + P (costs) roundings at their worst; independent
-        // roundings typically add up like √k u, so the expected error is bound/√k. Where that is
-        // below the notes' tolerance, the tolerance must hold.
-        let notes_cost = (COST_RELATIVE * r.cost.abs()).max(COST_ABSOLUTE);
-        if position_bound / (30.0 + p as f64).sqrt() <= POSITION_TOLERANCE {
-            out.expected_positions += 1;
-            out.over_notes_positions += usize::from(position_error > POSITION_TOLERANCE);
-        } else {
-            out.unexpected_positions_over += usize::from(position_error > POSITION_TOLERANCE);
-        }
-        if cost_bound / (25.0 + p as f64).sqrt() <= notes_cost {
-            out.expected_costs += 1;
-            out.over_notes_costs += usize::from(cost_error > notes_cost);
-        } else {
-            out.unexpected_costs_over += usize::from(cost_error > notes_cost);
-        }
+    let c = cost_checks(data).unwrap();
+    let name = &data.input.mesh.name;
+    check_all(name, &c.quadric);
+    check_all(name, &c.ties);
+    CostCheck {
+        compared: c.ties.len() + c.positions.len(),
+        skipped: c.skipped,
+        mismatched_choices: c.ties.len(),
+        worst_position: check_all(name, &c.positions),
+        worst_cost: check_all(name, &c.costs),
+        expected_positions: c.expected_positions,
+        over_notes_positions: c.over_notes_positions,
+        expected_costs: c.expected_costs,
+        over_notes_costs: c.over_notes_costs,
+        unexpected_positions_over: c.unexpected_positions_over,
+        unexpected_costs_over: c.unexpected_costs_over,
     }
-    out
 }
 
 #[test]

@@ -6,22 +6,13 @@
 
 use std::time::Instant;
 
-use reparam::unwarp::energy::{node_energy, node_gradient, triangle_gradient, Fan};
-use reparam::unwarp::fixation::pin_gradient;
+use reparam::crosscheck::unwarp::{area_cv_bound, run_energy_bound, step_bound};
 use reparam::unwarp::gpu::{grid_for, round_problem, GpuPass};
-use reparam::unwarp::pass::{descend_texel_traced, line_point, pass};
+use reparam::unwarp::pass::{descend_texel_traced, pass};
 use reparam::unwarp::stats::{area_ratios, coefficient_of_variation};
 use reparam::unwarp::{procedural, solve, solve_with, Problem, UnwarpOptions};
 use reparam_gpu::gpu_or_skip;
 use reparam_gpu::unwarp::{UnwarpPassKernel, FLAG_MOVED, STEPS_MASK};
-
-/// f32 unit roundoff (2⁻²⁴ ≈ 6e-8).
-const U32: f64 = f32::EPSILON as f64 / 2.0;
-
-/// Relative error of one f32 evaluation of a node energy F (or of one triangle-gradient term):
-/// each triangle is a chain of ≈ 30 roundings (edges, a, D, Y, Y^5 by 3 multiplications, the
-/// quotient), the six are summed: η ≈ 30 u.
-const ETA: f64 = 30.0 * U32;
 
 fn options() -> UnwarpOptions {
     UnwarpOptions {
@@ -45,61 +36,6 @@ fn rounded_state() -> (Problem, Vec<[f64; 2]>) {
         .map(|o| [o[0] as f32 as f64, o[1] as f32 as f64])
         .collect();
     (problem, offsets)
-}
-
-/// The bound on |Δo| (texels) between the f32 and f64 steps of one texel, from the reference's
-/// quantities at its step t* along −g:
-///
-/// 1. f32 cannot order F(t1), F(t2) once they differ by less than 2ηF, so the search may end
-///    anywhere with ½F''(t − t*)² ≤ 2ηF: |Δt| ≤ 2√(ηF/F''), |Δo| ≤ |Δt|·|g|;
-/// 2. the f32 gradient's direction is off by φ ≤ η Σ|∇E_k|/|g| (the sum of the terms' sizes,
-///    cancellation included), which moves the line's minimiser by ≤ 2φ·s, s = t*|g|;
-/// 3. when the f64 guard's margin F(0) − F(t*) is below 2ηF, f32 may decide the other way:
-///    |Δo| ≤ s.
-///
-/// The final bracket width 1e-6·hi adds ≤ 1e-6 hi|g|.
-fn step_bound(problem: &Problem, offsets: &[[f64; 2]], x: usize, y: usize) -> f64 {
-    let mesh = &problem.mesh;
-    let i = mesh.index(x, y);
-    let (o, w, r, theta) = (
-        offsets[i],
-        problem.pins[i],
-        mesh.resolution(),
-        problem.theta,
-    );
-    let fan = Fan::new(mesh, offsets, x, y);
-    let step = descend_texel_traced(problem, offsets, x, y);
-    let g = node_gradient(&fan, w, r, o, theta);
-    let gn = g[0].hypot(g[1]);
-    let Some([_, hi]) = step.bracket else {
-        return 0.0;
-    };
-    let f = |t: f64| node_energy(&fan, w, r, line_point(o, g, t), theta);
-    let t = step.search.t;
-    let d = 1e-3 * t.max(1e-12);
-    let f2 = ((f(t + d) - 2.0 * f(t) + f(t - d)) / (d * d)).max(1e-300);
-    let ft = f(t);
-    let search = 2.0 * (ETA * ft / f2).sqrt() * gn;
-    let u = fan.uv_edges(o);
-    let terms: f64 = (0..6)
-        .map(|k| {
-            let gk = triangle_gradient(&fan.geometry[k], u[(k + 5) % 6], u[k], theta);
-            gk[0].hypot(gk[1])
-        })
-        .sum::<f64>()
-        + {
-            let p = pin_gradient(w, r, o);
-            p[0].hypot(p[1])
-        };
-    let s = t * gn;
-    let direction = 2.0 * (ETA * terms / gn) * s;
-    let guard = if f(0.0) - ft <= 2.0 * ETA * f(0.0) {
-        s
-    } else {
-        0.0
-    };
-    let texels = r[0].max(r[1]);
-    (search + direction + guard + 1e-6 * hi * gn) * texels
 }
 
 #[test]
@@ -199,7 +135,7 @@ fn whole_runs_agree_in_energy_per_sweep_and_area_statistics() {
         // search's resolution, bound 1 of `step_bound`), so after p passes the totals differ by
         // ≤ 2ηp·E.
         assert!(
-            rel <= 2.0 * ETA * p as f64,
+            rel <= run_energy_bound(p),
             "sweep {}: relative energy difference {rel:e}",
             p / 4
         );
@@ -222,7 +158,7 @@ fn whole_runs_agree_in_energy_per_sweep_and_area_statistics() {
     // A triangle's area ratio a/A moves by ≤ 2|Δo| (texels) relatively when a corner moves by
     // |Δo| (edges are ≈ 1 texel); the CV, a normalised rms, then moves by ≤ 2·rms|Δo|·(1 + CV).
     assert!(
-        (cv_cpu - cv_gpu).abs() <= 2.0 * rms * (1.0 + cv_cpu),
+        (cv_cpu - cv_gpu).abs() <= area_cv_bound(rms, cv_cpu),
         "CV {cv_cpu} vs {cv_gpu}"
     );
 }

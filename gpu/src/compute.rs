@@ -140,9 +140,21 @@ impl Gpu {
     }
 
     /// Compile `source` and build the compute pipeline of its entry point `entry`, with the
-    /// bind group layout inferred from the shader. Invalid WGSL gives [`GpuError::Validation`]
-    /// with the compiler's message.
+    /// bind group layout inferred from the shader, once per context (later calls with the same
+    /// label, source and entry return the cached pipeline). Invalid WGSL gives
+    /// [`GpuError::Validation`] with the compiler's message.
     pub fn compute_kernel(
+        &self,
+        label: &str,
+        source: &str,
+        entry: &str,
+    ) -> Result<ComputeKernel, GpuError> {
+        // One compilation per context: keyed by label, entry point and the source itself.
+        let key = format!("compute\u{0}{label}\u{0}{entry}\u{0}{source}");
+        self.cached(&key, || self.compile_kernel(label, source, entry))
+    }
+
+    fn compile_kernel(
         &self,
         label: &str,
         source: &str,
@@ -212,7 +224,7 @@ impl Gpu {
                 pass.set_bind_group(0, &bind_group, &[]);
                 pass.dispatch_workgroups(x, y, 1);
             }
-            self.queue.submit([encoder.finish()]);
+            self.submit(encoder.finish());
             Ok(())
         })
     }

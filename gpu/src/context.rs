@@ -1,5 +1,10 @@
 //! The headless wgpu context: adapter choice, device creation, error scopes.
 
+use std::any::Any;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::Instant;
+
 use crate::error::GpuError;
 
 /// A headless wgpu device and its queue, with the adapter's description and the limits the
@@ -11,23 +16,103 @@ pub struct Gpu {
     pub(crate) queue: wgpu::Queue,
     info: wgpu::AdapterInfo,
     limits: wgpu::Limits,
+    shared: Arc<Shared>,
+}
+
+/// What the clones of one context share: compiled pipelines (made once per context, see
+/// [`Gpu::cached`]) and the compute clock ([`Gpu::start_clock`]).
+#[derive(Default)]
+struct Shared {
+    cache: Mutex<HashMap<String, Arc<dyn Any + Send + Sync>>>,
+    clock: Mutex<Option<Clock>>,
+}
+
+impl std::fmt::Debug for Shared {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Shared").finish_non_exhaustive()
+    }
+}
+
+/// GPU time measured by [`Gpu::start_clock`] … [`Gpu::stop_clock`]: each submitted dispatch
+/// (or render pass) from its submission to its completion, without buffer uploads before it and
+/// readbacks after it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Clock {
+    /// Seconds between submission and completion, summed over the submissions.
+    pub seconds: f64,
+    /// Submissions timed.
+    pub submissions: u64,
 }
 
 impl Gpu {
-    /// Open a headless context: an instance over all backends, the best adapter by
-    /// [`adapter_rank`] (hardware before software, native APIs before GL), and a device with
-    /// the adapter's own buffer and dispatch limits (see [`device_limits`]).
+    /// Open a headless context on the adapter named by `REPARAM_ADAPTER` when that variable
+    /// is set (an index into [`list_adapters`] or a case-insensitive substring of its
+    /// [`AdapterDescription::summary`], as `--adapter` takes), else on the best adapter by
+    /// [`adapter_rank`] (hardware before software, native APIs before GL), with a device of the
+    /// adapter's own buffer and dispatch limits (see [`device_limits`]).
     pub fn new() -> Result<Gpu, GpuError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
-            backends: wgpu::Backends::all(),
-            ..wgpu::InstanceDescriptor::new_without_display_handle()
-        });
-        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
-        let adapter = adapters
+        match std::env::var(ADAPTER_ENV) {
+            Ok(selector) if !selector.trim().is_empty() => Gpu::with_adapter(&selector),
+            _ => {
+                let adapter = usable_adapters()
+                    .into_iter()
+                    .next()
+                    .ok_or(GpuError::NoAdapter)?;
+                Gpu::on(adapter)
+            }
+        }
+    }
+
+    /// Open a context on the adapter that `selector` names: an index into [`list_adapters`]
+    /// (`"0"`, `"1"`, …) or a case-insensitive substring of the adapter's one-line summary
+    /// (`"llvmpipe"`, `"gl"`, `"nvidia"`); the first match in rank order wins.
+    /// [`GpuError::NoAdapter`] when there is none at all, [`GpuError::NoMatchingAdapter`]
+    /// (listing what exists) when none matches.
+    pub fn with_adapter(selector: &str) -> Result<Gpu, GpuError> {
+        let adapters = usable_adapters();
+        if adapters.is_empty() {
+            return Err(GpuError::NoAdapter);
+        }
+        let descriptions: Vec<AdapterDescription> = adapters
+            .iter()
+            .enumerate()
+            .map(|(index, a)| AdapterDescription::of(index, &a.get_info()))
+            .collect();
+        let chosen = match selector.trim().parse::<usize>() {
+            Ok(index) => index,
+            Err(_) => {
+                let needle = selector.trim().to_lowercase();
+                descriptions
+                    .iter()
+                    .position(|d| d.summary().to_lowercase().contains(&needle))
+                    .unwrap_or(usize::MAX)
+            }
+        };
+        match adapters.into_iter().nth(chosen) {
+            Some(adapter) => Gpu::on(adapter),
+            None => Err(GpuError::NoMatchingAdapter {
+                selector: selector.to_string(),
+                available: descriptions
+                    .iter()
+                    .map(|d| format!("{}: {}", d.index, d.summary()))
+                    .collect::<Vec<_>>()
+                    .join("; "),
+            }),
+        }
+    }
+
+    /// A context on every usable adapter, in [`list_adapters`] order (one that refuses a
+    /// device is returned as its error, so the caller can report it beside the others).
+    pub fn all_adapters() -> Vec<(AdapterDescription, Result<Gpu, GpuError>)> {
+        usable_adapters()
             .into_iter()
-            .filter(|a| adapter_rank(&a.get_info()).is_some())
-            .min_by_key(|a| adapter_rank(&a.get_info()))
-            .ok_or(GpuError::NoAdapter)?;
+            .enumerate()
+            .map(|(index, a)| (AdapterDescription::of(index, &a.get_info()), Gpu::on(a)))
+            .collect()
+    }
+
+    /// A device and queue on `adapter`.
+    fn on(adapter: wgpu::Adapter) -> Result<Gpu, GpuError> {
         let info = adapter.get_info();
         let limits = device_limits(&adapter.limits());
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
@@ -42,17 +127,89 @@ impl Gpu {
             queue,
             info,
             limits,
+            shared: Arc::default(),
         })
+    }
+
+    /// The value cached under `key` in this context (and its clones), made by `make` the first
+    /// time: shader modules and pipelines are compiled once per context, not once per call.
+    pub fn cached<T: Clone + Send + Sync + 'static>(
+        &self,
+        key: &str,
+        make: impl FnOnce() -> Result<T, GpuError>,
+    ) -> Result<T, GpuError> {
+        // A panic while holding the lock leaves a usable map (inserts are atomic).
+        let lock = || {
+            self.shared
+                .cache
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+        };
+        if let Some(v) = lock().get(key) {
+            if let Some(v) = v.downcast_ref::<T>() {
+                return Ok(v.clone());
+            }
+        }
+        let value = make()?;
+        lock().insert(key.to_string(), Arc::new(value.clone()));
+        Ok(value)
+    }
+
+    /// Start timing submissions (see [`Clock`]). While the clock runs every submission waits for
+    /// its completion, so kernels run one after another.
+    pub fn start_clock(&self) {
+        *self
+            .shared
+            .clock
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner) = Some(Clock::default());
+    }
+
+    /// Stop timing and return what was measured since [`Gpu::start_clock`] (zero if it was not
+    /// started).
+    pub fn stop_clock(&self) -> Clock {
+        self.shared
+            .clock
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take()
+            .unwrap_or_default()
+    }
+
+    /// Submit `commands`; while the clock runs, wait for them and add the time to the clock.
+    pub(crate) fn submit(&self, commands: wgpu::CommandBuffer) -> wgpu::SubmissionIndex {
+        let timing = self
+            .shared
+            .clock
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .is_some();
+        let start = Instant::now();
+        let index = self.queue.submit([commands]);
+        if timing {
+            let _ = self.device.poll(wgpu::PollType::Wait {
+                submission_index: Some(index.clone()),
+                timeout: Some(crate::compute::READBACK_TIMEOUT),
+            });
+            let seconds = start.elapsed().as_secs_f64();
+            if let Some(c) = self
+                .shared
+                .clock
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .as_mut()
+            {
+                c.seconds += seconds;
+                c.submissions += 1;
+            }
+        }
+        index
     }
 
     /// One line describing the adapter: name, backend, device type, driver and driver info,
     /// e.g. `llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, Cpu, llvmpipe Mesa 22.3.6 (LLVM 15.0.6))`.
     pub fn adapter_summary(&self) -> String {
-        let i = &self.info;
-        format!(
-            "{} ({:?}, {:?}, {} {})",
-            i.name, i.backend, i.device_type, i.driver, i.driver_info
-        )
+        AdapterDescription::of(0, &self.info).summary()
     }
 
     /// Whether the adapter is Mesa's lavapipe (llvmpipe behind Vulkan): CI's adapter, on which
@@ -127,4 +284,69 @@ pub fn device_limits(adapter: &wgpu::Limits) -> wgpu::Limits {
         max_compute_workgroups_per_dimension: adapter.max_compute_workgroups_per_dimension,
         ..wgpu::Limits::default().or_worse_values_from(adapter)
     }
+}
+
+/// Environment variable that picks the adapter of [`Gpu::new`] (and so of the tests):
+/// `REPARAM_ADAPTER=1` or `REPARAM_ADAPTER=gl`, as `reparam crosscheck --adapter` takes.
+pub const ADAPTER_ENV: &str = "REPARAM_ADAPTER";
+
+/// Every adapter wgpu finds on all backends that [`adapter_rank`] accepts, best first.
+fn usable_adapters() -> Vec<wgpu::Adapter> {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::all(),
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    let mut adapters: Vec<wgpu::Adapter> =
+        pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()))
+            .into_iter()
+            .filter(|a| adapter_rank(&a.get_info()).is_some())
+            .collect();
+    // Stable: adapters of equal rank keep wgpu's enumeration order.
+    adapters.sort_by_key(|a| adapter_rank(&a.get_info()));
+    adapters
+}
+
+/// What `--list-adapters` prints of one adapter.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AdapterDescription {
+    /// Position in [`list_adapters`] (what `--adapter 1` selects).
+    pub index: usize,
+    pub name: String,
+    /// `Vulkan`, `Metal`, `Dx12` or `Gl`.
+    pub backend: String,
+    /// `DiscreteGpu`, `IntegratedGpu`, `VirtualGpu`, `Cpu` or `Other`.
+    pub device_type: String,
+    pub driver: String,
+    pub driver_info: String,
+}
+
+impl AdapterDescription {
+    fn of(index: usize, i: &wgpu::AdapterInfo) -> AdapterDescription {
+        AdapterDescription {
+            index,
+            name: i.name.clone(),
+            backend: format!("{:?}", i.backend),
+            device_type: format!("{:?}", i.device_type),
+            driver: i.driver.clone(),
+            driver_info: i.driver_info.clone(),
+        }
+    }
+
+    /// `name (backend, device type, driver driver-info)`.
+    pub fn summary(&self) -> String {
+        format!(
+            "{} ({}, {}, {} {})",
+            self.name, self.backend, self.device_type, self.driver, self.driver_info
+        )
+    }
+}
+
+/// Every usable adapter, best first by [`adapter_rank`]; the index of each is what
+/// [`Gpu::with_adapter`] takes.
+pub fn list_adapters() -> Vec<AdapterDescription> {
+    usable_adapters()
+        .iter()
+        .enumerate()
+        .map(|(index, a)| AdapterDescription::of(index, &a.get_info()))
+        .collect()
 }

@@ -14,6 +14,11 @@ pub enum GpuError {
          Vulkan driver: apt-get install -y mesa-vulkan-drivers libvulkan1"
     )]
     NoAdapter,
+    /// `--adapter` / `REPARAM_ADAPTER` named no adapter that exists.
+    #[error(
+        "no GPU adapter matches '{selector}'; give an index or a part of a name among: {available}"
+    )]
+    NoMatchingAdapter { selector: String, available: String },
     /// The adapter refused to create a device.
     #[error("the GPU adapter refused to create a device: {0}")]
     RequestDevice(String),

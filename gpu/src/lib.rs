@@ -31,7 +31,9 @@ use std::sync::OnceLock;
 
 pub use bpm::{bpm_eval, bpm_precompute, bpm_render};
 pub use compute::ComputeKernel;
-pub use context::{adapter_rank, device_limits, Gpu};
+pub use context::{
+    adapter_rank, device_limits, list_adapters, AdapterDescription, Gpu, ADAPTER_ENV,
+};
 pub use error::GpuError;
 
 /// Environment variable that turns "no adapter" into a test failure: `REPARAM_REQUIRE_GPU=1`.

@@ -1,74 +1,463 @@
-//! `reparam crosscheck bpm`: the GPU f32 kernels against the f64 reference.
+//! `reparam crosscheck <bpm|gridwarp|unwarp|maps|skinsimp|all>`: every f32 GPU kernel against
+//! the f64 reference from identical inputs, on built-in data or the user's own, on one adapter
+//! or on each; one row per kernel with its derived bound and verdict.
+//!
+//! Exit codes: 0 when every kernel is within its bound, 1 when any exceeds it (listed on
+//! stderr), 2 on bad input or without an adapter.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
 
 use clap::{Args, Subcommand};
-use reparam::Result;
+use reparam::{Error, Result};
 
-#[derive(Subcommand)]
-pub enum CrosscheckCommand {
-    /// BPM: eval kernel alone, and the GPU pipeline with the local and the determinant fit.
-    Bpm(CrosscheckBpmArgs),
-}
+use super::gridwarp::GridwarpArgs;
+use super::unwarp::UnwarpArgs;
 
 #[derive(Args)]
-pub struct CrosscheckBpmArgs {
-    /// Mesh (OBJ with `vt`, or `procedural:<name>`); default: every small built-in mesh.
-    #[arg(long)]
-    pub mesh: Vec<String>,
-    /// Print machine-readable results.
-    #[arg(long)]
-    pub json: bool,
+#[command(args_conflicts_with_subcommands = false)]
+pub struct CrosscheckArgs {
+    #[command(subcommand)]
+    pub algorithm: Option<Algorithm>,
+    /// Print every adapter wgpu finds (name, backend, device type, driver) and exit.
+    #[arg(long, global = true)]
+    pub list_adapters: bool,
+    /// The adapter to run on: its index in `--list-adapters` or a part of its name, backend or
+    /// driver (case-insensitive), e.g. `gl`. Default: `REPARAM_ADAPTER`, else the best one.
+    #[arg(long, global = true, conflicts_with = "all_adapters")]
+    pub adapter: Option<String>,
+    /// Run on every adapter and set the results side by side.
+    #[arg(long, global = true)]
+    pub all_adapters: bool,
+    /// Folder for the `--sweep` plots.
+    #[arg(long, global = true, default_value = "out/crosscheck")]
+    pub plots: PathBuf,
 }
 
-pub fn run(cmd: CrosscheckCommand) -> Result<()> {
-    match cmd {
-        CrosscheckCommand::Bpm(args) => bpm(args),
+#[derive(Subcommand)]
+pub enum Algorithm {
+    /// BPM: bpm_eval, bpm_precompute (local and determinant fit), bpm_render.
+    Bpm(BpmInput),
+    /// gridwarp: gridwarp_aa (cell energies, F, JᵀJ, Jᵀr) and whole LM solves; the input flags
+    /// of `reparam gridwarp` (--scene, --gltf/--animation, --obj, --roi, --rigidity, …).
+    Gridwarp(GridwarpInput),
+    /// unwarp: unwarp_pass and whole runs; the input flags of `reparam unwarp`.
+    Unwarp(UnwarpInput),
+    /// maps: maps_priority, maps_flatten, maps_inverse on a MAPS hierarchy.
+    Maps(MapsInput),
+    /// skinsimp: skinsimp_lbs, skinsimp_quadrics, skinsimp_collapse_cost on a skinned glTF.
+    Skinsimp(SkinsimpInput),
+    /// All five on built-in data.
+    All(Common),
+}
+
+/// Flags every algorithm takes.
+#[derive(Args, Clone, Default)]
+pub struct Common {
+    /// Print machine-readable results (schema in the README).
+    #[arg(long)]
+    pub json: bool,
+    /// Also sweep the error against a conditioning parameter (table and log–log plot).
+    #[arg(long)]
+    pub sweep: bool,
+    /// Test only: feed the GPU a perturbed input (BPM eval: every map coefficient × (1 + 1e-3)),
+    /// so the cross-check must report it over its bound.
+    #[arg(long, hide = true)]
+    pub perturb_gpu_input: bool,
+}
+
+#[derive(Args, Clone, Default)]
+pub struct BpmInput {
+    /// Mesh (OBJ with `vt`, or `procedural:<name>`); repeat for several. Default: every small
+    /// built-in mesh.
+    #[arg(long)]
+    pub mesh: Vec<String>,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+#[derive(Args, Clone)]
+pub struct GridwarpInput {
+    #[command(flatten)]
+    pub args: GridwarpArgs,
+    /// Also sweep the error against a conditioning parameter (table and log–log plot).
+    #[arg(long)]
+    pub sweep: bool,
+}
+
+#[derive(Args, Clone)]
+pub struct UnwarpInput {
+    #[command(flatten)]
+    pub args: UnwarpArgs,
+    /// Also sweep the error against a conditioning parameter (table and log–log plot).
+    #[arg(long)]
+    pub sweep: bool,
+}
+
+#[derive(Args, Clone)]
+pub struct MapsInput {
+    /// The mesh: .obj, .ply, .off or `procedural:<name>`. Default: the demo's torus.
+    pub mesh: Option<String>,
+    /// Stop the hierarchy at this many base triangles (0: as coarse as possible).
+    #[arg(long, default_value_t = 0)]
+    pub base_size: usize,
+    /// λ of the priority.
+    #[arg(long, default_value_t = 0.5)]
+    pub lambda: f64,
+    /// Features: `auto` or a sidecar file (`v I`, `e I J` lines).
+    #[arg(long)]
+    pub features: Option<String>,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+#[derive(Args, Clone)]
+pub struct SkinsimpInput {
+    /// A skinned glTF/GLB. Default: the built-in skinned tube.
+    pub model: Option<PathBuf>,
+    /// Training poses: `clip:all`, `clip:NAME,…` or a number of uniform times per clip.
+    #[arg(long, default_value = "clip:all")]
+    pub poses: String,
+    #[command(flatten)]
+    pub common: Common,
+}
+
+/// Run the command; the exit code says whether every kernel passed.
+pub fn run(args: CrosscheckArgs) -> ExitCode {
+    match try_run(args) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+#[cfg(not(feature = "gpu"))]
+fn try_run(_: CrosscheckArgs) -> Result<ExitCode> {
+    Err(Error::Gpu(
+        "this build has no GPU support (feature `gpu` is off)".into(),
+    ))
+}
+
+#[cfg(feature = "gpu")]
+fn try_run(args: CrosscheckArgs) -> Result<ExitCode> {
+    use reparam::crosscheck::run::{AdapterRows, CrosscheckReport};
+    use reparam_gpu::Gpu;
+
+    if args.list_adapters {
+        return list_adapters();
+    }
+    let Some(algorithm) = args.algorithm else {
+        return Err(Error::InvalidArgument(
+            "name an algorithm: reparam crosscheck <bpm|gridwarp|unwarp|maps|skinsimp|all> \
+             (or --list-adapters)"
+                .into(),
+        ));
+    };
+    let gpus: Vec<Gpu> = if args.all_adapters {
+        let all = Gpu::all_adapters();
+        if all.is_empty() {
+            return Err(Error::Gpu(reparam_gpu::GpuError::NoAdapter.to_string()));
+        }
+        let mut gpus = Vec::new();
+        for (description, gpu) in all {
+            match gpu {
+                Ok(g) => gpus.push(g),
+                Err(e) => eprintln!("adapter {} skipped: {e}", description.summary()),
+            }
+        }
+        gpus
+    } else {
+        vec![match &args.adapter {
+            Some(selector) => Gpu::with_adapter(selector),
+            None => Gpu::new(),
+        }
+        .map_err(|e| Error::Gpu(e.to_string()))?]
+    };
+    let common = algorithm.common();
+    let mut adapters = Vec::new();
+    for gpu in &gpus {
+        let rows = rows_for(gpu, &algorithm)?;
+        adapters.push(AdapterRows {
+            adapter: gpu.adapter_summary(),
+            rows,
+        });
+    }
+    let report = CrosscheckReport::new(adapters);
+    if common.sweep {
+        return Err(Error::InvalidArgument("--sweep: not built yet".into()));
+    }
+    if common.json {
+        super::print_json(&report)?;
+    } else {
+        print_report(&report)?;
+    }
+    for f in &report.failures {
+        eprintln!("over its bound: {f}");
+    }
+    Ok(ExitCode::from(report.exit_code))
+}
+
+impl Algorithm {
+    /// The flags every algorithm has.
+    pub fn common(&self) -> Common {
+        match self {
+            Algorithm::Bpm(a) => a.common.clone(),
+            Algorithm::Maps(a) => a.common.clone(),
+            Algorithm::Skinsimp(a) => a.common.clone(),
+            Algorithm::All(c) => c.clone(),
+            Algorithm::Gridwarp(a) => Common {
+                json: a.args.json,
+                sweep: a.sweep,
+                ..Default::default()
+            },
+            Algorithm::Unwarp(a) => Common {
+                json: a.args.json,
+                sweep: a.sweep,
+                ..Default::default()
+            },
+        }
     }
 }
 
 #[cfg(feature = "gpu")]
-fn bpm(args: CrosscheckBpmArgs) -> Result<()> {
-    use reparam::crosscheck::bpm::{crosscheck_bpm, crosscheck_table, UNIT};
-    let meshes = if args.mesh.is_empty() {
-        reparam::mesh::procedural::all_small()
-    } else {
-        args.mesh
-            .iter()
-            .map(|m| super::inputs::load_mesh(m))
-            .collect::<Result<Vec<_>>>()?
-    };
-    let gpu = reparam::bpm::gpu::context()?;
-    let results = meshes
-        .iter()
-        .map(|m| crosscheck_bpm(&gpu, m))
-        .collect::<Result<Vec<_>>>()?;
-    if args.json {
-        let rounded: Vec<_> = results
-            .iter()
-            .map(|r| {
-                let mut r = r.clone();
-                for s in [
-                    &mut r.eval_kernel,
-                    &mut r.linear_kernel,
-                    &mut r.local,
-                    &mut r.det,
-                ] {
-                    *s = s.rounded(3);
-                }
-                r
-            })
-            .collect();
-        return super::print_json(&rounded);
+fn list_adapters() -> Result<ExitCode> {
+    let adapters = reparam_gpu::list_adapters();
+    if adapters.is_empty() {
+        return Err(Error::Gpu(reparam_gpu::GpuError::NoAdapter.to_string()));
     }
-    println!("adapter: {}", gpu.adapter_summary());
-    println!("errors in {UNIT}; f32 GPU against f64 CPU from identical (f32-rounded) inputs");
-    let (header, rows) = crosscheck_table(&results);
+    let header = [
+        "index",
+        "name",
+        "backend",
+        "device type",
+        "driver",
+        "driver info",
+    ]
+    .map(String::from)
+    .to_vec();
+    let rows: Vec<Vec<String>> = adapters
+        .iter()
+        .map(|a| {
+            vec![
+                a.index.to_string(),
+                a.name.clone(),
+                a.backend.clone(),
+                a.device_type.clone(),
+                a.driver.clone(),
+                a.driver_info.clone(),
+            ]
+        })
+        .collect();
     println!("{}", super::text_table(&header, &rows));
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(feature = "gpu")]
+fn print_report(report: &reparam::crosscheck::run::CrosscheckReport) -> Result<()> {
+    use reparam::crosscheck::run::{side_by_side, text_table};
+    for (k, a) in report.adapters.iter().enumerate() {
+        println!("[{k}] adapter: {}", a.adapter);
+        println!("f32 GPU against f64 CPU from identical (f32-rounded) inputs; ε = u = 2⁻²⁴");
+        let (header, rows, notes) = text_table(&a.rows);
+        println!("{}", super::text_table(&header, &rows));
+        println!("{}\n", notes.join("\n"));
+    }
+    if report.adapters.len() > 1 {
+        let (header, rows) = side_by_side(&report.adapters)?;
+        println!("side by side (max error in each row's unit, worst error/bound):");
+        println!("{}", super::text_table(&header, &rows));
+    }
+    if report.failures.is_empty() {
+        println!("every kernel within its bound");
+    }
     Ok(())
 }
 
-#[cfg(not(feature = "gpu"))]
-fn bpm(_: CrosscheckBpmArgs) -> Result<()> {
-    Err(reparam::Error::Gpu(
-        "this build has no GPU support (feature `gpu` is off)".into(),
-    ))
+/// Every row of `algorithm` on `gpu`.
+#[cfg(feature = "gpu")]
+pub fn rows_for(
+    gpu: &reparam_gpu::Gpu,
+    algorithm: &Algorithm,
+) -> Result<Vec<reparam::crosscheck::Row>> {
+    match algorithm {
+        Algorithm::Bpm(a) => bpm_rows(gpu, a),
+        Algorithm::Gridwarp(a) => gridwarp_rows(gpu, &a.args),
+        Algorithm::Unwarp(a) => unwarp_rows(gpu, &a.args),
+        Algorithm::Maps(a) => maps_rows(gpu, a),
+        Algorithm::Skinsimp(a) => skinsimp_rows(gpu, a),
+        Algorithm::All(c) => {
+            let mut rows = bpm_rows(
+                gpu,
+                &BpmInput {
+                    mesh: Vec::new(),
+                    common: c.clone(),
+                },
+            )?;
+            rows.extend(gridwarp_rows(gpu, &GridwarpArgs::default())?);
+            rows.extend(unwarp_rows(gpu, &default_unwarp_args())?);
+            rows.extend(maps_rows(gpu, &default_maps_input())?);
+            rows.extend(skinsimp_rows(gpu, &default_skinsimp_input())?);
+            Ok(rows)
+        }
+    }
+}
+
+/// The built-in meshes of `crosscheck bpm` without `--mesh`.
+pub fn bpm_meshes(input: &BpmInput) -> Result<Vec<reparam::mesh::TriMesh>> {
+    if input.mesh.is_empty() {
+        return Ok(reparam::mesh::procedural::all_small());
+    }
+    input
+        .mesh
+        .iter()
+        .map(|m| super::inputs::load_mesh(m))
+        .collect()
+}
+
+#[cfg(feature = "gpu")]
+fn bpm_rows(gpu: &reparam_gpu::Gpu, input: &BpmInput) -> Result<Vec<reparam::crosscheck::Row>> {
+    use reparam::crosscheck::bpm::bpm_rows_with;
+    let texture = reparam::texture::checker(512, 16);
+    let mut rows = Vec::new();
+    for mesh in bpm_meshes(input)? {
+        if mesh.uvs.is_empty() {
+            return Err(Error::InvalidArgument(format!(
+                "{}: the mesh has no texture coordinates (`vt` lines); BPM interpolates UVs",
+                mesh.name
+            )));
+        }
+        rows.extend(bpm_rows_with(
+            gpu,
+            &mesh,
+            &texture,
+            input.common.perturb_gpu_input,
+        )?);
+    }
+    Ok(rows)
+}
+
+#[cfg(feature = "gpu")]
+fn gridwarp_rows(
+    gpu: &reparam_gpu::Gpu,
+    args: &GridwarpArgs,
+) -> Result<Vec<reparam::crosscheck::Row>> {
+    use reparam::crosscheck::gridwarp::crosscheck_gridwarp;
+    let options = super::gridwarp::solve_options(args);
+    let mut rows = Vec::new();
+    for w in super::gridwarp::warp_inputs(args)? {
+        rows.extend(crosscheck_gridwarp(
+            gpu,
+            &w.name,
+            &w.rest,
+            &w.rest_grid,
+            &w.frames,
+            &options,
+        )?);
+    }
+    Ok(rows)
+}
+
+/// `reparam unwarp`'s defaults with the built-in `cones` map at 32² (the tests' map).
+pub fn default_unwarp_args() -> UnwarpArgs {
+    UnwarpArgs {
+        input: None,
+        color: None,
+        procedural: Some("cones".into()),
+        size: 32,
+        scale: 0.08,
+        theta: 5.0,
+        h_fix: 0.0,
+        delta: 0.04,
+        pin: None,
+        border: "periodic".into(),
+        sweeps: 10,
+        tolerance: None,
+        levels: 1,
+        coarse_sweeps: 30,
+        coarse_moves: 0,
+        gpu: false,
+        out: PathBuf::from("out/unwarp"),
+        json: false,
+    }
+}
+
+#[cfg(feature = "gpu")]
+fn unwarp_rows(gpu: &reparam_gpu::Gpu, args: &UnwarpArgs) -> Result<Vec<reparam::crosscheck::Row>> {
+    let mut args = args.clone();
+    if args.input.is_none() && args.procedural.is_none() {
+        args.procedural = default_unwarp_args().procedural;
+    }
+    let heights = super::unwarp::heights(&args)?;
+    let options = super::unwarp::options(&args, &heights)?;
+    let name = match (&args.input, &args.procedural) {
+        (Some(p), _) => p.display().to_string(),
+        (None, Some(n)) => format!("{n} {}²", args.size),
+        _ => "height map".into(),
+    };
+    reparam::crosscheck::unwarp::crosscheck_unwarp(gpu, &name, &heights, &options)
+}
+
+/// The demo's torus (48 × 24).
+pub fn default_maps_input() -> MapsInput {
+    MapsInput {
+        mesh: None,
+        base_size: 0,
+        lambda: 0.5,
+        features: None,
+        common: Common::default(),
+    }
+}
+
+#[cfg(feature = "gpu")]
+fn maps_rows(gpu: &reparam_gpu::Gpu, input: &MapsInput) -> Result<Vec<reparam::crosscheck::Row>> {
+    use reparam::maps::{build, detect_features, load_features, FeatureOptions, MapsOptions};
+    let spec = input.mesh.as_deref().unwrap_or("procedural:torus");
+    let mut mesh = match spec.strip_prefix("procedural:") {
+        Some(_) => super::inputs::load_mesh(spec)?,
+        None => reparam::mesh::load_mesh(std::path::Path::new(spec))?,
+    };
+    mesh.uvs.clear();
+    mesh.uv_faces.clear();
+    let features = match input.features.as_deref() {
+        None => Default::default(),
+        Some("auto") => detect_features(&mesh, &FeatureOptions::default()),
+        Some(path) => load_features(std::path::Path::new(path))?,
+    };
+    let options = MapsOptions {
+        lambda: input.lambda,
+        base_size: input.base_size,
+        ..Default::default()
+    };
+    let maps = build(&mesh, &features, &options)?;
+    reparam::crosscheck::maps::crosscheck_maps(gpu, &mesh.name, &maps, &options)
+}
+
+/// The built-in skinned tube (12 × 12), 4 uniform poses per clip.
+pub fn default_skinsimp_input() -> SkinsimpInput {
+    SkinsimpInput {
+        model: None,
+        poses: "4".into(),
+        common: Common::default(),
+    }
+}
+
+#[cfg(feature = "gpu")]
+fn skinsimp_rows(
+    gpu: &reparam_gpu::Gpu,
+    input: &SkinsimpInput,
+) -> Result<Vec<reparam::crosscheck::Row>> {
+    use reparam::skinsimp::poses::{select_poses, skinned_input};
+    let model = match &input.model {
+        Some(path) => reparam::mesh::load_gltf(path)?,
+        None => reparam::skinsimp::tube::skinned_tube(12, 12),
+    };
+    let sets = select_poses(&model, &super::skinsimp::parse_poses(&input.poses)?)?;
+    let skinned = skinned_input(&model, &sets.training)?;
+    let name = match &input.model {
+        Some(p) => p.display().to_string(),
+        None => model.mesh.name.clone(),
+    };
+    reparam::crosscheck::skinsimp::crosscheck_skinsimp(gpu, &name, &skinned)
 }

@@ -261,7 +261,7 @@ fn starting_grid(args: &GridwarpArgs, rigidity: &Field) -> Result<Grid> {
     }
 }
 
-fn solve_options(args: &GridwarpArgs) -> SolveOptions {
+pub(super) fn solve_options(args: &GridwarpArgs) -> SolveOptions {
     SolveOptions {
         samples: (args.samples, args.samples),
         lm: if args.paper {
@@ -275,7 +275,7 @@ fn solve_options(args: &GridwarpArgs) -> SolveOptions {
     }
 }
 
-fn check_sizes(args: &GridwarpArgs) -> Result<()> {
+pub(super) fn check_sizes(args: &GridwarpArgs) -> Result<()> {
     if args.size < 2 || args.samples == 0 || args.frames == 0 {
         return Err(Error::InvalidArgument(
             "--size must be ≥ 2, --samples ≥ 1 and --frames ≥ 1".into(),
@@ -570,6 +570,59 @@ fn roi_rigidity(
         }
         None => rigidity_from_image(path, shared.then_some(roi), size),
     }
+}
+
+/// One axis-aligned warp problem: a ROI's (or a scene's) rest fields, starting grid and frames.
+pub struct WarpInput {
+    pub name: String,
+    pub rest: RestFields,
+    pub rest_grid: Grid,
+    pub frames: Vec<DeformedFields>,
+}
+
+/// The problems `args` describes, without solving them (what `crosscheck gridwarp` compares):
+/// the built-in scene, or per ROI of a mesh input the rasterised fields, its rigidity and the
+/// starting grid, exactly as `reparam gridwarp` builds them.
+pub fn warp_inputs(args: &GridwarpArgs) -> Result<Vec<WarpInput>> {
+    check_sizes(args)?;
+    if args.gltf.is_none() && args.obj.is_empty() {
+        let scene = analytic_scene(&args.scene, args.frames)
+            .ok_or_else(|| Error::InvalidArgument(format!("unknown scene '{}'", args.scene)))?;
+        let fields = scene.fields(args.size);
+        return Ok(vec![WarpInput {
+            name: args.scene.clone(),
+            rest_grid: starting_grid(args, &scene.rigidity)?,
+            rest: fields.rest,
+            frames: fields.frames,
+        }]);
+    }
+    let rois: Vec<Roi> = if args.roi.is_empty() {
+        vec![Roi::full()]
+    } else {
+        args.roi
+            .iter()
+            .map(|s| parse_roi(s))
+            .collect::<Result<_>>()?
+    };
+    check_disjoint(&rois)?;
+    let (rest_mesh, frame_meshes, stem, texture) = load_frames(args)?;
+    let size = (args.size, args.size);
+    let mut inputs = Vec::new();
+    for (k, roi) in rois.iter().enumerate() {
+        let fields = frames_fields(&rest_mesh, &frame_meshes, roi, size)?;
+        let rigidity = roi_rigidity(args, &rois, k, &rest_mesh, texture.as_ref())?;
+        inputs.push(WarpInput {
+            name: if rois.len() > 1 {
+                format!("{stem} roi{k}")
+            } else {
+                stem.clone()
+            },
+            rest_grid: starting_grid(args, &rigidity)?,
+            rest: fields.rest_fields(rigidity),
+            frames: fields.frames,
+        });
+    }
+    Ok(inputs)
 }
 
 /// gridwarp on real meshes: fields rasterised over each ROI in texture space, each ROI solved

@@ -40,9 +40,9 @@ enum Command {
     Skinsimp(skinsimp::SkinsimpArgs),
     /// MAPS: multiresolution parameterisation over a base domain, and remeshing (OBJ/PLY/OFF).
     Maps(maps::MapsArgs),
-    /// Compare a GPU f32 kernel with the f64 reference from identical inputs.
-    #[command(subcommand)]
-    Crosscheck(crosscheck::CrosscheckCommand),
+    /// Every GPU f32 kernel against the f64 reference from identical inputs: one row per
+    /// kernel with its derived bound and verdict (exit 1 if any exceeds it, 2 on bad input).
+    Crosscheck(crosscheck::CrosscheckArgs),
     /// Regenerate reference_data/: canonical meshes and golden f64 outputs.
     ReferenceData {
         /// Output folder.
@@ -56,7 +56,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Demo(args) => demo::run(args),
         Command::Bpm(cmd) => bpm::run(cmd),
-        Command::Crosscheck(cmd) => crosscheck::run(cmd),
+        Command::Crosscheck(args) => return crosscheck::run(args),
         Command::Gridwarp(args) => gridwarp::run(args),
         Command::Maps(args) => maps::run(args),
         Command::Unwarp(args) => unwarp::run(args),

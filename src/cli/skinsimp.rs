@@ -125,7 +125,7 @@ pub fn run(args: SkinsimpArgs) -> Result<()> {
 }
 
 /// `--poses` as a [`PoseSelection`].
-fn parse_poses(text: &str) -> Result<PoseSelection> {
+pub(super) fn parse_poses(text: &str) -> Result<PoseSelection> {
     if text == "clip:all" {
         return Ok(PoseSelection::Keyframes(None));
     }

@@ -103,7 +103,7 @@ pub struct UnwarpSummary {
     pub files: Vec<PathBuf>,
 }
 
-fn options(args: &UnwarpArgs, heights: &HeightMap) -> Result<UnwarpOptions> {
+pub(super) fn options(args: &UnwarpArgs, heights: &HeightMap) -> Result<UnwarpOptions> {
     let mut options = UnwarpOptions {
         scale: args.scale,
         theta: args.theta,
@@ -139,7 +139,7 @@ fn options(args: &UnwarpArgs, heights: &HeightMap) -> Result<UnwarpOptions> {
     Ok(options)
 }
 
-fn heights(args: &UnwarpArgs) -> Result<HeightMap> {
+pub(super) fn heights(args: &UnwarpArgs) -> Result<HeightMap> {
     match (&args.input, &args.procedural) {
         (Some(path), None) => load_height_map(path),
         (None, Some(name)) => procedural(name, args.size),

@@ -12,14 +12,17 @@ use rayon::prelude::*;
 use reparam_gpu::Gpu;
 use serde::Serialize;
 
-use super::{to_f32_precision, ErrorSummary};
+use super::run::{time_cpu, time_gpu_warm};
+use super::{to_f32_precision, Bounds, ErrorSummary, Row, Timing};
 use crate::bpm::gpu::{
     eval_gpu, maps_to_gpu, precompute_gpu, sample_as_gpu_sees_it, samples_to_gpu,
 };
+use crate::bpm::render::{render_cpu, RenderOptions};
 use crate::bpm::{face_samples, precompute, Bpm, BpmOptions, Fit, Interp, Sample};
 use crate::error::Result;
 use crate::mesh::TriMesh;
 use crate::report::sig;
+use reparam_gpu::bpm::GpuTriangleMaps;
 
 /// Errors are reported in texels of a texture this wide: |Δuv| × 4096.
 pub const TEXTURE_SIZE: f64 = 4096.0;
@@ -44,6 +47,17 @@ pub fn eval_kernel_tolerance(uv_max: f64) -> f64 {
 /// Target of the whole local-fit GPU pipeline (issue #2): max ≤ 0.1 texel (p99 ≤ 0.01 texel is
 /// checked by the tests on the summary).
 pub const LOCAL_PIPELINE_MAX: f64 = 0.1;
+
+/// `bpm_render` against `render_cpu` on the same mesh and maps: at most this fraction of the
+/// pixels may differ by more than 1/255 in a channel. Inside triangles the UVs agree to ≈ 1e-3
+/// texel (the eval bound above), so colours agree to the last unit after bilinear filtering and
+/// rounding; pixels differ only where the two rasterisers disagree on coverage (a pixel centre
+/// within f32 rounding of an edge between faces or of the silhouette): a few per thousand.
+pub const RENDER_MAX_FRACTION_OFF: f64 = 0.005;
+/// … and the PSNR of the whole picture must exceed this (the coverage differences above, each
+/// at most a full colour step, in 0.5 % of the pixels give ≥ 10 log₁₀(1/0.005) ≈ 23 dB at worst;
+/// pixels at an edge between faces of one chart differ far less, measured ≥ 45 dB).
+pub const RENDER_MIN_PSNR_DB: f64 = 40.0;
 
 /// Threshold of a visible error: one texel. The determinant pipeline's summary uses it as its
 /// tolerance, so its `over_tolerance` is the number of speckled samples.
@@ -185,4 +199,169 @@ pub fn crosscheck_table(results: &[BpmCrosscheck]) -> (Vec<String>, Vec<Vec<Stri
         }
     }
     (header.iter().map(|s| s.to_string()).collect(), rows)
+}
+
+/// The rows of `reparam crosscheck bpm` for one mesh: the eval kernel alone (BPM and linear),
+/// the precompute kernel with each fit followed by the eval kernel, and the render pipeline
+/// against the CPU renderer (`texture` on `mesh`'s UVs).
+pub fn bpm_rows(
+    gpu: &Gpu,
+    mesh: &TriMesh,
+    texture: &crate::texture::Image<[u8; 4]>,
+) -> Result<Vec<Row>> {
+    bpm_rows_with(gpu, mesh, texture, false)
+}
+
+/// [`bpm_rows`], with `perturb` (tests of the harness itself): the eval kernel is fed the
+/// reference's maps with every coefficient × (1 + 1e-3), an input error far above the f32
+/// roundoff the bound allows, so its rows must fail.
+pub fn bpm_rows_with(
+    gpu: &Gpu,
+    mesh: &TriMesh,
+    texture: &crate::texture::Image<[u8; 4]>,
+    perturb: bool,
+) -> Result<Vec<Row>> {
+    let algorithm = "bpm";
+    let name = mesh.name.clone();
+    let mesh = round_mesh_to_f32(mesh);
+    let (reference, precompute_cpu) = time_cpu(|| precompute(&mesh, BpmOptions::default()));
+    let reference = reference?;
+    let samples = crosscheck_samples(mesh.face_count());
+    let gpu_samples = samples_to_gpu(&samples);
+    let (cpu_bpm, eval_cpu) = time_cpu(|| reference.eval_many(&samples, Interp::Bpm));
+    let cpu_linear = reference.eval_many(&samples, Interp::Linear);
+    let uv_max = mesh.uvs.iter().map(|t| t.coords.norm()).fold(0.0, f64::max);
+    let tol = eval_kernel_tolerance(uv_max);
+    let eval_formula = "122 u · max(max|uv|, 1) · 4096 (≈ 60 dependent operations)";
+    let compare = |kernel: &str, cpu: &[C], gpu: &[C], bounds: Bounds, formula: &str| {
+        let (errors, magnitudes) = texel_errors(cpu, gpu);
+        Row::compare(
+            algorithm,
+            kernel,
+            &name,
+            UNIT,
+            &errors,
+            &magnitudes,
+            bounds,
+            formula,
+        )
+    };
+    let mut rounded = maps_to_gpu(&reference);
+    if perturb {
+        perturb_maps(&mut rounded);
+    }
+    let (gpu_bpm, eval_gpu_t) =
+        time_gpu_warm(gpu, || eval_gpu(gpu, &rounded, &gpu_samples, Interp::Bpm))?;
+    let gpu_linear = eval_gpu(gpu, &rounded, &gpu_samples, Interp::Linear)?;
+    let mut rows = vec![
+        compare(
+            "bpm_eval: BPM uv",
+            &cpu_bpm,
+            &gpu_bpm,
+            Bounds::Uniform(tol),
+            eval_formula,
+        )
+        .with_note(&format!(
+            "{} faces, {} samples",
+            mesh.face_count(),
+            samples.len()
+        ))
+        .with_timing(Timing {
+            cpu_ms: Some(eval_cpu),
+            ..eval_gpu_t
+        }),
+        compare(
+            "bpm_eval: linear uv",
+            &cpu_linear,
+            &gpu_linear,
+            Bounds::Uniform(tol),
+            eval_formula,
+        ),
+    ];
+    for fit in [Fit::Local, Fit::Determinant] {
+        let (maps, t) = time_gpu_warm(gpu, || precompute_gpu(gpu, &mesh, fit))?;
+        let uv = eval_gpu(gpu, &maps, &gpu_samples, Interp::Bpm)?;
+        let timing = Timing {
+            cpu_ms: Some(precompute_cpu),
+            ..t
+        };
+        rows.push(match fit {
+            Fit::Local => compare(
+                "bpm_precompute (local fit) → bpm_eval: uv",
+                &cpu_bpm,
+                &uv,
+                Bounds::Uniform(LOCAL_PIPELINE_MAX),
+                "0.1 texel (issue #2 target; measured p99 ≤ 0.01)",
+            )
+            .with_timing(timing),
+            Fit::Determinant => {
+                let (errors, _) = texel_errors(&cpu_bpm, &uv);
+                let speckled = ErrorSummary::fraction_over(&errors, SPECKLE_THRESHOLD);
+                compare(
+                    "bpm_precompute (determinant fit) → bpm_eval: uv",
+                    &cpu_bpm,
+                    &uv,
+                    Bounds::Uniform(SPECKLE_THRESHOLD),
+                    "1 texel (a visible speckle)",
+                )
+                .informative(&format!(
+                    "the seed's determinant fit, shown for comparison: {}% of samples off by > 1 texel",
+                    sig(100.0 * speckled, 2)
+                ))
+                .with_timing(timing)
+            }
+        });
+    }
+    rows.push(render_row(gpu, &mesh, &reference, texture, &name)?);
+    Ok(rows)
+}
+
+/// `bpm_render` against `render_cpu` at 256 × 256 (BPM interpolation, the default view).
+fn render_row(
+    gpu: &Gpu,
+    mesh: &TriMesh,
+    reference: &Bpm,
+    texture: &crate::texture::Image<[u8; 4]>,
+    name: &str,
+) -> Result<Row> {
+    let options = RenderOptions {
+        width: 256,
+        height: 256,
+        ..Default::default()
+    };
+    let (cpu, cpu_ms) = time_cpu(|| render_cpu(mesh, reference, texture, &options));
+    let (picture, t) = time_gpu_warm(gpu, || {
+        crate::bpm::gpu::render_gpu(gpu, mesh, reference.options.fit, texture, &options)
+    })?;
+    let d = crate::raster::image_diff(&cpu, &picture)?;
+    let mut row = Row::compare(
+        "bpm",
+        "bpm_render: pixels off by > 1/255",
+        name,
+        "fraction of pixels",
+        &[d.fraction_over_1_of_255],
+        &[],
+        Bounds::Uniform(RENDER_MAX_FRACTION_OFF),
+        "0.5 % of the pixels (coverage at edges), and PSNR > 40 dB",
+    )
+    .with_note(&format!("PSNR {} dB, 256 × 256", sig(d.psnr_db, 3)))
+    .with_timing(Timing {
+        cpu_ms: Some(cpu_ms),
+        ..t
+    });
+    if !(d.psnr_db > RENDER_MIN_PSNR_DB) {
+        row.over += 1;
+        row.verdict = super::Verdict::Fail;
+    }
+    Ok(row)
+}
+
+/// The UV coefficients of `maps` × (1 + 1e-3) (see [`bpm_rows_with`]): uv_i, uv_j, uv_k and
+/// w_origin, ≈ 1e-3 of the UVs' size, ≈ 4 texels, a hundred times the eval bound.
+fn perturb_maps(maps: &mut [GpuTriangleMaps]) {
+    for m in maps {
+        for v in m.uv_ij.iter_mut().chain(m.uv_k_origin.iter_mut()) {
+            *v *= 1.0 + 1e-3;
+        }
+    }
 }

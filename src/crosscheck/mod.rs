@@ -110,3 +110,17 @@ pub fn to_f32_precision(x: f64) -> f64 {
 
 #[cfg(feature = "gpu")]
 pub mod bpm;
+
+pub mod row;
+pub use row::{Bounds, Row, Timing, Verdict};
+
+#[cfg(feature = "gpu")]
+pub mod gridwarp;
+#[cfg(feature = "gpu")]
+pub mod maps;
+#[cfg(feature = "gpu")]
+pub mod run;
+#[cfg(feature = "gpu")]
+pub mod skinsimp;
+#[cfg(feature = "gpu")]
+pub mod unwarp;

@@ -69,7 +69,7 @@ pub fn run_windowed(
     let (staging, submission) = gpu.checked(|| {
         let colour = target_texture(gpu, input, COLOUR_FORMAT, wgpu::TextureUsages::COPY_SRC);
         let depth = target_texture(gpu, input, DEPTH_FORMAT, wgpu::TextureUsages::empty());
-        let pipeline = render_pipeline(gpu);
+        let pipeline = gpu.cached("bpm_render pipeline", || Ok(render_pipeline(gpu)))?;
         let windows = bind_groups(gpu, &pipeline, input, faces_per_window.max(1))?;
         let mut encoder = gpu.encoder("bpm_render");
         draw(
@@ -81,7 +81,7 @@ pub fn run_windowed(
             input.background,
         );
         let staging = copy_to_staging(gpu, &mut encoder, &colour, input);
-        Ok((staging, gpu.queue.submit([encoder.finish()])))
+        Ok((staging, gpu.submit(encoder.finish())))
     })?;
     let bytes = gpu.map_staging(&staging, submission)?;
     Ok(strip_row_padding(
@@ -195,7 +195,8 @@ fn uv_sampler(gpu: &Gpu) -> wgpu::Sampler {
 }
 
 /// Vertex pulling from the corner buffer, `eval` + texture in the fragment shader, z-buffer
-/// with `Less`, no culling, no blending; bind group layout inferred from the shader.
+/// with `Less`, no culling, no blending; bind group layout inferred from the shader. Made once
+/// per context ([`Gpu::cached`]).
 fn render_pipeline(gpu: &Gpu) -> wgpu::RenderPipeline {
     let module = gpu
         .device

@@ -1,0 +1,522 @@
+//! skinsimp cross-check: the f32 kernels `skinsimp_lbs` (posed positions of V vertices in P
+//! poses), `skinsimp_quadrics` (per-pose source and vertex quadrics) and
+//! `skinsimp_collapse_cost` (the optimal position given the weights, and its cost) against the
+//! f64 reference ([`crate::skinsimp::gpu::crosscheck`], on the unit-box normalised model).
+//!
+//! Every element is held to a first-order f32 bound derived here: skinning per coordinate
+//! ([`lbs_bound`]), quadrics per entry ([`source_bound`], [`quadric_checks`]), the edge
+//! quadric, position and cost of every candidate ([`cost_checks`]); positions and costs also to
+//! the notes' tolerances where f32 is expected to meet them. `tests/gpu_skinsimp.rs` uses the
+//! same functions.
+
+use nalgebra::{Matrix4, Point3, Vector3};
+use reparam_gpu::skinsimp::{EdgeItem, PlaneSource, SOURCE_FACE};
+use reparam_gpu::Gpu;
+
+use super::run::{time_cpu, time_gpu_warm};
+use super::{Bounds, Row, Timing};
+use crate::error::{Error, Result};
+use crate::skinsimp::gpu::{
+    crosscheck, edge_cost_position, edge_cost_quadric, plane_quadrics_f64,
+    position_given_weights_f64, skin_f64, vertex_quadrics_f64, CrossCheckData, SkinsimpKernels,
+    COST_ABSOLUTE, COST_RELATIVE, POSITION_TOLERANCE, QUADRIC_TOLERANCE, SKIP_CONDITION,
+};
+use crate::skinsimp::{Deformation, Input, Options};
+
+/// f32 unit roundoff u = 2⁻²⁴.
+pub const U32: f64 = f32::EPSILON as f64 / 2.0;
+
+/// Per vertex i, pose j and coordinate r, the bound on |Δp_r| of f32 skinning:
+/// (M_k h)_r is a 4-term dot product, ≤ 4u Σ_c |M_rc h_c| (also with fused multiply-adds);
+/// scaling by w_k and summing K terms adds ≤ K u Σ_k w_k |(M_k h)_r|, so
+/// |Δp_r| ≤ (4 + K) u Σ_k w_k Σ_c |M_k,rc h_c| to first order (the reference on the same f32
+/// inputs is exact to 1e-16), times 1 + 1e-6 for the second-order terms. In the order of
+/// `data.posed_ref` (vertex-major, then pose), three coordinates each.
+pub fn lbs_bound(data: &CrossCheckData) -> Result<Vec<f64>> {
+    let Deformation::Skinned { influences, joints } = &data.input.deformation else {
+        return Err(Error::InvalidArgument(
+            "skinning bounds need a skinned input".into(),
+        ));
+    };
+    let p = joints.len();
+    let mut bounds = Vec::with_capacity(data.posed_ref.len() * 3);
+    for x in 0..data.posed_ref.len() {
+        let (i, j) = (x / p, x % p);
+        let h = data.input.mesh.positions[i].to_homogeneous();
+        let list = &influences[i];
+        let k = list.len() as f64;
+        for row in 0..3 {
+            let size: f64 = list
+                .iter()
+                .map(|&(joint, w)| {
+                    let m: &Matrix4<f64> = &joints[j][joint as usize];
+                    w * (0..4).map(|c| (m[(row, c)] * h[c]).abs()).sum::<f64>()
+                })
+                .sum();
+            bounds.push((4.0 + k) * U32 * size * (1.0 + 1e-6));
+        }
+    }
+    Ok(bounds)
+}
+
+/// The per-coordinate skinning errors in the order of [`lbs_bound`].
+pub fn lbs_errors(data: &CrossCheckData) -> Vec<f64> {
+    data.posed_ref
+        .iter()
+        .zip(&data.posed_gpu)
+        .flat_map(|(r, g)| (0..3).map(move |c| (r[c] - g[c]).abs()))
+        .collect()
+}
+
+/// Absolute error bound of each entry of a source quadric `w q qᵀ` computed in f32 from the
+/// same f32 corners (first order; entries in the order (r, c ≥ r) of the upper triangle):
+///
+/// - face: edges round once, each cross-product component is a 2-product difference: |Δc| ≤
+///   4√3 u |e1||e2|; normalising gives n and the area with errors ≤ δ = 4√3 κ u + 3u,
+///   κ = |e1||e2| / |e1 × e2|; d = −n·p0 adds (δ + 3u)|p0|₁;
+/// - constraint of edge e in a face of normal n_f (error δ_f as above): m = e × n_f has
+///   |m| = |e| (e ⊥ n_f) and |Δm| ≤ |e| (√3 δ_f + 4√3 u), so the plane normal errs by
+///   δ_c = √3 δ_f + 4√3 u + 3u, d by (δ_c + 3u)|p0|₁, the weight W|e|² by 5u;
+/// - an entry `w q_r q_c` (2 products) then errs by ≤ w (Δq_r |q_c| + |q_r| Δq_c +
+///   |q_r q_c| (δ_w + 2u)), with q the reference's plane.
+pub fn source_bound(s: &PlaneSource, corners: [Point3<f64>; 3], weight: f64) -> [f64; 10] {
+    let e1 = corners[1] - corners[0];
+    let e2 = corners[2] - corners[0];
+    let cross = e1.cross(&e2);
+    let twice = cross.norm();
+    let mut out = [0.0; 10];
+    if twice == 0.0 {
+        return out;
+    }
+    let kappa = e1.norm() * e2.norm() / twice;
+    let delta_face = (4.0 * 3f64.sqrt() * kappa + 3.0) * U32;
+    let n_face = cross / twice;
+    let (n, p0, w, dn, dw) = if s.kind == SOURCE_FACE {
+        (n_face, corners[0], 0.5 * twice, delta_face, delta_face)
+    } else {
+        let [i, k] = crate::mesh::EDGE_CORNERS[s.kind as usize];
+        let e = corners[k] - corners[i];
+        let m = e.cross(&n_face);
+        if m.norm() == 0.0 {
+            return out;
+        }
+        let dc = 3f64.sqrt() * delta_face + (4.0 * 3f64.sqrt() + 3.0) * U32;
+        (
+            m / m.norm(),
+            corners[i],
+            weight * e.norm_squared(),
+            dc,
+            5.0 * U32,
+        )
+    };
+    let p0_1 = p0.coords.abs().sum();
+    let q = [n.x, n.y, n.z, -n.dot(&p0.coords)];
+    let dq = [dn, dn, dn, (dn + 3.0 * U32) * p0_1];
+    let mut k = 0;
+    for r in 0..4 {
+        for c in r..4 {
+            out[k] = w
+                * (dq[r] * q[c].abs()
+                    + q[r].abs() * dq[c]
+                    + (q[r] * q[c]).abs() * (dw + 2.0 * U32));
+            k += 1;
+        }
+    }
+    out
+}
+
+/// One compared element: where it is, its error and its bound (1e-6 relative slack for the
+/// neglected second-order terms included).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Checked {
+    /// What the element is, for messages: e.g. `vertex 3 pose 1 entry 4`.
+    pub what: String,
+    pub error: f64,
+    pub bound: f64,
+}
+
+impl Checked {
+    fn new(what: String, error: f64, bound: f64) -> Checked {
+        Checked {
+            what,
+            error,
+            bound: bound * (1.0 + 1e-6),
+        }
+    }
+
+    /// `!(error ≤ bound)` (a NaN is over).
+    pub fn is_over(&self) -> bool {
+        !(self.error <= self.bound)
+    }
+
+    /// error / bound (0 for an exact element).
+    pub fn ratio(&self) -> f64 {
+        if self.error == 0.0 {
+            0.0
+        } else {
+            self.error / self.bound
+        }
+    }
+}
+
+/// Every entry of every source quadric ([`source_bound`]) and of every vertex quadric: a vertex
+/// sum of n sources in f32 errs by Σ of the sources' bounds plus the summation's
+/// (n − 1) u Σ|K_s| (recursive summation from zero).
+pub fn quadric_checks(data: &CrossCheckData) -> (Vec<Checked>, Vec<Checked>) {
+    let s = &data.sources;
+    let p = s.pose_count as usize;
+    let weight = s.boundary_weight as f64;
+    let mut bounds: Vec<[f64; 10]> = Vec::with_capacity(s.sources.len() * p);
+    let mut plane = Vec::new();
+    for (x, (r, g)) in data.plane_ref.iter().zip(&data.plane_gpu).enumerate() {
+        let (src, j) = (s.sources[x / p], x % p);
+        let corners = src.corners.map(|c| data.posed_rounded[c as usize * p + j]);
+        let b = source_bound(&src, corners, weight);
+        for (k, bk) in b.iter().enumerate() {
+            plane.push(Checked::new(
+                format!("source {} pose {j} entry {k}", x / p),
+                (r.0[k] - g.0[k]).abs(),
+                *bk,
+            ));
+        }
+        bounds.push(b);
+    }
+    let mut vertex = Vec::new();
+    for (x, (r, g)) in data.vertex_ref.iter().zip(&data.vertex_gpu).enumerate() {
+        let (i, j) = (x / p, x % p);
+        let list =
+            &s.vertex_sources[s.vertex_offsets[i] as usize..s.vertex_offsets[i + 1] as usize];
+        let n = list.len() as f64;
+        for (k, (rk, gk)) in r.0.iter().zip(&g.0).enumerate() {
+            let terms: f64 = list
+                .iter()
+                .map(|&src| data.plane_ref[src as usize * p + j].0[k].abs())
+                .sum();
+            let own: f64 = list
+                .iter()
+                .map(|&src| bounds[src as usize * p + j][k])
+                .sum();
+            vertex.push(Checked::new(
+                format!("vertex {i} pose {j} entry {k}"),
+                (rk - gk).abs(),
+                own + (n - 1.0).max(0.0) * U32 * terms,
+            ));
+        }
+    }
+    (plane, vertex)
+}
+
+/// `Σ_k α_k |M_k^j|` with the last row `(0, 0, 0, Σα)`: the magnitude of `A^j`.
+fn abs_blend(mats: &[Matrix4<f64>], item: &EdgeItem) -> Matrix4<f64> {
+    let mut a = Matrix4::zeros();
+    for k in 0..item.candidates as usize {
+        a += mats[item.joints[k] as usize].abs() * item.alpha[k] as f64;
+    }
+    a
+}
+
+/// What [`cost_checks`] found.
+#[derive(Debug, Default)]
+pub struct CostChecks {
+    /// Entries of Q̃ (step 1).
+    pub quadric: Vec<Checked>,
+    /// Candidates where the GPU kept another point: the reference's values at the two points
+    /// against twice the value error bound (a near tie).
+    pub ties: Vec<Checked>,
+    /// Positions and costs where both kept the same point (steps 2 and 3).
+    pub positions: Vec<Checked>,
+    pub costs: Vec<Checked>,
+    pub skipped: usize,
+    /// Candidates where the notes' tolerance is expected to hold, and how many exceed it.
+    pub expected_positions: usize,
+    pub over_notes_positions: usize,
+    pub expected_costs: usize,
+    pub over_notes_costs: usize,
+    /// Candidates beyond the notes' tolerance where it was not expected to hold.
+    pub unexpected_positions_over: usize,
+    pub unexpected_costs_over: usize,
+}
+
+/// Per compared candidate (cond_F(B) ≤ [`SKIP_CONDITION`], B = Q̃[0:3,0:3], b = Q̃[0:3,3]),
+/// first-order bounds with T^j = |Q_a^j| + |Q_b^j| (entrywise) and Ā^j = Σ α_k |M_k^j|:
+///
+/// 1. Q̃ entries: Q_a + Q_b rounds once; an entry of A^j is a K-term sum (≤ (K + 1) u, K ≤ 8);
+///    (AᵀQA)_rc is two 4-term dot products deep (≤ 8u); P poses add ≤ P u. So
+///    |ΔQ̃| ≤ η_Q Σ_j Ā^{jT} T^j Ā^j, η_Q = (1 + 2·9 + 8 + P) u, rounded up to (30 + P) u.
+/// 2. The solve: perturbing B, b by ΔB, Δb moves v by ≤ ‖B⁻¹‖_F (‖ΔB‖_F |v| + |Δb|). The
+///    adjugate solve itself (cofactors c_j × c_k: 3 roundings each; det = c0·(c1 × c2): 5 more;
+///    the quotient: 2) adds ≤ u (12 ‖B‖_F² |b| + 10 ‖B‖_F³ |v|) / |det B|.
+/// 3. The cost at the GPU's own position ṽ: E is quadratic in v with zero gradient at the
+///    reference's v, so E(ṽ) − E(v) = Δvᵀ B Δv ≤ ‖B‖_F |Δv|²; evaluating E in f32 adds
+///    ≤ η_E Σ_j (Ā^j |v̂|)ᵀ T^j (Ā^j |v̂|), η_E = (1 + 9 + 4 + 4 + 4 + P) u, rounded up to
+///    (25 + P) u (A^j, A^j v̂, Q p, p·Qp, the pose sum).
+///
+/// The notes' tolerances ([`POSITION_TOLERANCE`], max(1e-4|E|, 1e-7)) must hold where the
+/// expected error, bound/√k (k = 30 + P or 25 + P roundings adding up like √k u), is below
+/// them; elsewhere exceedances are counted only.
+pub fn cost_checks(data: &CrossCheckData) -> Result<CostChecks> {
+    let cd = &data.cost_data;
+    let p = cd.mats.len();
+    let items = cd.edge_items(&data.candidates)?;
+    let eta_q = (30.0 + p as f64) * U32;
+    let eta_e = (25.0 + p as f64) * U32;
+    let mut out = CostChecks::default();
+    for ((c, item), (r, g)) in data
+        .candidates
+        .iter()
+        .zip(&items)
+        .zip(data.costs_ref.iter().zip(&data.costs_gpu))
+    {
+        if !(r.condition <= SKIP_CONDITION) {
+            out.skipped += 1;
+            continue;
+        }
+        let (a, b) = (c.a as usize, c.b as usize);
+        let what = format!("edge ({a}, {b}) endpoint {}", c.endpoint);
+        let mut t_q = Matrix4::zeros();
+        let mut t_mats = Vec::with_capacity(p);
+        for j in 0..p {
+            let t = cd.vertex_quadrics[a * p + j].matrix().abs()
+                + cd.vertex_quadrics[b * p + j].matrix().abs();
+            let abar = abs_blend(&cd.mats[j], item);
+            t_q += abar.transpose() * t * abar;
+            t_mats.push((abar, t));
+        }
+        let q_gpu = edge_cost_quadric(g);
+        for rr in 0..4 {
+            for cc in rr..4 {
+                out.quadric.push(Checked::new(
+                    format!("{what} Q̃[{rr},{cc}]"),
+                    (r.quadric[(rr, cc)] - q_gpu[(rr, cc)]).abs(),
+                    eta_q * t_q[(rr, cc)],
+                ));
+            }
+        }
+        let v_gpu = edge_cost_position(g);
+        if r.choice != g.choice {
+            let value = |v: &Point3<f64>| {
+                let h = v.to_homogeneous();
+                h.dot(&(r.quadric * h))
+            };
+            let size = |v: &Point3<f64>| {
+                let h = v.to_homogeneous().abs();
+                h.dot(&(t_q * h))
+            };
+            out.ties.push(Checked::new(
+                format!("{what}: choice {} vs {}", r.choice, g.choice),
+                (value(&r.position) - value(&v_gpu)).abs(),
+                2.0 * eta_e * size(&r.position).max(size(&v_gpu)),
+            ));
+            continue;
+        }
+        let bm = r.quadric.fixed_view::<3, 3>(0, 0).into_owned();
+        let bv = Vector3::new(r.quadric[(0, 3)], r.quadric[(1, 3)], r.quadric[(2, 3)]);
+        let tb = t_q.fixed_view::<3, 3>(0, 0).into_owned();
+        let tbv = Vector3::new(t_q[(0, 3)], t_q[(1, 3)], t_q[(2, 3)]);
+        let v = r.position.coords.norm();
+        // Exact for a fallback point (solution choice ≠ 0), which is an input.
+        let position_bound = match (r.choice, bm.try_inverse()) {
+            (0, Some(inv)) => {
+                let perturbation = inv.norm() * eta_q * (tb.norm() * v + tbv.norm());
+                let solve = U32
+                    * (12.0 * bm.norm_squared() * bv.norm() + 10.0 * bm.norm().powi(3) * v)
+                    / bm.determinant().abs();
+                perturbation + solve
+            }
+            (0, None) => f64::INFINITY,
+            _ => 0.0,
+        };
+        let position_error = (r.position - v_gpu).norm();
+        out.positions.push(Checked::new(
+            format!("{what} (cond {:.1e})", r.condition),
+            position_error,
+            position_bound,
+        ));
+        let h = r.position.to_homogeneous().abs();
+        let terms: f64 = t_mats
+            .iter()
+            .map(|(abar, t)| {
+                let ph = abar * h;
+                ph.dot(&(t * ph))
+            })
+            .sum();
+        let position_bound = position_bound * (1.0 + 1e-6);
+        let cost_bound = eta_e * terms + bm.norm() * position_bound * position_bound;
+        let cost_error = (r.cost - g.cost as f64).abs();
+        out.costs.push(Checked::new(what, cost_error, cost_bound));
+        let notes_cost = (COST_RELATIVE * r.cost.abs()).max(COST_ABSOLUTE);
+        if position_bound / (30.0 + p as f64).sqrt() <= POSITION_TOLERANCE {
+            out.expected_positions += 1;
+            out.over_notes_positions += usize::from(position_error > POSITION_TOLERANCE);
+        } else {
+            out.unexpected_positions_over += usize::from(position_error > POSITION_TOLERANCE);
+        }
+        if cost_bound / (25.0 + p as f64).sqrt() <= notes_cost {
+            out.expected_costs += 1;
+            out.over_notes_costs += usize::from(cost_error > notes_cost);
+        } else {
+            out.unexpected_costs_over += usize::from(cost_error > notes_cost);
+        }
+    }
+    Ok(out)
+}
+
+/// A row of per-element checks, errors relative to `scale(n)` when given.
+fn checked_row(kernel: &str, input: &str, unit: &str, checks: &[Checked], formula: &str) -> Row {
+    let errors: Vec<f64> = checks.iter().map(|c| c.error).collect();
+    let bounds: Vec<f64> = checks.iter().map(|c| c.bound).collect();
+    Row::compare(
+        "skinsimp",
+        kernel,
+        input,
+        unit,
+        &errors,
+        &[],
+        Bounds::PerElement(bounds),
+        formula,
+    )
+}
+
+/// The full skinsimp table for one skinned input.
+pub fn crosscheck_skinsimp(gpu: &Gpu, input_name: &str, input: &Input) -> Result<Vec<Row>> {
+    let options = Options::default();
+    let kernels = SkinsimpKernels::new(gpu.clone())?;
+    let (summary, data) = crosscheck(
+        &kernels,
+        input,
+        options.boundary_weight,
+        options.cost.max_condition,
+    )?;
+    // Each side's time alone, on the cross-check's own inputs.
+    let (_, lbs_gpu) = time_gpu_warm(gpu, || kernels.skin(&data.input))?;
+    let (_, lbs_cpu) = time_cpu(|| skin_f64(&data.input));
+    let (_, quadrics_gpu) =
+        time_gpu_warm(gpu, || kernels.quadrics(&data.sources, &data.posed_rounded))?;
+    let (_, quadrics_cpu) = time_cpu(|| {
+        let weight = data.sources.boundary_weight as f64;
+        let plane = plane_quadrics_f64(&data.posed_rounded, &data.sources, weight);
+        vertex_quadrics_f64(&plane, &data.sources)
+    });
+    let (_, costs_gpu) = time_gpu_warm(gpu, || {
+        kernels.costs(
+            &data.cost_data,
+            &data.candidates,
+            options.cost.max_condition,
+        )
+    })?;
+    let (_, costs_cpu) = time_cpu(|| {
+        use rayon::prelude::*;
+        data.candidates
+            .par_iter()
+            .map(|c| position_given_weights_f64(&data.cost_data, c, options.cost.max_condition))
+            .collect::<Vec<_>>()
+    });
+
+    let algorithm = "skinsimp";
+    let sizes: Vec<f64> = data
+        .posed_ref
+        .iter()
+        .flat_map(|p| (0..3).map(move |c| p[c].abs()))
+        .collect();
+    let lbs = Row::compare(
+        algorithm,
+        "skinsimp_lbs: posed positions",
+        input_name,
+        "unit box (per coordinate)",
+        &lbs_errors(&data),
+        &sizes,
+        Bounds::PerElement(lbs_bound(&data)?),
+        "(4 + K) u Σ_k w_k Σ_c |M_k,rc h_c| per coordinate (K influences)",
+    )
+    .with_note(&format!(
+        "{} vertices × {} poses",
+        summary.vertices, summary.poses
+    ))
+    .with_timing(Timing {
+        cpu_ms: Some(lbs_cpu),
+        ..lbs_gpu
+    });
+    let (plane_checks, vertex_checks) = quadric_checks(&data);
+    let plane = checked_row(
+        "skinsimp_quadrics: source quadrics w q qᵀ",
+        input_name,
+        "unit box² (entries)",
+        &plane_checks,
+        "per entry: w(Δq_r|q_c| + |q_r|Δq_c + |q_r q_c|(δ_w + 2u)), δ = 4√3κu + 3u (source_bound)",
+    )
+    .with_note(&format!(
+        "{} sources × {} poses; relative to the largest entry: max {}, within the notes' {QUADRIC_TOLERANCE:e}: {}",
+        data.sources.sources.len(),
+        summary.poses,
+        crate::report::sig(summary.plane_quadrics.max_abs, 2),
+        summary.plane_quadrics.over_tolerance == 0
+    ))
+    .with_timing(Timing {
+        cpu_ms: Some(quadrics_cpu),
+        ..quadrics_gpu
+    });
+    let vertex = checked_row(
+        "skinsimp_quadrics: vertex quadrics Σ Q",
+        input_name,
+        "unit box² (entries)",
+        &vertex_checks,
+        "per entry: Σ_s source_bound + (n − 1) u Σ_s |K_s| (n sources)",
+    );
+    let checks = cost_checks(&data)?;
+    let quadric_q = checked_row(
+        "skinsimp_collapse_cost: edge quadric Q̃",
+        input_name,
+        "unit box² (entries)",
+        &checks.quadric,
+        "(30 + P) u Σ_j Ā^jᵀ T^j Ā^j per entry",
+    )
+    .with_note(&format!(
+        "{} candidates, {} with cond > {SKIP_CONDITION:e} skipped",
+        summary.candidates, checks.skipped
+    ))
+    .with_timing(Timing {
+        cpu_ms: Some(costs_cpu),
+        ..costs_gpu
+    });
+    let ties = checked_row(
+        "skinsimp_collapse_cost: near ties (other point kept)",
+        input_name,
+        "unit box² (value)",
+        &checks.ties,
+        "|E(v_ref) − E(v_gpu)| ≤ 2 (25 + P) u |v̂|ᵀ T |v̂|",
+    );
+    let positions = checked_row(
+        "skinsimp_collapse_cost: position v̂",
+        input_name,
+        "unit box",
+        &checks.positions,
+        "‖B⁻¹‖(η_Q(‖T_B‖|v| + |T_b|)) + u(12‖B‖²|b| + 10‖B‖³|v|)/|det B|",
+    )
+    .with_note(&format!(
+        "notes' 1e-5 expected for {} (over: {}), exceeded elsewhere by {}",
+        checks.expected_positions, checks.over_notes_positions, checks.unexpected_positions_over
+    ));
+    let costs = checked_row(
+        "skinsimp_collapse_cost: cost v̂ᵀQv̂",
+        input_name,
+        "unit box²",
+        &checks.costs,
+        "(25 + P) u Σ_j (Ā^j|v̂|)ᵀT^j(Ā^j|v̂|) + ‖B‖ Δv²",
+    )
+    .with_note(&format!(
+        "notes' max(1e-4|E|, 1e-7) expected for {} (over: {}), exceeded elsewhere by {}",
+        checks.expected_costs, checks.over_notes_costs, checks.unexpected_costs_over
+    ));
+    let mut rows = vec![lbs, plane, vertex, quadric_q, ties, positions, costs];
+    // The notes' tolerances where f32 is expected to meet them are part of the verdict.
+    for (row, over) in [
+        (5, checks.over_notes_positions),
+        (6, checks.over_notes_costs),
+    ] {
+        if over > 0 {
+            rows[row].over += over;
+            rows[row].verdict = super::Verdict::Fail;
+        }
+    }
+    Ok(rows)
+}

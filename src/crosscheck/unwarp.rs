@@ -1,0 +1,309 @@
+//! unwarp cross-check: the `unwarp_pass` kernel (f32) against the f64 per-texel descent
+//! [`descend_texel_traced`], one pass per phase from the same state, and whole runs compared by
+//! their energy per sweep and their area statistics.
+//!
+//! The bounds are derived here once ([`step_bound`], [`ETA`], [`run_energy_bound`],
+//! [`area_cv_bound`]) and used by `tests/gpu_unwarp.rs` and `reparam crosscheck unwarp` alike.
+//! Offsets are reported in texels of a 4096² texture: |Δo| (UV units) × 4096.
+
+use reparam_gpu::Gpu;
+
+use super::run::{time_cpu, time_gpu};
+use super::{Bounds, Row, Timing};
+use crate::error::Result;
+use crate::unwarp::energy::{node_energy, node_gradient, triangle_gradient, Fan};
+use crate::unwarp::fixation::pin_gradient;
+use crate::unwarp::gpu::{round_problem, GpuPass};
+use crate::unwarp::pass::{descend_texel_traced, line_point, pass, sweep_phases};
+use crate::unwarp::stats::{area_ratios, coefficient_of_variation};
+use crate::unwarp::{solve, solve_with, HeightMap, Problem, UnwarpOptions};
+
+/// f32 unit roundoff u = 2⁻²⁴.
+pub const U32: f64 = f32::EPSILON as f64 / 2.0;
+
+/// Relative error of one f32 evaluation of a node energy F (or of one triangle-gradient term):
+/// each triangle is a chain of ≈ 30 roundings (edges, a, D, Y, Y^5 by 3 multiplications, the
+/// quotient), the six are summed: η ≈ 30 u.
+pub const ETA: f64 = 30.0 * U32;
+
+/// Errors are reported in texels of a texture this wide.
+pub const TEXTURE_SIZE: f64 = 4096.0;
+
+/// The bound on |Δo| (texels of the map) between the f32 and f64 steps of texel (x, y), from
+/// the reference's quantities at its step t* along −g:
+///
+/// 1. f32 cannot order F(t1), F(t2) once they differ by less than 2ηF, so the search may end
+///    anywhere with ½F''(t − t*)² ≤ 2ηF: |Δt| ≤ 2√(ηF/F''), |Δo| ≤ |Δt|·|g|;
+/// 2. the f32 gradient's direction is off by φ ≤ η Σ|∇E_k|/|g| (the sum of the terms' sizes,
+///    cancellation included), which moves the line's minimiser by ≤ 2φ·s, s = t*|g|;
+/// 3. when the f64 guard's margin F(0) − F(t*) is below 2ηF, f32 may decide the other way:
+///    |Δo| ≤ s.
+///
+/// The final bracket width 1e-6·hi adds ≤ 1e-6 hi|g|.
+pub fn step_bound(problem: &Problem, offsets: &[[f64; 2]], x: usize, y: usize) -> f64 {
+    let mesh = &problem.mesh;
+    let i = mesh.index(x, y);
+    let (o, w, r, theta) = (
+        offsets[i],
+        problem.pins[i],
+        mesh.resolution(),
+        problem.theta,
+    );
+    let fan = Fan::new(mesh, offsets, x, y);
+    let step = descend_texel_traced(problem, offsets, x, y);
+    let g = node_gradient(&fan, w, r, o, theta);
+    let gn = g[0].hypot(g[1]);
+    let Some([_, hi]) = step.bracket else {
+        return 0.0;
+    };
+    let f = |t: f64| node_energy(&fan, w, r, line_point(o, g, t), theta);
+    let t = step.search.t;
+    let d = 1e-3 * t.max(1e-12);
+    let f2 = ((f(t + d) - 2.0 * f(t) + f(t - d)) / (d * d)).max(1e-300);
+    let ft = f(t);
+    let search = 2.0 * (ETA * ft / f2).sqrt() * gn;
+    let u = fan.uv_edges(o);
+    let terms: f64 = (0..6)
+        .map(|k| {
+            let gk = triangle_gradient(&fan.geometry[k], u[(k + 5) % 6], u[k], theta);
+            gk[0].hypot(gk[1])
+        })
+        .sum::<f64>()
+        + {
+            let p = pin_gradient(w, r, o);
+            p[0].hypot(p[1])
+        };
+    let s = t * gn;
+    let direction = 2.0 * (ETA * terms / gn) * s;
+    let guard = if f(0.0) - ft <= 2.0 * ETA * f(0.0) {
+        s
+    } else {
+        0.0
+    };
+    let texels = r[0].max(r[1]);
+    (search + direction + guard + 1e-6 * hi * gn) * texels
+}
+
+/// Each f32 pass can leave every texel at most 2ηF above where f64 leaves it (the search's
+/// resolution, bound 1 of [`step_bound`]), so after p passes the total energies differ by
+/// ≤ 2ηp·E, relatively.
+pub fn run_energy_bound(passes: usize) -> f64 {
+    2.0 * ETA * passes as f64
+}
+
+/// A triangle's area ratio a/A moves by ≤ 2|Δo| (texels) relatively when a corner moves by
+/// |Δo| (edges are ≈ 1 texel); the CV of the ratios, a normalised RMS, then moves by
+/// ≤ 2·rms|Δo|·(1 + CV).
+pub fn area_cv_bound(rms_offset_texels: f64, cv: f64) -> f64 {
+    2.0 * rms_offset_texels * (1.0 + cv)
+}
+
+/// The problem of `heights` rounded to f32 inputs, and a state after `sweeps` reference sweeps,
+/// rounded: the common start of the pass comparison.
+pub fn rounded_state(
+    heights: &HeightMap,
+    options: &UnwarpOptions,
+    sweeps: usize,
+) -> Result<(Problem, Vec<[f64; 2]>)> {
+    let problem = round_problem(&Problem::new(heights, options)?);
+    let mut offsets = vec![[0.0; 2]; problem.mesh.node_count()];
+    for _ in 0..sweeps {
+        for phase in sweep_phases(&problem.mesh) {
+            pass(&problem, &mut offsets, phase);
+        }
+    }
+    let offsets = offsets
+        .iter()
+        .map(|o| [o[0] as f32 as f64, o[1] as f32 as f64])
+        .collect();
+    Ok((problem, offsets))
+}
+
+/// Per texel of every phase: the GPU's and the reference's offsets after one pass from
+/// `start`, and the texel's [`step_bound`] (both in texels of the map).
+pub struct PassComparison {
+    pub diffs: Vec<f64>,
+    pub bounds: Vec<f64>,
+    /// Texels whose search path (the sub-bracket kept at each iteration) matches.
+    pub same_path: usize,
+    /// Texels whose guard decision (moved or not) matches.
+    pub same_moved: usize,
+    /// Per iteration, how many searches first kept the other sub-bracket there (index 32:
+    /// never).
+    pub first_divergence: Vec<usize>,
+    pub timing: Timing,
+}
+
+/// One pass of every phase on the GPU and the reference from `start`.
+pub fn compare_pass(gpu: &Gpu, problem: &Problem, start: &[[f64; 2]]) -> Result<PassComparison> {
+    use reparam_gpu::unwarp::{FLAG_MOVED, STEPS_MASK};
+    let mesh = &problem.mesh;
+    let res = mesh.resolution();
+    let mut backend = GpuPass::new(gpu.clone());
+    let mut out = PassComparison {
+        diffs: vec![],
+        bounds: vec![],
+        same_path: 0,
+        same_moved: 0,
+        first_divergence: vec![0; 33],
+        timing: Timing::default(),
+    };
+    let (mut gpu_kernel, mut gpu_total, mut cpu_total) = (0.0, 0.0, 0.0);
+    // One untimed pass first: the times are those of a warm kernel.
+    backend.run(problem, &mut start.to_vec(), 0)?;
+    for phase in sweep_phases(mesh) {
+        let mut gpu_offsets = start.to_vec();
+        let (results, t) = time_gpu(gpu, || {
+            Ok(backend.run(problem, &mut gpu_offsets, phase)?.to_vec())
+        })?;
+        gpu_kernel += t.gpu_kernel_ms.unwrap_or(0.0);
+        gpu_total += t.gpu_total_ms.unwrap_or(0.0);
+        let texels = mesh.active_texels(phase);
+        let (steps, cpu_ms) = time_cpu(|| {
+            use rayon::prelude::*;
+            texels
+                .par_iter()
+                .map(|&(x, y)| descend_texel_traced(problem, start, x, y))
+                .collect::<Vec<_>>()
+        });
+        cpu_total += cpu_ms;
+        for ((&(x, y), r), cpu) in texels.iter().zip(&results).zip(&steps) {
+            let i = mesh.index(x, y);
+            out.diffs.push(
+                ((cpu.offset[0] - gpu_offsets[i][0]) * res[0])
+                    .hypot((cpu.offset[1] - gpu_offsets[i][1]) * res[1]),
+            );
+            out.bounds.push(step_bound(problem, start, x, y));
+            out.same_moved += usize::from(cpu.moved == (r.flags & FLAG_MOVED != 0));
+            let steps = (r.flags & STEPS_MASK).min(cpu.search.steps);
+            let differ = (cpu.search.path ^ r.path) & ((1u64 << steps) - 1) as u32;
+            if differ == 0 {
+                out.same_path += 1;
+                out.first_divergence[32] += 1;
+            } else {
+                out.first_divergence[differ.trailing_zeros() as usize] += 1;
+            }
+        }
+    }
+    out.timing = Timing {
+        gpu_kernel_ms: Some(gpu_kernel),
+        gpu_total_ms: Some(gpu_total),
+        cpu_ms: Some(cpu_total),
+    };
+    Ok(out)
+}
+
+/// Whole runs of `sweeps` sweeps on the CPU and with the GPU passes: the relative difference of
+/// the total energy after each sweep, and of the area-ratio CV at the end.
+pub fn run_rows(
+    gpu: &Gpu,
+    input: &str,
+    heights: &HeightMap,
+    options: &UnwarpOptions,
+) -> Result<Vec<Row>> {
+    let (cpu, cpu_ms) = time_cpu(|| solve(heights, options, |_| {}));
+    let cpu = cpu?;
+    let mut backend = GpuPass::new(gpu.clone());
+    let (gpu_run, gpu_times) =
+        time_gpu(gpu, || solve_with(&mut backend, heights, options, |_| {}))?;
+    let phases = sweep_phases(&cpu.problem.mesh).len();
+    let (ec, eg) = (&cpu.fine().energy_per_pass, &gpu_run.fine().energy_per_pass);
+    let (mut errors, mut bounds) = (vec![], vec![]);
+    for p in (phases..ec.len().min(eg.len())).step_by(phases) {
+        errors.push((eg[p].total() - ec[p].total()).abs() / ec[p].total());
+        bounds.push(run_energy_bound(p));
+    }
+    let res = cpu.problem.mesh.resolution();
+    let rms = (cpu
+        .offsets
+        .iter()
+        .zip(&gpu_run.offsets)
+        .map(|(a, b)| ((a[0] - b[0]) * res[0]).powi(2) + ((a[1] - b[1]) * res[1]).powi(2))
+        .sum::<f64>()
+        / cpu.offsets.len() as f64)
+        .sqrt();
+    let cv_cpu = coefficient_of_variation(&area_ratios(&cpu.problem, &cpu.offsets));
+    let cv_gpu = coefficient_of_variation(&area_ratios(&cpu.problem, &gpu_run.offsets));
+    let timing = Timing {
+        cpu_ms: Some(cpu_ms),
+        ..gpu_times
+    };
+    let sweeps = format!(
+        "{} sweeps of {phases} passes on the finest level",
+        errors.len()
+    );
+    Ok(vec![
+        Row::compare(
+            "unwarp",
+            "run: total energy per sweep",
+            input,
+            "relative",
+            &errors,
+            &[],
+            Bounds::PerElement(bounds),
+            "2ηp, η = 30 ε, p = passes so far",
+        )
+        .with_note(&sweeps)
+        .with_timing(timing),
+        Row::compare(
+            "unwarp",
+            "run: area-ratio CV at the end",
+            input,
+            "absolute",
+            &[(cv_cpu - cv_gpu).abs()],
+            &[cv_cpu],
+            Bounds::Uniform(area_cv_bound(rms, cv_cpu)),
+            "2·rms|Δo|·(1 + CV)",
+        )
+        .with_note(&format!(
+            "CV f64 {cv_cpu:.5}, f32 {cv_gpu:.5}; rms |Δo| {rms:.2e} texels"
+        )),
+    ])
+}
+
+/// The full unwarp table for one height map: the pass kernel from a state after two reference
+/// sweeps, whole runs of min(sweeps, 10) sweeps, and the computations without a GPU kernel.
+pub fn crosscheck_unwarp(
+    gpu: &Gpu,
+    input: &str,
+    heights: &HeightMap,
+    options: &UnwarpOptions,
+) -> Result<Vec<Row>> {
+    let (problem, start) = rounded_state(heights, options, 2)?;
+    let c = compare_pass(gpu, &problem, &start)?;
+    let res = problem.mesh.resolution();
+    let to_4096 = TEXTURE_SIZE / res[0].max(res[1]);
+    let errors: Vec<f64> = c.diffs.iter().map(|d| d * to_4096).collect();
+    let bounds: Vec<f64> = c.bounds.iter().map(|b| b * to_4096).collect();
+    let total = errors.len();
+    let pass_row = Row::compare(
+        "unwarp",
+        "unwarp_pass: offset after one pass",
+        input,
+        "texels of a 4096² texture",
+        &errors,
+        &[],
+        Bounds::PerElement(bounds),
+        "per texel: 2√(ηF/F'')|g| + 2φs + guard s + 1e-6 hi|g|, η = 30 ε (step_bound)",
+    )
+    .with_note(&format!(
+        "{total} texel updates, {} identical search paths, {} identical guard decisions",
+        c.same_path, c.same_moved
+    ))
+    .with_timing(c.timing);
+    let run_options = UnwarpOptions {
+        sweeps: options.sweeps.min(10),
+        tolerance: None,
+        coarse_moves: 0,
+        ..options.clone()
+    };
+    let mut rows = vec![pass_row];
+    rows.extend(run_rows(gpu, input, heights, &run_options)?);
+    rows.push(Row::missing(
+        "unwarp",
+        "coarse moves (hat-weighted block steps)",
+        input,
+        "coarse moves run in f64 on the CPU, also with --gpu; there is no WGSL kernel for them",
+    ));
+    Ok(rows)
+}

@@ -1,0 +1,304 @@
+//! `reparam crosscheck` end to end: every subcommand on built-in data passes with exit 0, a
+//! GPU input perturbed on purpose fails with exit 1 naming the kernel, bad inputs exit 2 with the
+//! typed message, `--list-adapters` lists the adapter, and the CLI's bounds are the library's
+//! (the same functions the GPU tests hold the kernels to).
+//!
+//! Without an adapter the GPU cases print `skipped: no GPU adapter` and pass; with
+//! REPARAM_REQUIRE_GPU=1 they fail instead. Bad-input cases run either way (exit 2).
+#![cfg(feature = "gpu")]
+
+use std::process::Command;
+
+use reparam_gpu::gpu_or_skip;
+use serde_json::Value;
+
+/// Run the binary: (exit code, stdout, stderr).
+fn reparam(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_reparam"))
+        .args(args)
+        .env("REPARAM_NO_PROGRESS", "1")
+        .output()
+        .expect("the binary runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// The rows of the first adapter of a `--json` report.
+fn rows(stdout: &str) -> Vec<Value> {
+    let v: Value = serde_json::from_str(stdout).expect("valid JSON");
+    v["adapters"][0]["rows"].as_array().expect("rows").clone()
+}
+
+fn row<'a>(rows: &'a [Value], kernel: &str) -> &'a Value {
+    rows.iter()
+        .find(|r| r["kernel"] == kernel)
+        .unwrap_or_else(|| panic!("no row {kernel}"))
+}
+
+/// One subcommand on built-in data: exit 0, every row judged passes, the adapter named.
+fn passes(algorithm: &str) -> Vec<Value> {
+    let (code, stdout, stderr) = reparam(&["crosscheck", algorithm, "--json"]);
+    assert_eq!(code, 0, "{algorithm}: {stderr}\n{stdout}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert!(v["adapters"][0]["adapter"].as_str().unwrap().len() > 3);
+    assert_eq!(v["exit_code"], 0);
+    let rows = rows(&stdout);
+    assert!(!rows.is_empty());
+    for r in &rows {
+        assert!(
+            ["pass", "info", "missing"].contains(&r["verdict"].as_str().unwrap()),
+            "{r}"
+        );
+    }
+    rows
+}
+
+#[test]
+fn every_subcommand_passes_on_built_in_data() {
+    if gpu_or_skip().is_none() {
+        return;
+    }
+    let bpm = passes("bpm");
+    for kernel in [
+        "bpm_eval: BPM uv",
+        "bpm_precompute (local fit) → bpm_eval: uv",
+        "bpm_render: pixels off by > 1/255",
+    ] {
+        assert_eq!(row(&bpm, kernel)["verdict"], "pass");
+    }
+    assert_eq!(
+        row(&bpm, "bpm_precompute (determinant fit) → bpm_eval: uv")["verdict"],
+        "info"
+    );
+    let gridwarp = passes("gridwarp");
+    assert_eq!(row(&gridwarp, "gridwarp_aa: JᵀJ")["verdict"], "pass");
+    assert_eq!(
+        row(&gridwarp, "non-axis-aligned energy (seed §8)")["verdict"],
+        "missing"
+    );
+    let unwarp = passes("unwarp");
+    assert_eq!(
+        row(&unwarp, "coarse moves (hat-weighted block steps)")["verdict"],
+        "missing"
+    );
+    let maps = passes("maps");
+    assert_eq!(
+        row(&maps, "maps_inverse: position Π⁻¹(p)")["verdict"],
+        "pass"
+    );
+    let skinsimp = passes("skinsimp");
+    assert_eq!(
+        row(&skinsimp, "skinsimp_lbs: posed positions")["verdict"],
+        "pass"
+    );
+    // Every kernel of reparam-gpu has a row.
+    let all: Vec<String> = [&bpm, &gridwarp, &unwarp, &maps, &skinsimp]
+        .iter()
+        .flat_map(|rows| {
+            rows.iter()
+                .map(|r| r["kernel"].as_str().unwrap().to_string())
+        })
+        .collect();
+    for kernel in [
+        "bpm_precompute",
+        "bpm_eval",
+        "bpm_render",
+        "gridwarp_aa",
+        "unwarp_pass",
+        "maps_priority",
+        "maps_flatten",
+        "maps_inverse",
+        "skinsimp_lbs",
+        "skinsimp_quadrics",
+        "skinsimp_collapse_cost",
+    ] {
+        assert!(
+            all.iter().any(|k| k.starts_with(kernel)),
+            "no row for {kernel}"
+        );
+    }
+}
+
+#[test]
+fn all_runs_the_five_and_prints_a_table() {
+    if gpu_or_skip().is_none() {
+        return;
+    }
+    let (code, stdout, stderr) = reparam(&["crosscheck", "all"]);
+    assert_eq!(code, 0, "{stderr}\n{stdout}");
+    for algorithm in ["bpm", "gridwarp", "unwarp", "maps", "skinsimp"] {
+        assert!(stdout.contains(algorithm), "{algorithm} missing:\n{stdout}");
+    }
+    assert!(stdout.contains("adapter: "));
+    assert!(stdout.contains("every kernel within its bound"));
+}
+
+#[test]
+fn a_perturbed_gpu_input_is_reported_over_its_bound_with_exit_1() {
+    if gpu_or_skip().is_none() {
+        return;
+    }
+    let (code, stdout, stderr) = reparam(&[
+        "crosscheck",
+        "bpm",
+        "--mesh",
+        "procedural:star",
+        "--perturb-gpu-input",
+        "--json",
+    ]);
+    assert_eq!(code, 1, "{stderr}");
+    let rows = rows(&stdout);
+    let eval = row(&rows, "bpm_eval: BPM uv");
+    assert_eq!(eval["verdict"], "fail");
+    assert!(eval["over"].as_u64().unwrap() > 0);
+    assert!(
+        stderr.contains("over its bound") && stderr.contains("bpm_eval: BPM uv"),
+        "{stderr}"
+    );
+    // The precompute pipeline was not perturbed: it still passes.
+    assert_eq!(
+        row(&rows, "bpm_precompute (local fit) → bpm_eval: uv")["verdict"],
+        "pass"
+    );
+}
+
+#[test]
+fn list_adapters_lists_at_least_one() {
+    if gpu_or_skip().is_none() {
+        return;
+    }
+    let (code, stdout, stderr) = reparam(&["crosscheck", "--list-adapters"]);
+    assert_eq!(code, 0, "{stderr}");
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert!(lines[0].contains("backend") && lines[0].contains("driver"));
+    assert!(lines.len() >= 2, "{stdout}");
+    assert!(lines[1].trim_start().starts_with('0'));
+}
+
+#[test]
+fn an_adapter_that_does_not_exist_exits_2_listing_those_that_do() {
+    if gpu_or_skip().is_none() {
+        return;
+    }
+    let (code, _, stderr) = reparam(&["crosscheck", "bpm", "--adapter", "no-such-gpu"]);
+    assert_eq!(code, 2);
+    assert!(
+        stderr.contains("no-such-gpu") && stderr.contains("0: "),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn bad_inputs_exit_2_with_the_typed_message() {
+    let dir = tempfile::tempdir().unwrap();
+    // A missing file.
+    let missing = dir.path().join("missing.obj");
+    let (code, _, stderr) = reparam(&["crosscheck", "bpm", "--mesh", missing.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("missing.obj"), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+    // A mesh without UVs.
+    let no_uv = dir.path().join("no_uv.obj");
+    std::fs::write(&no_uv, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let (code, _, stderr) = reparam(&["crosscheck", "bpm", "--mesh", no_uv.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("no_uv.obj") || stderr.contains("texture coordinates"),
+        "{stderr}"
+    );
+    // A glTF without a skin.
+    let model = reparam::skinsimp::tube::skinned_tube(4, 4);
+    let bytes = reparam::skinsimp::glb::glb_bytes(&model).unwrap();
+    let glb = gltf::binary::Glb::from_slice(&bytes).unwrap();
+    let mut json: Value = serde_json::from_slice(&glb.json).unwrap();
+    json.as_object_mut().unwrap().remove("skins");
+    for node in json["nodes"].as_array_mut().unwrap() {
+        node.as_object_mut().unwrap().remove("skin");
+    }
+    let out = gltf::binary::Glb {
+        header: glb.header,
+        json: serde_json::to_vec(&json).unwrap().into(),
+        bin: glb.bin.clone(),
+    }
+    .to_vec()
+    .unwrap();
+    let noskin = dir.path().join("noskin.glb");
+    std::fs::write(&noskin, out).unwrap();
+    let (code, _, stderr) = reparam(&["crosscheck", "skinsimp", noskin.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(
+        stderr.contains("noskin.glb") && stderr.contains("no skinned mesh"),
+        "{stderr}"
+    );
+    // No algorithm named.
+    let (code, _, stderr) = reparam(&["crosscheck"]);
+    assert_eq!(code, 2, "{stderr}");
+}
+
+#[test]
+fn the_cli_holds_kernels_to_the_bounds_the_tests_use() {
+    let Some(gpu) = gpu_or_skip() else { return };
+    // BPM eval: the CLI's bound is `eval_kernel_tolerance` of the mesh's largest UV.
+    let (code, stdout, stderr) =
+        reparam(&["crosscheck", "bpm", "--mesh", "procedural:star", "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let rows = rows(&stdout);
+    let star = reparam::mesh::procedural::flat_star(12);
+    let uv_max = star
+        .uvs
+        .iter()
+        .map(|t| (t.coords.map(|x| x as f32 as f64)).norm())
+        .fold(0.0, f64::max);
+    let expected = reparam::crosscheck::bpm::eval_kernel_tolerance(uv_max);
+    let shown = row(&rows, "bpm_eval: BPM uv")["bound"].as_f64().unwrap();
+    assert_eq!(shown, reparam::crosscheck::round_significant(expected, 3));
+    assert_eq!(
+        row(&rows, "bpm_precompute (local fit) → bpm_eval: uv")["bound"],
+        reparam::crosscheck::bpm::LOCAL_PIPELINE_MAX
+    );
+    // maps: Π⁻¹'s limit.
+    let (code, stdout, stderr) = reparam(&["crosscheck", "maps", "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    assert_eq!(
+        row(&rows_of(&stdout), "maps_inverse: position Π⁻¹(p)")["bound"],
+        reparam::crosscheck::maps::INVERSE_POSITION_MAX
+    );
+    // gridwarp: the CLI's rows are the library's rows on the same built-in scene (the GPU test
+    // calls the same bound functions), figure for figure.
+    let (code, stdout, stderr) = reparam(&["crosscheck", "gridwarp", "--json"]);
+    assert_eq!(code, 0, "{stderr}");
+    let cli = rows_of(&stdout);
+    let scene = reparam::gridwarp::scene::analytic_scene("bump", 6)
+        .unwrap()
+        .fields(128);
+    let rigidity = reparam::gridwarp::scene::analytic_scene("bump", 6)
+        .unwrap()
+        .rigidity;
+    let grid = reparam::gridwarp::grid_from_rigidity(&rigidity, 0.5);
+    let lib = reparam::crosscheck::gridwarp::kernel_rows(
+        &gpu,
+        "bump",
+        &scene.rest,
+        &grid,
+        scene.frames.last().unwrap(),
+        (8, 8),
+    )
+    .unwrap();
+    for r in &lib {
+        let shown = row(&cli, &r.kernel);
+        assert_eq!(
+            shown["bound"].as_f64().unwrap(),
+            reparam::crosscheck::round_significant(r.bound, 3),
+            "{}",
+            r.kernel
+        );
+        assert_eq!(shown["bound_formula"], r.bound_formula.as_str());
+    }
+}
+
+fn rows_of(stdout: &str) -> Vec<Value> {
+    rows(stdout)
+}
