@@ -25,6 +25,7 @@ pub mod gridwarp;
 pub mod lm;
 pub mod maps;
 pub mod mesh;
+pub mod plot;
 pub mod raster;
 pub mod reference_data;
 pub mod report;

@@ -302,3 +302,48 @@ fn the_cli_holds_kernels_to_the_bounds_the_tests_use() {
 fn rows_of(stdout: &str) -> Vec<Value> {
     rows(stdout)
 }
+
+#[test]
+fn the_bpm_sweep_writes_its_table_and_plot() {
+    if gpu_or_skip().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (code, stdout, stderr) = reparam(&[
+        "crosscheck",
+        "bpm",
+        "--mesh",
+        "procedural:star",
+        "--sweep",
+        "--json",
+        "--plots",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    let sweeps = v["sweeps"].as_array().unwrap();
+    assert_eq!(sweeps.len(), 2, "UV offset and triangle size");
+    for (sweep, plot) in sweeps.iter().zip(v["plots"].as_array().unwrap()) {
+        let series = sweep["series"].as_array().unwrap();
+        let points = |label: &str| -> Vec<(f64, f64)> {
+            let s = series.iter().find(|s| s["label"] == label).unwrap();
+            s["points"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|p| (p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
+                .collect()
+        };
+        let (local, det) = (points("local fit"), points("determinant fit"));
+        assert_eq!(local.len(), det.len());
+        // Where the UVs are far from their triangles' size, the determinant fit speckles (> 1
+        // texel) and the local fit stays within the eval kernel's bound.
+        let last = local.len() - 1;
+        assert!(det[last].1 > 1.0, "{}: {det:?}", sweep["name"]);
+        let bound = points("eval bound 122u·max(|uv|,1)·4096");
+        assert!(local[last].1 <= bound[last].1, "{local:?} vs {bound:?}");
+        let image =
+            reparam::texture::load_rgba8(std::path::Path::new(plot.as_str().unwrap())).unwrap();
+        assert_eq!((image.width, image.height), (640, 420));
+    }
+}

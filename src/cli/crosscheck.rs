@@ -184,9 +184,11 @@ fn try_run(args: CrosscheckArgs) -> Result<ExitCode> {
             rows,
         });
     }
-    let report = CrosscheckReport::new(adapters);
+    let mut report = CrosscheckReport::new(adapters);
     if common.sweep {
-        return Err(Error::InvalidArgument("--sweep: not built yet".into()));
+        let (sweeps, plots) = sweeps(&gpus[0], &algorithm, &args.plots)?;
+        report.sweeps = sweeps;
+        report.plots = plots;
     }
     if common.json {
         super::print_json(&report)?;
@@ -269,10 +271,48 @@ fn print_report(report: &reparam::crosscheck::run::CrosscheckReport) -> Result<(
         println!("side by side (max error in each row's unit, worst error/bound):");
         println!("{}", super::text_table(&header, &rows));
     }
+    for (sweep, plot) in report.sweeps.iter().zip(&report.plots) {
+        println!("\nsweep: {} (first adapter; plot {plot})", sweep.title);
+        let (header, rows) = sweep.table();
+        println!("{}", super::text_table(&header, &rows));
+    }
     if report.failures.is_empty() {
         println!("every kernel within its bound");
     }
     Ok(())
+}
+
+/// The sweeps of `algorithm` on `gpu`, their plots written to `dir` (640 × 420 PNGs).
+#[cfg(feature = "gpu")]
+pub fn sweeps(
+    gpu: &reparam_gpu::Gpu,
+    algorithm: &Algorithm,
+    dir: &std::path::Path,
+) -> Result<(Vec<reparam::crosscheck::sweep::Sweep>, Vec<String>)> {
+    use reparam::crosscheck::sweep::sweeps_of;
+    let names: &[&str] = match algorithm {
+        Algorithm::Bpm(_) => &["bpm"],
+        Algorithm::Gridwarp(_) => &["gridwarp"],
+        Algorithm::Unwarp(_) => &["unwarp"],
+        Algorithm::Maps(_) => &["maps"],
+        Algorithm::Skinsimp(_) => &["skinsimp"],
+        Algorithm::All(_) => &["bpm", "gridwarp", "unwarp", "maps", "skinsimp"],
+    };
+    std::fs::create_dir_all(dir).map_err(|e| Error::Io {
+        path: dir.to_path_buf(),
+        source: e,
+    })?;
+    let mut all = Vec::new();
+    let mut plots = Vec::new();
+    for name in names {
+        for sweep in sweeps_of(gpu, name)? {
+            let path = dir.join(format!("{}.png", sweep.name));
+            reparam::texture::save_png(&sweep.plot(640, 420)?, &path)?;
+            plots.push(path.display().to_string());
+            all.push(sweep);
+        }
+    }
+    Ok((all, plots))
 }
 
 /// Every row of `algorithm` on `gpu`.
@@ -295,8 +335,8 @@ pub fn rows_for(
                     common: c.clone(),
                 },
             )?;
-            rows.extend(gridwarp_rows(gpu, &GridwarpArgs::default())?);
-            rows.extend(unwarp_rows(gpu, &default_unwarp_args())?);
+            rows.extend(gridwarp_rows(gpu, &default_gridwarp_args()?)?);
+            rows.extend(unwarp_rows(gpu, &default_unwarp_args()?)?);
             rows.extend(maps_rows(gpu, &default_maps_input())?);
             rows.extend(skinsimp_rows(gpu, &default_skinsimp_input())?);
             Ok(rows)
@@ -359,35 +399,36 @@ fn gridwarp_rows(
     Ok(rows)
 }
 
-/// `reparam unwarp`'s defaults with the built-in `cones` map at 32² (the tests' map).
-pub fn default_unwarp_args() -> UnwarpArgs {
-    UnwarpArgs {
-        input: None,
-        color: None,
-        procedural: Some("cones".into()),
-        size: 32,
-        scale: 0.08,
-        theta: 5.0,
-        h_fix: 0.0,
-        delta: 0.04,
-        pin: None,
-        border: "periodic".into(),
-        sweeps: 10,
-        tolerance: None,
-        levels: 1,
-        coarse_sweeps: 30,
-        coarse_moves: 0,
-        gpu: false,
-        out: PathBuf::from("out/unwarp"),
-        json: false,
+/// The clap defaults of an argument struct (what the command sees with no flag).
+fn defaults<T: clap::Args + clap::FromArgMatches>() -> Result<T> {
+    #[derive(clap::Parser)]
+    struct Wrap<U: clap::Args> {
+        #[command(flatten)]
+        inner: U,
     }
+    use clap::Parser;
+    Wrap::<T>::try_parse_from(["reparam"])
+        .map(|w| w.inner)
+        .map_err(|e| Error::InvalidArgument(format!("default arguments: {e}")))
+}
+
+/// `reparam unwarp`'s defaults on the built-in `cones` map (64², s = 0.05), as the demo.
+pub fn default_unwarp_args() -> Result<UnwarpArgs> {
+    let mut args: UnwarpArgs = defaults()?;
+    args.procedural = Some("cones".into());
+    Ok(args)
+}
+
+/// `reparam gridwarp`'s defaults: the `bump` scene, 128² fields, 6 frames, 8 × 8 samples.
+pub fn default_gridwarp_args() -> Result<GridwarpArgs> {
+    defaults()
 }
 
 #[cfg(feature = "gpu")]
 fn unwarp_rows(gpu: &reparam_gpu::Gpu, args: &UnwarpArgs) -> Result<Vec<reparam::crosscheck::Row>> {
     let mut args = args.clone();
     if args.input.is_none() && args.procedural.is_none() {
-        args.procedural = default_unwarp_args().procedural;
+        args.procedural = Some("cones".into());
     }
     let heights = super::unwarp::heights(&args)?;
     let options = super::unwarp::options(&args, &heights)?;
@@ -460,4 +501,84 @@ fn skinsimp_rows(
         None => model.mesh.name.clone(),
     };
     reparam::crosscheck::skinsimp::crosscheck_skinsimp(gpu, &name, &skinned)
+}
+
+/// The demo report's cross-check section: per algorithm, its table on built-in data with the
+/// adapter named, the bound formulas and notes, then every sweep's table and plot (written to
+/// `out/crosscheck/`).
+#[cfg(feature = "gpu")]
+pub fn report_section(out: &std::path::Path, report: &mut reparam::report::Report) -> Result<()> {
+    use reparam::crosscheck::run::text_table;
+    report.section("Cross-check — every f32 GPU kernel against the f64 reference");
+    let gpu = match reparam_gpu::Gpu::new() {
+        Ok(gpu) => gpu,
+        Err(e) => {
+            println!("crosscheck: no GPU adapter, section skipped ({e})");
+            report.paragraph(&format!("Skipped: {e}"));
+            return Ok(());
+        }
+    };
+    println!("crosscheck: every kernel on built-in data, and the sweeps");
+    report.paragraph(&format!(
+        "`reparam crosscheck all` on this machine. Adapter: **{}**. Each kernel runs on the GPU \
+         and in f64 on the CPU from identical (f32-rounded) inputs; a row gives the count \
+         compared, the error in the kernel's natural unit (max, p50, p99, RMS), the derived bound \
+         (its value: the bound, or the median of per-element bounds, marked ~), how many \
+         elements exceed it, the verdict, and the times: GPU dispatches alone, the whole GPU call \
+         with uploads and readback, and the f64 reference on {} threads. ε = u = 2⁻²⁴.",
+        gpu.adapter_summary(),
+        rayon::current_num_threads()
+    ));
+    let algorithms = [
+        ("BPM", Algorithm::Bpm(BpmInput::default())),
+        (
+            "gridwarp",
+            Algorithm::Gridwarp(GridwarpInput {
+                args: default_gridwarp_args()?,
+                sweep: false,
+            }),
+        ),
+        (
+            "unwarp",
+            Algorithm::Unwarp(UnwarpInput {
+                args: default_unwarp_args()?,
+                sweep: false,
+            }),
+        ),
+        ("maps", Algorithm::Maps(default_maps_input())),
+        ("skinsimp", Algorithm::Skinsimp(default_skinsimp_input())),
+    ];
+    for (title, algorithm) in &algorithms {
+        let rows = rows_for(&gpu, algorithm)?;
+        let rounded: Vec<_> = rows.iter().map(|r| r.rounded(3)).collect();
+        let (header, body, notes) = text_table(&rounded);
+        report.paragraph(&format!("**{title}** (adapter: {})", gpu.adapter_summary()));
+        report.table(
+            &header.iter().map(String::as_str).collect::<Vec<_>>(),
+            &body,
+        );
+        report.paragraph(&notes.join("  \n"));
+    }
+    let (sweeps, plots) = sweeps(
+        &gpu,
+        &Algorithm::All(Common::default()),
+        &out.join("crosscheck"),
+    )?;
+    report.paragraph(
+        "Stability sweeps: the error against a conditioning parameter, with the derived bound \
+         (dashed). Where a measured line crosses its bound, f32 is no longer enough.",
+    );
+    for (sweep, plot) in sweeps.iter().zip(&plots) {
+        let (header, rows) = sweep.table();
+        report.paragraph(&format!("**{}**", sweep.title));
+        report.table(
+            &header.iter().map(String::as_str).collect::<Vec<_>>(),
+            &rows,
+        );
+        let relative = std::path::Path::new(plot)
+            .strip_prefix(out)
+            .map_or(plot.clone(), |p| p.display().to_string());
+        report.image(&sweep.title, &relative);
+    }
+    Ok(())
 }

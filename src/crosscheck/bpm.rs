@@ -163,44 +163,6 @@ pub fn crosscheck_bpm(gpu: &Gpu, mesh: &TriMesh) -> Result<BpmCrosscheck> {
     })
 }
 
-/// A table of cross-check results: one row per mesh and comparison.
-pub fn crosscheck_table(results: &[BpmCrosscheck]) -> (Vec<String>, Vec<Vec<String>>) {
-    let header = [
-        "mesh",
-        "faces",
-        "kernel",
-        "max",
-        "p50",
-        "p99",
-        "RMS",
-        "tolerance",
-        "over",
-        ">1 texel",
-    ];
-    let mut rows = Vec::new();
-    for r in results {
-        for (name, s, speckle) in [
-            ("eval", &r.eval_kernel, None),
-            ("local", &r.local, Some(r.speckle_local)),
-            ("det", &r.det, Some(r.speckle_det)),
-        ] {
-            rows.push(vec![
-                r.mesh.clone(),
-                r.faces.to_string(),
-                name.to_string(),
-                sig(s.max_abs, 2),
-                sig(s.p50, 2),
-                sig(s.p99, 2),
-                sig(s.rms, 2),
-                sig(s.tolerance, 2),
-                s.over_tolerance.to_string(),
-                speckle.map_or("".into(), |f| format!("{}%", sig(100.0 * f, 2))),
-            ]);
-        }
-    }
-    (header.iter().map(|s| s.to_string()).collect(), rows)
-}
-
 /// The rows of `reparam crosscheck bpm` for one mesh: the eval kernel alone (BPM and linear),
 /// the precompute kernel with each fit followed by the eval kernel, and the render pipeline
 /// against the CPU renderer (`texture` on `mesh`'s UVs).

@@ -123,4 +123,6 @@ pub mod run;
 #[cfg(feature = "gpu")]
 pub mod skinsimp;
 #[cfg(feature = "gpu")]
+pub mod sweep;
+#[cfg(feature = "gpu")]
 pub mod unwarp;

@@ -74,6 +74,11 @@ pub struct CrosscheckReport {
     pub failures: Vec<String>,
     /// 0 when every kernel is within its bound, 1 otherwise (the exit code).
     pub exit_code: u8,
+    /// With `--sweep`: the sweeps (first adapter) and the paths of their plots.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub sweeps: Vec<super::sweep::Sweep>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub plots: Vec<String>,
 }
 
 impl CrosscheckReport {
@@ -92,6 +97,8 @@ impl CrosscheckReport {
             adapters: adapters.iter().map(AdapterRows::rounded).collect(),
             failures,
             exit_code,
+            sweeps: Vec::new(),
+            plots: Vec::new(),
         }
     }
 }

@@ -261,14 +261,14 @@ pub fn run_rows(
     ])
 }
 
-/// The full unwarp table for one height map: the pass kernel from a state after two reference
-/// sweeps, whole runs of min(sweeps, 10) sweeps, and the computations without a GPU kernel.
-pub fn crosscheck_unwarp(
+/// The pass kernel from a state after two reference sweeps: every texel's offset after one pass
+/// of each phase, in texels of a 4096² texture, against [`step_bound`].
+pub fn pass_row(
     gpu: &Gpu,
     input: &str,
     heights: &HeightMap,
     options: &UnwarpOptions,
-) -> Result<Vec<Row>> {
+) -> Result<Row> {
     let (problem, start) = rounded_state(heights, options, 2)?;
     let c = compare_pass(gpu, &problem, &start)?;
     let res = problem.mesh.resolution();
@@ -276,7 +276,7 @@ pub fn crosscheck_unwarp(
     let errors: Vec<f64> = c.diffs.iter().map(|d| d * to_4096).collect();
     let bounds: Vec<f64> = c.bounds.iter().map(|b| b * to_4096).collect();
     let total = errors.len();
-    let pass_row = Row::compare(
+    Ok(Row::compare(
         "unwarp",
         "unwarp_pass: offset after one pass",
         input,
@@ -290,14 +290,24 @@ pub fn crosscheck_unwarp(
         "{total} texel updates, {} identical search paths, {} identical guard decisions",
         c.same_path, c.same_moved
     ))
-    .with_timing(c.timing);
+    .with_timing(c.timing))
+}
+
+/// The full unwarp table for one height map: the pass kernel ([`pass_row`]), whole runs of
+/// min(sweeps, 10) sweeps, and the computations without a GPU kernel.
+pub fn crosscheck_unwarp(
+    gpu: &Gpu,
+    input: &str,
+    heights: &HeightMap,
+    options: &UnwarpOptions,
+) -> Result<Vec<Row>> {
     let run_options = UnwarpOptions {
         sweeps: options.sweeps.min(10),
         tolerance: None,
         coarse_moves: 0,
         ..options.clone()
     };
-    let mut rows = vec![pass_row];
+    let mut rows = vec![pass_row(gpu, input, heights, options)?];
     rows.extend(run_rows(gpu, input, heights, &run_options)?);
     rows.push(Row::missing(
         "unwarp",

@@ -8,8 +8,8 @@
 //!   the background), one camera framing every pose of the original.
 //! - [`error_series`] / [`error_plot`]: the mean RMS distance over a pose set of levels at
 //!   several vertex counts ([`level_counts`]) of each method's hierarchy, and its log–log line
-//!   plot (no digits: gridlines at m × 10ᵏ, m = 1 … 9, decades darker; the ranges are in
-//!   [`PlotAxes`] for a caption; legend swatches in [`METHOD_COLOURS`] order).
+//!   plot ([`crate::plot`]: axes with tick labels and a legend naming the methods in
+//!   [`METHOD_COLOURS`]; the ranges are also in [`PlotAxes`]).
 
 use nalgebra::{Point3, Vector3};
 
@@ -470,12 +470,11 @@ pub struct PlotAxes {
 }
 
 impl PlotAxes {
-    /// One sentence describing the axes and gridlines.
+    /// One sentence describing the axes (the picture labels them too).
     pub fn caption(&self) -> String {
         format!(
             "x: vertex count, log scale from {} to {}; y: mean RMS distance, log scale from {} \
-             (bottom; RMS 0 and RMS below 10⁻⁶ of the largest, hollow markers, are drawn \
-             there) to {} (top); gridlines at m × 10ᵏ (m = 1 … 9), whole decades darker",
+             (bottom; RMS 0 and RMS below 10⁻⁶ of the largest are drawn there) to {} (top)",
             sig(self.x_min, 3),
             sig(self.x_max, 3),
             sig(self.y_min, 3),
@@ -544,16 +543,13 @@ pub fn error_plot(
     })
 }
 
-/// Margins of the plot area: left, right, top, bottom.
-const PLOT_MARGIN: [usize; 4] = [36, 16, 16, 30];
-
-/// A `width × height` log–log line plot of mean RMS (y) against vertex count (x), one polyline
-/// with square markers per series in its [`METHOD_COLOURS`] colour (grey for an unknown
-/// method), axes, ticks and gridlines at m × 10ᵏ (m = 1 … 9, decades darker), and a legend of
-/// swatches in the upper right in series order. The x range is the vertex counts' ±10 % (log);
-/// the y range the enclosing whole decades of the RMS values above [`ZERO_RELATIVE`] of the
-/// largest; smaller ones (the unsimplified level) are hollow markers on the bottom edge, not
-/// joined by lines. Errors: no point, a size below 120 × 90 or above 4096, non-finite values.
+/// A `width × height` log–log line plot of mean RMS (y) against vertex count (x), drawn with
+/// [`crate::plot`] (plotters): one line with markers per series in its [`METHOD_COLOURS`]
+/// colour (grey for an unknown method), axes with tick labels, a grid and a legend naming the
+/// methods. The x range is the vertex counts' ±10 % (log); the y range the enclosing whole
+/// decades of the RMS values above [`ZERO_RELATIVE`] of the largest; smaller ones (the
+/// unsimplified level, rounding only) are left out of the lines and drawn on the bottom edge.
+/// Errors: no point, a size below 120 × 90 or above 4096, non-finite values.
 pub fn draw_error_plot(
     series: &[ErrorSeries],
     width: usize,
@@ -603,123 +599,42 @@ pub fn draw_error_plot(
         y_min,
         y_max,
     };
-    let [ml, mr, mt, mb] = PLOT_MARGIN;
-    let (x0, x1) = (ml as f64, (width - mr) as f64);
-    let (y0, y1) = (mt as f64, (height - mb) as f64);
-    let px = |v: f64| x0 + (x1 - x0) * (v / x_min).ln() / (x_max / x_min).ln();
-    let py = |r: f64| {
-        if r <= zero {
-            y1
-        } else {
-            (y1 - (y1 - y0) * (r / y_min).ln() / (y_max / y_min).ln()).clamp(y0, y1)
-        }
-    };
-    let mut img = Image::new(width, height, [255, 255, 255, 255]);
-    // Gridlines and ticks.
-    for (value, major) in grid_values(x_min, x_max) {
-        let x = px(value).round() as usize;
-        let colour = if major { [200; 4] } else { [232; 4] };
-        fill_rect(
-            &mut img,
-            x,
-            y0 as usize,
-            1,
-            (y1 - y0) as usize,
-            opaque(colour),
-        );
-        fill_rect(
-            &mut img,
-            x,
-            y1 as usize,
-            1,
-            if major { 7 } else { 4 },
-            BLACK,
-        );
-    }
-    for (value, major) in grid_values(y_min, y_max) {
-        let y = py(value).round() as usize;
-        let colour = if major { [200; 4] } else { [232; 4] };
-        fill_rect(
-            &mut img,
-            x0 as usize,
-            y,
-            (x1 - x0) as usize,
-            1,
-            opaque(colour),
-        );
-        let len = if major { 7 } else { 4 };
-        fill_rect(&mut img, x0 as usize - len, y, len, 1, BLACK);
-    }
-    // Axes.
-    fill_rect(
-        &mut img,
-        x0 as usize,
-        y1 as usize,
-        (x1 - x0) as usize + 1,
-        1,
-        BLACK,
-    );
-    fill_rect(
-        &mut img,
-        x0 as usize,
-        y0 as usize,
-        1,
-        (y1 - y0) as usize + 1,
-        BLACK,
-    );
-    // Series.
-    for s in series {
-        let colour = method_colour(s.method);
-        let xy: Vec<(f64, f64)> = s
-            .points
-            .iter()
-            .map(|p| (px(p.vertices as f64), py(p.rms_mean)))
-            .collect();
-        for k in 1..xy.len() {
-            if s.points[k - 1].rms_mean > zero && s.points[k].rms_mean > zero {
-                draw_line(&mut img, xy[k - 1], xy[k], colour);
-            }
-        }
-        for (p, &(x, y)) in s.points.iter().zip(&xy) {
-            let (x, y) = (x.round() as usize, y.round() as usize);
-            fill_rect(
-                &mut img,
-                x.saturating_sub(3),
-                y.saturating_sub(3),
-                7,
-                7,
-                colour,
-            );
-            if p.rms_mean <= zero {
-                fill_rect(
-                    &mut img,
-                    x.saturating_sub(1),
-                    y.saturating_sub(1),
-                    3,
-                    3,
-                    WHITE,
-                );
-            }
-        }
-    }
-    // Legend: one swatch per series, top right.
-    for (k, s) in series.iter().enumerate() {
-        let (x, y) = (x1 as usize - 34, y0 as usize + 6 + 12 * k);
-        fill_rect(&mut img, x, y, 26, 8, method_colour(s.method));
-    }
-    Ok((img, axes))
+    let lines = series
+        .iter()
+        .map(|s| crate::plot::Series {
+            label: format!("{} (mean RMS)", s.method),
+            points: s
+                .points
+                .iter()
+                .map(|p| {
+                    (
+                        p.vertices as f64,
+                        if p.rms_mean > zero { p.rms_mean } else { y_min },
+                    )
+                })
+                .collect(),
+            colour: method_colour(s.method),
+            style: crate::plot::Style::Measured,
+        })
+        .collect();
+    let image = crate::plot::draw(
+        &crate::plot::LogLogPlot {
+            title: "held-out mean RMS against vertex count".into(),
+            x_label: "vertices".into(),
+            y_label: "mean RMS distance".into(),
+            series: lines,
+            x_range: Some((x_min, x_max)),
+            y_range: Some((y_min, y_max)),
+        },
+        width,
+        height,
+    )?;
+    Ok((image, axes))
 }
 
 /// RMS values at most this fraction of the largest count as 0 in [`draw_error_plot`] (the
 /// unsimplified level's error is rounding, ~1e-15 of the model size).
 pub const ZERO_RELATIVE: f64 = 1e-6;
-
-const BLACK: Rgba8 = [0, 0, 0, 255];
-const WHITE: Rgba8 = [255, 255, 255, 255];
-
-fn opaque(c: [u8; 4]) -> Rgba8 {
-    [c[0], c[1], c[2], 255]
-}
 
 /// The colour of a method name in [`METHOD_COLOURS`] (grey if unknown).
 fn method_colour(name: &str) -> Rgba8 {
@@ -727,41 +642,4 @@ fn method_colour(name: &str) -> Rgba8 {
         .iter()
         .find(|(m, _)| m.name() == name)
         .map_or([120, 120, 120, 255], |c| c.1)
-}
-
-/// The values `m · 10ᵏ` (`m` = 1 … 9) inside `[lo, hi]`, flagged `true` for `m = 1`.
-fn grid_values(lo: f64, hi: f64) -> Vec<(f64, bool)> {
-    let mut out = Vec::new();
-    let mut k = lo.log10().floor() as i32;
-    while 10f64.powi(k) <= hi {
-        for m in 1..=9 {
-            let v = m as f64 * 10f64.powi(k);
-            if v >= lo * (1.0 - 1e-12) && v <= hi * (1.0 + 1e-12) {
-                out.push((v, m == 1));
-            }
-        }
-        k += 1;
-    }
-    out
-}
-
-/// Fill the rectangle `[x, x + w) × [y, y + h)`, clipped to the image.
-fn fill_rect(img: &mut Image<Rgba8>, x: usize, y: usize, w: usize, h: usize, colour: Rgba8) {
-    for yy in y..(y + h).min(img.height) {
-        for xx in x..(x + w).min(img.width) {
-            img.set(xx, yy, colour);
-        }
-    }
-}
-
-/// A 2-pixel-wide segment from `a` to `b` (pixel coordinates), clipped to the image.
-fn draw_line(img: &mut Image<Rgba8>, a: (f64, f64), b: (f64, f64), colour: Rgba8) {
-    let steps = ((b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil() as usize).max(1);
-    for s in 0..=steps {
-        let t = s as f64 / steps as f64;
-        let (x, y) = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
-        if x >= 0.0 && y >= 0.0 {
-            fill_rect(img, x.round() as usize, y.round() as usize, 2, 2, colour);
-        }
-    }
 }
