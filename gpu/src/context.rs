@@ -155,6 +155,16 @@ impl Gpu {
         Ok(value)
     }
 
+    /// How many values (pipelines) [`Gpu::cached`] holds: constant once every kernel has run
+    /// once, whatever is run again.
+    pub fn cached_count(&self) -> usize {
+        self.shared
+            .cache
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .len()
+    }
+
     /// Start timing submissions (see [`Clock`]). While the clock runs every submission waits for
     /// its completion, so kernels run one after another.
     pub fn start_clock(&self) {
