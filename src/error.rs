@@ -108,6 +108,10 @@ pub enum Error {
         element: String,
         message: String,
     },
+    /// Conformance vectors or a candidate that `reparam verify` cannot use: `file` names the
+    /// manifest or array, `reason` what is wrong and what was expected.
+    #[error("{file}: {reason}")]
+    Vectors { file: String, reason: String },
 }
 
 impl Error {

@@ -32,5 +32,7 @@ pub mod report;
 pub mod skinsimp;
 pub mod texture;
 pub mod unwarp;
+#[cfg(feature = "gpu")]
+pub mod vectors;
 
 pub use error::{Error, Result};

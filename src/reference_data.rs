@@ -85,6 +85,8 @@ pub fn write_all(dir: &Path) -> Result<Vec<PathBuf>> {
         std::fs::write(&json, text).map_err(|e| Error::io(&json, e))?;
         written.extend([obj, json]);
     }
+    #[cfg(feature = "gpu")]
+    written.extend(crate::vectors::write_canonical(&dir.join("vectors"))?);
     Ok(written)
 }
 

@@ -9,6 +9,8 @@ mod inputs;
 mod maps;
 mod skinsimp;
 mod unwarp;
+#[cfg(feature = "gpu")]
+mod vectors;
 
 use std::process::ExitCode;
 
@@ -43,6 +45,14 @@ enum Command {
     /// Every GPU f32 kernel against the f64 reference from identical inputs: one row per
     /// kernel with its derived bound and verdict (exit 1 if any exceeds it, 2 on bad input).
     Crosscheck(crosscheck::CrosscheckArgs),
+    /// Conformance vectors of every kernel of an algorithm (.npy + manifest.json), for checking
+    /// other implementations with `reparam verify`.
+    #[cfg(feature = "gpu")]
+    Vectors(vectors::VectorsArgs),
+    /// Judge a candidate implementation's output against conformance vectors (exit 0 pass, 1
+    /// fail, 2 bad input).
+    #[cfg(feature = "gpu")]
+    Verify(vectors::VerifyArgs),
     /// Regenerate reference_data/: canonical meshes and golden f64 outputs.
     ReferenceData {
         /// Output folder.
@@ -57,6 +67,10 @@ pub fn main() -> ExitCode {
         Command::Demo(args) => demo::run(args),
         Command::Bpm(cmd) => bpm::run(cmd),
         Command::Crosscheck(args) => return crosscheck::run(args),
+        #[cfg(feature = "gpu")]
+        Command::Vectors(args) => vectors::run(args),
+        #[cfg(feature = "gpu")]
+        Command::Verify(args) => return vectors::verify(args),
         Command::Gridwarp(args) => gridwarp::run(args),
         Command::Maps(args) => maps::run(args),
         Command::Unwarp(args) => unwarp::run(args),

@@ -1,0 +1,284 @@
+//! `reparam vectors`: conformance vectors (`.npy` + `manifest.json`) of every kernel of an
+//! algorithm, from built-in data or the user's own; `reparam verify`: judge a candidate's
+//! outputs against them (exit 0 pass, 1 over a bound or NaN, 2 bad input).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Args, Subcommand};
+use reparam::vectors::{write_vectors, Array, KernelData};
+use reparam::{Error, Result};
+
+#[derive(Args)]
+pub struct VectorsArgs {
+    #[command(subcommand)]
+    pub algorithm: VectorsAlgorithm,
+    /// Folder for the vectors (created).
+    #[arg(long, global = true, default_value = "out/vectors")]
+    pub out: PathBuf,
+    /// Also write reparam's own f32 GPU outputs there, one `<kernel>.npy` per kernel: a
+    /// candidate that `reparam verify` should pass.
+    #[arg(long, global = true)]
+    pub gpu_candidate: Option<PathBuf>,
+}
+
+#[derive(Subcommand)]
+pub enum VectorsAlgorithm {
+    /// bpm_eval (BPM and linear): per-triangle data, samples, f64 UVs.
+    Bpm {
+        /// Mesh (OBJ with `vt`, or `procedural:<name>`). Default: procedural:star.
+        #[arg(long, default_value = "procedural:star")]
+        mesh: String,
+    },
+    /// gridwarp_aa: cell energies, F, JᵀJ, Jᵀr at one grid of the scene's last frame.
+    Gridwarp {
+        /// Built-in scene.
+        #[arg(long, default_value = "bump")]
+        scene: String,
+        /// A skinned glTF/GLB instead (first ROI, last frame).
+        #[arg(long)]
+        gltf: Option<PathBuf>,
+        #[arg(long)]
+        animation: Option<String>,
+        #[arg(long)]
+        roi: Vec<String>,
+        #[arg(long)]
+        rigidity: Vec<String>,
+        /// Field resolution.
+        #[arg(long, default_value_t = 64)]
+        size: usize,
+        /// Samples per cell and axis.
+        #[arg(long, default_value_t = 4)]
+        samples: usize,
+        /// Starting grid: `auto` or `MxN`.
+        #[arg(long, default_value = "auto")]
+        grid: String,
+    },
+    /// unwarp_pass: one pass (phase 0) from a state after two reference sweeps.
+    Unwarp {
+        /// Height map (PNG/EXR); default the built-in cones.
+        input: Option<PathBuf>,
+        #[arg(long, default_value_t = 32)]
+        size: usize,
+        #[arg(long, default_value_t = 0.05)]
+        scale: f64,
+    },
+    /// skinsimp_lbs and skinsimp_quadrics (source, vertex).
+    Skinsimp {
+        /// A skinned glTF/GLB; default the built-in tube.
+        model: Option<PathBuf>,
+        #[arg(long, default_value = "4")]
+        poses: String,
+    },
+}
+
+/// The kernels, input name and (with `gpu`) reparam's own candidates.
+type Made = (Vec<KernelData>, String, Vec<(String, Array)>);
+
+fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<Made> {
+    match algorithm {
+        VectorsAlgorithm::Bpm { mesh } => {
+            let m = super::inputs::load_mesh(mesh)?;
+            if m.uvs.is_empty() {
+                return Err(Error::MissingUvs { mesh: m.name });
+            }
+            let kernels = reparam::vectors::bpm::eval_vectors(&m)?;
+            let candidates = match gpu {
+                Some(g) => reparam::vectors::bpm::gpu_candidates(g, &m)?,
+                None => Vec::new(),
+            };
+            Ok((kernels, mesh.clone(), candidates))
+        }
+        VectorsAlgorithm::Gridwarp {
+            scene,
+            gltf,
+            animation,
+            roi,
+            rigidity,
+            size,
+            samples,
+            grid,
+        } => {
+            let mut args = super::crosscheck::default_gridwarp_args()?;
+            args.scene = scene.clone();
+            args.gltf = gltf.clone();
+            args.animation = animation.clone();
+            args.roi = roi.clone();
+            args.rigidity = rigidity.clone();
+            args.size = *size;
+            args.samples = *samples;
+            args.grid = grid.clone();
+            let input = super::gridwarp::warp_inputs(&args)?
+                .into_iter()
+                .next()
+                .ok_or_else(|| Error::InvalidArgument("no ROI".into()))?;
+            let last = input
+                .frames
+                .last()
+                .ok_or_else(|| Error::InvalidArgument("no frame".into()))?;
+            let (k, c) = reparam::vectors::gridwarp::vectors(
+                gpu,
+                &input.rest,
+                &input.rest_grid,
+                last,
+                (*samples, *samples),
+            )?;
+            Ok((k, input.name, c))
+        }
+        VectorsAlgorithm::Unwarp { input, size, scale } => {
+            let heights = match input {
+                Some(p) => reparam::unwarp::load_height_map(p)?,
+                None => reparam::unwarp::procedural("cones", *size)?,
+            };
+            let options = reparam::unwarp::UnwarpOptions {
+                scale: *scale,
+                ..Default::default()
+            };
+            let (k, c) = reparam::vectors::unwarp::vectors(gpu, &heights, &options)?;
+            let name = input
+                .as_ref()
+                .map_or(format!("cones {size}²"), |p| p.display().to_string());
+            Ok((k, name, c))
+        }
+        VectorsAlgorithm::Skinsimp { model, poses } => {
+            use reparam::skinsimp::poses::{select_poses, skinned_input};
+            let m = match model {
+                Some(p) => reparam::mesh::load_gltf(p)?,
+                None => reparam::skinsimp::tube::skinned_tube(12, 12),
+            };
+            let sets = select_poses(&m, &super::skinsimp::parse_poses(poses)?)?;
+            let input = skinned_input(&m, &sets.training)?;
+            let kernels = match gpu {
+                Some(g) => Some(reparam::skinsimp::gpu::SkinsimpKernels::new(g.clone())?),
+                None => None,
+            };
+            let (k, c) = reparam::vectors::skinsimp::vectors(&input, kernels.as_ref())?;
+            let name = model
+                .as_ref()
+                .map_or(m.mesh.name.clone(), |p| p.display().to_string());
+            Ok((k, name, c))
+        }
+    }
+}
+
+pub fn run(args: VectorsArgs) -> Result<()> {
+    let gpu = match &args.gpu_candidate {
+        Some(_) => Some(reparam_gpu::Gpu::new().map_err(|e| Error::Gpu(e.to_string()))?),
+        None => None,
+    };
+    let (kernels, input, candidates) = make(&args.algorithm, gpu.as_ref())?;
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let manifest = write_vectors(&args.out, &command, &input, &kernels)?;
+    for k in &manifest.kernels {
+        println!(
+            "{}: {} input arrays, expected {:?} ({}), bound {}",
+            k.name,
+            k.inputs.len(),
+            k.expected.shape,
+            k.metric.unit(),
+            k.bound_formula
+        );
+    }
+    println!("wrote {}", args.out.join("manifest.json").display());
+    if let Some(dir) = &args.gpu_candidate {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        let adapter = gpu
+            .as_ref()
+            .map(|g| g.adapter_summary())
+            .unwrap_or_default();
+        for (name, array) in &candidates {
+            let path = dir.join(format!("{name}.npy"));
+            array.save(&path)?;
+            println!("GPU candidate ({adapter}): {}", path.display());
+        }
+    }
+    Ok(())
+}
+
+#[derive(Args)]
+pub struct VerifyArgs {
+    /// The vectors folder (with manifest.json).
+    pub dir: PathBuf,
+    /// The candidate's output (.npy, f32 or f64, the expected shape).
+    #[arg(long)]
+    pub candidate: PathBuf,
+    /// The kernel (default: the only one, or the candidate's file stem).
+    #[arg(long)]
+    pub kernel: Option<String>,
+    /// Print machine-readable results.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `reparam verify`; exit 0 pass, 1 fail, 2 bad input.
+pub fn verify(args: VerifyArgs) -> ExitCode {
+    match try_verify(&args) {
+        Ok(true) => ExitCode::SUCCESS,
+        Ok(false) => ExitCode::from(1),
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn try_verify(args: &VerifyArgs) -> Result<bool> {
+    use reparam::report::sig;
+    let r = reparam::vectors::verify::verify(&args.dir, &args.candidate, args.kernel.as_deref())?;
+    if args.json {
+        super::print_json(&r)?;
+        return Ok(r.pass);
+    }
+    let e = &r.errors;
+    println!(
+        "kernel {} · candidate {} ({:?})",
+        r.kernel, r.candidate, r.candidate_dtype
+    );
+    let header = [
+        "count",
+        "max",
+        "p50",
+        "p99",
+        "RMS",
+        "unit",
+        "bound (largest)",
+        "over",
+        "NaN/∞",
+        "verdict",
+    ]
+    .map(String::from)
+    .to_vec();
+    let row = vec![
+        e.count.to_string(),
+        sig(e.max_abs, 2),
+        sig(e.p50, 2),
+        sig(e.p99, 2),
+        sig(e.rms, 2),
+        e.unit.clone(),
+        sig(r.bound_max, 2),
+        e.over_tolerance.to_string(),
+        e.non_finite.to_string(),
+        if r.pass { "pass" } else { "FAIL" }.into(),
+    ];
+    println!("{}", super::text_table(&header, &[row]));
+    println!("bound: {}", r.bound_formula);
+    println!("worst elements:");
+    for w in &r.worst {
+        let inputs: Vec<String> = w
+            .inputs
+            .iter()
+            .map(|(name, v)| {
+                let values: Vec<String> = v.iter().map(|x| sig(*x, 4)).collect();
+                format!("{name} [{}]", values.join(", "))
+            })
+            .collect();
+        println!(
+            "  {:?}: error {} (bound {}) {}",
+            w.index,
+            sig(w.error, 3),
+            sig(w.bound, 3),
+            inputs.join("; ")
+        );
+    }
+    Ok(r.pass)
+}

@@ -1,0 +1,292 @@
+//! Conformance vectors: every kernel's inputs exactly as the kernel receives them and the f64
+//! expected outputs, as NumPy `.npy` arrays with a `manifest.json` that says what each array
+//! means, how a candidate's output is measured, and the bound each element is held to — the
+//! same metric and bound functions as the cross-check ([`crate::crosscheck`]). `reparam
+//! vectors` writes them, `reparam verify` judges another implementation's outputs against them.
+//!
+//! Layout of a vectors folder:
+//!
+//! ```text
+//! manifest.json                    reparam version, the command, every kernel (below)
+//! <kernel>.<input>.npy             the kernel's inputs
+//! <kernel>.expected.npy            the f64 reference's output
+//! <kernel>.bound.npy               the bound of each element (see `metric`)
+//! ```
+
+pub mod bpm;
+pub mod gridwarp;
+pub mod npy;
+pub mod skinsimp;
+pub mod unwarp;
+pub mod verify;
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+pub use npy::{Array, Dtype, Values};
+
+use crate::error::{Error, Result};
+
+/// How a candidate's output is compared with the expected one, element by element.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Metric {
+    /// An element is a vector along the last axis: error = scale · ‖candidate − expected‖₂
+    /// (e.g. a UV in texels of a 4096² texture: scale 4096).
+    NormOfLastAxis { scale: f64, unit: String },
+    /// An element is one value: error = |candidate − expected|.
+    Absolute { unit: String },
+}
+
+impl Metric {
+    /// The unit the errors and bounds are in.
+    pub fn unit(&self) -> &str {
+        match self {
+            Metric::NormOfLastAxis { unit, .. } | Metric::Absolute { unit } => unit,
+        }
+    }
+
+    /// The element errors of `candidate` against `expected` (same length; flat C order with
+    /// `last` values along the last axis).
+    pub fn errors(&self, expected: &[f64], candidate: &[f64], last: usize) -> Vec<f64> {
+        match self {
+            Metric::NormOfLastAxis { scale, .. } => expected
+                .chunks(last.max(1))
+                .zip(candidate.chunks(last.max(1)))
+                .map(|(e, c)| {
+                    scale
+                        * e.iter()
+                            .zip(c)
+                            .map(|(a, b)| (a - b) * (a - b))
+                            .sum::<f64>()
+                            .sqrt()
+                })
+                .collect(),
+            Metric::Absolute { .. } => expected
+                .iter()
+                .zip(candidate)
+                .map(|(a, b)| (a - b).abs())
+                .collect(),
+        }
+    }
+}
+
+/// One array in the manifest.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ArrayInfo {
+    /// File name in the vectors folder.
+    pub file: String,
+    pub shape: Vec<usize>,
+    pub dtype: Dtype,
+    /// What the array holds: row order, units, index base, which barycentric goes with which
+    /// corner.
+    pub meaning: String,
+    /// Row r of this input belongs to the element(s) whose first index is r (what `verify`
+    /// prints beside a worst element).
+    #[serde(default)]
+    pub indexed_by_element: bool,
+}
+
+/// One kernel's vectors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct KernelVectors {
+    /// e.g. `bpm_eval`, `gridwarp_aa.jtj`.
+    pub name: String,
+    /// What the kernel computes (formula, paper section).
+    pub description: String,
+    pub inputs: Vec<ArrayInfo>,
+    /// The f64 expected output; a candidate must have this shape (f32 or f64).
+    pub expected: ArrayInfo,
+    /// The bound of each element, in the metric's unit (shape: the expected shape, less the
+    /// last axis for [`Metric::NormOfLastAxis`]).
+    pub bound: ArrayInfo,
+    pub metric: Metric,
+    /// The bound's formula, and why it holds.
+    pub bound_formula: String,
+    pub derivation: String,
+}
+
+/// `manifest.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    pub reparam_version: String,
+    /// The command that made the vectors.
+    pub command: String,
+    /// The input they were made from.
+    pub input: String,
+    pub kernels: Vec<KernelVectors>,
+}
+
+/// Kernels' vectors and reparam's own GPU outputs for them (`(kernel name, array)`; empty
+/// without a GPU).
+pub type VectorsAndCandidates = (Vec<KernelData>, Vec<(String, Array)>);
+
+/// A kernel's vectors in memory, before they are written.
+pub struct KernelData {
+    pub name: String,
+    pub description: String,
+    /// (input name, meaning, array).
+    pub inputs: Vec<(String, String, Array)>,
+    pub expected: (String, Array),
+    pub bound: (String, Array),
+    pub metric: Metric,
+    pub bound_formula: String,
+    pub derivation: String,
+    /// The inputs indexed like the elements (see [`ArrayInfo::indexed_by_element`]).
+    pub per_element: Vec<String>,
+}
+
+impl KernelData {
+    /// Write the arrays into `dir` and return the kernel's manifest entry.
+    pub fn write(&self, dir: &Path) -> Result<KernelVectors> {
+        let info = |file: String, meaning: &str, a: &Array, indexed: bool| -> Result<ArrayInfo> {
+            a.save(&dir.join(&file))?;
+            Ok(ArrayInfo {
+                file,
+                shape: a.shape.clone(),
+                dtype: a.dtype(),
+                meaning: meaning.into(),
+                indexed_by_element: indexed,
+            })
+        };
+        let inputs = self
+            .inputs
+            .iter()
+            .map(|(n, m, a)| {
+                let indexed = self.per_element.contains(n);
+                info(format!("{}.{n}.npy", self.name), m, a, indexed)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(KernelVectors {
+            name: self.name.clone(),
+            description: self.description.clone(),
+            inputs,
+            expected: info(
+                format!("{}.expected.npy", self.name),
+                &self.expected.0,
+                &self.expected.1,
+                false,
+            )?,
+            bound: info(
+                format!("{}.bound.npy", self.name),
+                &self.bound.0,
+                &self.bound.1,
+                false,
+            )?,
+            metric: self.metric.clone(),
+            bound_formula: self.bound_formula.clone(),
+            derivation: self.derivation.clone(),
+        })
+    }
+}
+
+/// Write `kernels` and `manifest.json` into `dir` (created).
+pub fn write_vectors(
+    dir: &Path,
+    command: &str,
+    input: &str,
+    kernels: &[KernelData],
+) -> Result<Manifest> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let manifest = Manifest {
+        reparam_version: env!("CARGO_PKG_VERSION").into(),
+        command: command.into(),
+        input: input.into(),
+        kernels: kernels
+            .iter()
+            .map(|k| k.write(dir))
+            .collect::<Result<_>>()?,
+    };
+    let path = dir.join("manifest.json");
+    let text = serde_json::to_string_pretty(&manifest).map_err(|e| Error::Vectors {
+        file: path.display().to_string(),
+        reason: format!("cannot serialise the manifest: {e}"),
+    })?;
+    std::fs::write(&path, text).map_err(|e| Error::io(&path, e))?;
+    Ok(manifest)
+}
+
+/// Read `dir/manifest.json`.
+pub fn read_manifest(dir: &Path) -> Result<Manifest> {
+    let path = dir.join("manifest.json");
+    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    serde_json::from_str(&text).map_err(|e| Error::Vectors {
+        file: path.display().to_string(),
+        reason: format!("not a reparam manifest: {e}"),
+    })
+}
+
+/// The algorithms with vectors, in `reference_data/vectors/<name>/`.
+pub const ALGORITHMS: [&str; 4] = ["bpm", "gridwarp", "unwarp", "skinsimp"];
+
+/// The canonical small vectors of `algorithm` (what `reference_data/vectors/<algorithm>` holds):
+/// its input's name and the kernels, computed on the CPU alone.
+///
+/// - bpm: the flat star of 12 faces (`procedural:star`), 132 samples;
+/// - gridwarp: the plane stretched by 2 on 32² fields, disc rigidity, a 5 × 5 uniform grid,
+///   4 × 4 samples per cell;
+/// - unwarp: the cones height map at 16², s = 0.05, periodic;
+/// - skinsimp: the skinned tube of 6 segments and 6 rings, 2 uniform poses per clip.
+pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
+    match algorithm {
+        "bpm" => {
+            let mesh = crate::mesh::procedural::flat_star(12);
+            Ok(("procedural:star".into(), bpm::eval_vectors(&mesh)?))
+        }
+        "gridwarp" => {
+            use crate::gridwarp::scene::{disc_rigidity, plane_stretch};
+            let rigidity = disc_rigidity(32, &[(0.6, 0.5, 0.2)], 0.1);
+            let scene = plane_stretch(32, 1, 2.0, rigidity);
+            let grid = crate::gridwarp::Grid::uniform(5, 5);
+            let (k, _) = gridwarp::vectors(None, &scene.rest, &grid, &scene.frames[0], (4, 4))?;
+            Ok(("plane stretch 32², 5 × 5 lines, 4 × 4 samples".into(), k))
+        }
+        "unwarp" => {
+            let heights = crate::unwarp::procedural("cones", 16)?;
+            let (k, _) = unwarp::vectors(None, &heights, &Default::default())?;
+            Ok(("cones 16², s = 0.05".into(), k))
+        }
+        "skinsimp" => {
+            let (k, _) = skinsimp::vectors(&canonical_skinned()?, None)?;
+            Ok(("skinned tube 6 × 6, 2 poses per clip".into(), k))
+        }
+        other => Err(Error::InvalidArgument(format!(
+            "no vectors for '{other}'; known: {}",
+            ALGORITHMS.join(", ")
+        ))),
+    }
+}
+
+/// The skinned input of the canonical skinsimp vectors.
+pub fn canonical_skinned() -> Result<crate::skinsimp::Input> {
+    use crate::skinsimp::poses::{select_poses, skinned_input, PoseSelection};
+    let model = crate::skinsimp::tube::skinned_tube(6, 6);
+    let sets = select_poses(&model, &PoseSelection::Uniform(2))?;
+    skinned_input(&model, &sets.training)
+}
+
+/// Write the canonical vectors of every algorithm under `dir/<algorithm>/`.
+pub fn write_canonical(dir: &Path) -> Result<Vec<std::path::PathBuf>> {
+    let mut written = Vec::new();
+    for algorithm in ALGORITHMS {
+        let (input, kernels) = canonical(algorithm)?;
+        let out = dir.join(algorithm);
+        let manifest = write_vectors(
+            &out,
+            &format!("reparam reference-data (canonical {algorithm} vectors)"),
+            &input,
+            &kernels,
+        )?;
+        written.push(out.join("manifest.json"));
+        for k in manifest.kernels {
+            written.extend(
+                k.inputs
+                    .iter()
+                    .chain([&k.expected, &k.bound])
+                    .map(|a| out.join(&a.file)),
+            );
+        }
+    }
+    Ok(written)
+}

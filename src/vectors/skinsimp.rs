@@ -1,0 +1,248 @@
+//! skinsimp vectors: `skinsimp_lbs` (posed positions of V vertices in P poses, linear blend
+//! skinning) and `skinsimp_quadrics` (per-pose source quadrics w q qᵀ and their per-vertex sums),
+//! from the inputs the kernels receive, with the bounds of [`crate::crosscheck::skinsimp`].
+
+use super::{Array, KernelData, Metric, VectorsAndCandidates};
+use crate::crosscheck::skinsimp::{lbs_bound, quadric_checks};
+use crate::error::Result;
+use crate::skinsimp::gpu::{
+    crosscheck, lbs_input, normalise, plane_quadrics_f64, quadric_input, round_input, skin_f64,
+    vertex_quadrics_f64, CostData, CrossCheckData, SkinsimpKernels,
+};
+use crate::skinsimp::{Input, Options};
+
+fn points(p: &[nalgebra::Point3<f64>]) -> Vec<f64> {
+    p.iter().flat_map(|q| [q.x, q.y, q.z]).collect()
+}
+
+fn points_f32(p: &[nalgebra::Point3<f64>]) -> Vec<f32> {
+    p.iter()
+        .flat_map(|q| [q.x as f32, q.y as f32, q.z as f32])
+        .collect()
+}
+
+fn quadrics(q: &[crate::skinsimp::quadric::Quadric]) -> Vec<f64> {
+    q.iter().flat_map(|x| x.0).collect()
+}
+
+const QUADRIC_ORDER: &str = "the 10 entries of the symmetric 4×4 quadric's upper triangle, row \
+    by row: (0,0), (0,1), (0,2), (0,3), (1,1), (1,2), (1,3), (2,2), (2,3), (3,3)";
+
+/// The reference side of [`crosscheck`] without a GPU: the GPU fields hold the reference's own
+/// values (only the bounds, which depend on the reference alone, are read from them).
+fn reference_data(input: &Input, options: &Options) -> Result<CrossCheckData> {
+    input.validate()?;
+    let rounded = round_input(&normalise(input).0);
+    let poses = rounded.pose_count();
+    let posed_ref = skin_f64(&rounded)?;
+    let posed_rounded: Vec<_> = posed_ref
+        .iter()
+        .map(|p| p.map(|x| x as f32 as f64))
+        .collect();
+    let sources = quadric_input(&rounded.mesh, poses, options.boundary_weight)?;
+    let weight = sources.boundary_weight as f64;
+    let plane_ref = plane_quadrics_f64(&posed_rounded, &sources, weight);
+    let vertex_ref = vertex_quadrics_f64(&plane_ref, &sources);
+    let cost_data = CostData::new(&rounded, vertex_ref.clone())?.rounded_quadrics();
+    Ok(CrossCheckData {
+        input: rounded,
+        posed_gpu: posed_ref.clone(),
+        posed_ref,
+        posed_rounded,
+        sources,
+        plane_gpu: plane_ref.clone(),
+        plane_ref,
+        vertex_gpu: vertex_ref.clone(),
+        vertex_ref,
+        cost_data,
+        candidates: Vec::new(),
+        costs_ref: Vec::new(),
+        costs_gpu: Vec::new(),
+    })
+}
+
+/// The vectors of `input` (normalised to the unit box and rounded to f32, as the cross-check
+/// does), and reparam's own GPU outputs as candidates when `kernels` is given.
+pub fn vectors(
+    input: &Input,
+    kernels: Option<&SkinsimpKernels>,
+) -> Result<VectorsAndCandidates> {
+    let options = Options::default();
+    let data = match kernels {
+        Some(k) => {
+            crosscheck(
+                k,
+                input,
+                options.boundary_weight,
+                options.cost.max_condition,
+            )?
+            .1
+        }
+        None => reference_data(input, &options)?,
+    };
+    let lbs = lbs_input(&data.input)?;
+    let (v, p) = (lbs.rest.len(), lbs.pose_count());
+    let j = lbs.joint_count as usize;
+    let rest = Array::f32(&[v, 3], lbs.rest.iter().flatten().copied().collect());
+    let joints = Array::u32(
+        &[v, 4],
+        lbs.influences.iter().flat_map(|i| i.joints).collect(),
+    );
+    let weights = Array::f32(
+        &[v, 4],
+        lbs.influences.iter().flat_map(|i| i.weights).collect(),
+    );
+    let matrices = Array::f32(&[p, j, 12], lbs.joints.iter().flatten().copied().collect());
+    let lbs_kernel = KernelData {
+        name: "skinsimp_lbs".into(),
+        description: "linear blend skinning p_ij = Σ_k w_ik M_{j,k} (x_i, 1) (seed 003 §3)".into(),
+        inputs: vec![
+            (
+                "rest".into(),
+                "per vertex (0-based), f32: x, y, z in the unit box".into(),
+                rest,
+            ),
+            (
+                "joints".into(),
+                "per vertex, u32: 4 joint indices (0-based; unused slots weight 0)".into(),
+                joints,
+            ),
+            (
+                "weights".into(),
+                "per vertex, f32: the 4 weights, summing to 1".into(),
+                weights,
+            ),
+            (
+                "matrices".into(),
+                "per pose, per joint, f32: the 3×4 top of the joint matrix, row by row".into(),
+                matrices,
+            ),
+        ],
+        expected: (
+            "per vertex, per pose, f64: the posed x, y, z".into(),
+            Array::f64(&[v, p, 3], points(&data.posed_ref)),
+        ),
+        bound: (
+            "per vertex, pose and coordinate, unit box".into(),
+            Array::f64(&[v, p, 3], lbs_bound(&data)?),
+        ),
+        metric: Metric::Absolute {
+            unit: "unit box".into(),
+        },
+        bound_formula: "(4 + K) u Σ_k w_k Σ_c |M_k,rc h_c| per coordinate (K influences)".into(),
+        derivation: "(M_k h)_r is a 4-term dot product, ≤ 4u Σ_c |M_rc h_c|; scaling by w_k and \
+            summing K terms adds ≤ K u Σ_k w_k |(M_k h)_r| (crosscheck::skinsimp::lbs_bound)"
+            .into(),
+        per_element: vec!["rest".into(), "joints".into(), "weights".into()],
+    };
+    let s = &data.sources;
+    let n = s.sources.len();
+    let (plane_checks, vertex_checks) = quadric_checks(&data);
+    let posed = Array::f32(&[v, p, 3], points_f32(&data.posed_rounded));
+    let corners = Array::u32(&[n, 3], s.sources.iter().flat_map(|x| x.corners).collect());
+    let kinds = Array::u32(&[n], s.sources.iter().map(|x| x.kind).collect());
+    let weight = Array::f32(&[1], vec![s.boundary_weight]);
+    let source_inputs =
+        vec![
+        ("posed".into(), "per vertex, per pose, f32: x, y, z".into(), posed),
+        ("corners".into(), "per source, u32: the face's 3 vertices (0-based)".into(), corners),
+        (
+            "kind".into(),
+            "per source, u32: 3 = the face's plane (weight: area); e = 0, 1, 2 = the constraint \
+             plane through edge (corner e, corner e+1 mod 3) perpendicular to the face (weight: \
+             boundary_weight · |edge|²)"
+                .into(),
+            kinds,
+        ),
+        ("boundary_weight".into(), "f32, one value".into(), weight),
+    ];
+    let plane_kernel = KernelData {
+        name: "skinsimp_quadrics.source".into(),
+        description: "per source and pose, w q qᵀ for the plane q = (n, −n·p₀) (Garland–Heckbert; \
+            seed 003 §4 per pose)"
+            .into(),
+        inputs: source_inputs.clone(),
+        expected: (
+            format!("per source, per pose, f64: {QUADRIC_ORDER}"),
+            Array::f64(&[n, p, 10], quadrics(&data.plane_ref)),
+        ),
+        bound: (
+            "per entry, unit box²".into(),
+            Array::f64(&[n, p, 10], plane_checks.iter().map(|c| c.bound).collect()),
+        ),
+        metric: Metric::Absolute {
+            unit: "unit box²".into(),
+        },
+        bound_formula: "w(Δq_r|q_c| + |q_r|Δq_c + |q_r q_c|(δ_w + 2u)), δ = 4√3κu + 3u".into(),
+        derivation: "crosscheck::skinsimp::source_bound: the cross product, normalisation and d = \
+            −n·p₀ in f32 from f32 corners, κ = |e1||e2|/|e1 × e2|"
+            .into(),
+        per_element: vec!["corners".into(), "kind".into()],
+    };
+    let offsets = Array::u32(&[s.vertex_offsets.len()], s.vertex_offsets.clone());
+    let members = Array::u32(&[s.vertex_sources.len()], s.vertex_sources.clone());
+    let mut vertex_inputs = source_inputs;
+    vertex_inputs.push((
+        "vertex_offsets".into(),
+        "u32, V + 1 CSR offsets: vertex i sums the sources vertex_sources[offsets[i]..offsets[i+1]]"
+            .into(),
+        offsets,
+    ));
+    vertex_inputs.push((
+        "vertex_sources".into(),
+        "u32: source ids (0-based), in summation order per vertex".into(),
+        members,
+    ));
+    let vertex_kernel = KernelData {
+        name: "skinsimp_quadrics.vertex".into(),
+        description: "per vertex and pose, the sum of its sources' quadrics in the given order"
+            .into(),
+        inputs: vertex_inputs,
+        expected: (
+            format!("per vertex, per pose, f64: {QUADRIC_ORDER}"),
+            Array::f64(&[v, p, 10], quadrics(&data.vertex_ref)),
+        ),
+        bound: (
+            "per entry, unit box²".into(),
+            Array::f64(&[v, p, 10], vertex_checks.iter().map(|c| c.bound).collect()),
+        ),
+        metric: Metric::Absolute {
+            unit: "unit box²".into(),
+        },
+        bound_formula: "Σ_s source_bound + (n − 1) u Σ_s |K_s| (n sources)".into(),
+        derivation: "recursive summation from zero of n source quadrics, each with its own bound"
+            .into(),
+        per_element: Vec::new(),
+    };
+    let candidates = if kernels.is_none() {
+        Vec::new()
+    } else {
+        vec![
+            (
+                "skinsimp_lbs".to_string(),
+                Array::f32(&[v, p, 3], points_f32(&data.posed_gpu)),
+            ),
+            (
+                "skinsimp_quadrics.source".to_string(),
+                Array::f32(
+                    &[n, p, 10],
+                    quadrics(&data.plane_gpu)
+                        .iter()
+                        .map(|&x| x as f32)
+                        .collect(),
+                ),
+            ),
+            (
+                "skinsimp_quadrics.vertex".to_string(),
+                Array::f32(
+                    &[v, p, 10],
+                    quadrics(&data.vertex_gpu)
+                        .iter()
+                        .map(|&x| x as f32)
+                        .collect(),
+                ),
+            ),
+        ]
+    };
+    Ok((vec![lbs_kernel, plane_kernel, vertex_kernel], candidates))
+}

@@ -1,0 +1,207 @@
+//! `reparam verify`: judge a candidate implementation's output against conformance vectors,
+//! with the metric and per-element bounds of the manifest (the cross-check's own).
+
+// `!(e <= bound)` is meant: a NaN or ∞ error counts as over any bound.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::{read_manifest, Array, Dtype, KernelVectors, Metric};
+use crate::crosscheck::ErrorSummary;
+use crate::error::{Error, Result};
+
+/// How many of the worst elements a report lists.
+pub const WORST_LISTED: usize = 5;
+
+/// One of the worst elements.
+#[derive(Clone, Debug, Serialize)]
+pub struct WorstElement {
+    /// Its index in the expected array (the last axis left out for a vector metric).
+    pub index: Vec<usize>,
+    pub error: f64,
+    pub bound: f64,
+    /// The kernel's input rows for it: every input whose first axis runs along the element's
+    /// first index, at that index (at most 12 values each).
+    pub inputs: Vec<(String, Vec<f64>)>,
+}
+
+/// What `reparam verify` prints.
+#[derive(Clone, Debug, Serialize)]
+pub struct VerifyReport {
+    pub kernel: String,
+    pub candidate: String,
+    /// The candidate's dtype as read (`f32` or `f64`).
+    pub candidate_dtype: Dtype,
+    pub bound_formula: String,
+    /// The errors, their quantiles and how many exceed their own bound (`over_tolerance`),
+    /// `non_finite` counting each NaN or ∞ of the candidate.
+    pub errors: ErrorSummary,
+    /// The largest per-element bound.
+    pub bound_max: f64,
+    pub worst: Vec<WorstElement>,
+    /// `true` when every element is finite and within its bound.
+    pub pass: bool,
+}
+
+/// The kernel of `manifest` a candidate is for: `--kernel NAME`, else the only one, else the one
+/// named by the candidate's file stem.
+fn choose<'a>(
+    kernels: &'a [KernelVectors],
+    name: Option<&str>,
+    candidate: &Path,
+    dir: &Path,
+) -> Result<&'a KernelVectors> {
+    let names = || {
+        kernels
+            .iter()
+            .map(|k| k.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let stem = candidate
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let wanted = match name {
+        Some(n) => Some(n.to_string()),
+        None if kernels.len() == 1 => Some(kernels[0].name.clone()),
+        None => kernels
+            .iter()
+            .find(|k| k.name == stem)
+            .map(|k| k.name.clone()),
+    };
+    let manifest = dir.join("manifest.json").display().to_string();
+    match wanted {
+        Some(w) => kernels
+            .iter()
+            .find(|k| k.name == w)
+            .ok_or_else(|| Error::Vectors {
+                file: manifest,
+                reason: format!("no kernel '{w}'; the vectors have: {}", names()),
+            }),
+        None => Err(Error::Vectors {
+            file: manifest,
+            reason: format!(
+                "name the kernel with --kernel (or name the candidate <kernel>.npy): one of {}",
+                names()
+            ),
+        }),
+    }
+}
+
+/// Verify the candidate output `candidate` (a `.npy` of the expected shape, f32 or f64) against
+/// the vectors in `dir`.
+pub fn verify(dir: &Path, candidate: &Path, kernel: Option<&str>) -> Result<VerifyReport> {
+    let manifest = read_manifest(dir)?;
+    let k = choose(&manifest.kernels, kernel, candidate, dir)?;
+    let expected = Array::load(&dir.join(&k.expected.file))?;
+    let bound = Array::load(&dir.join(&k.bound.file))?.to_f64();
+    let cand = Array::load(candidate)?;
+    let file = candidate.display().to_string();
+    if !matches!(cand.dtype(), Dtype::F32 | Dtype::F64) {
+        return Err(Error::Vectors {
+            file,
+            reason: format!(
+                "dtype {}; a candidate output is f32 (<f4) or f64 (<f8)",
+                cand.dtype().descr()
+            ),
+        });
+    }
+    if cand.shape != expected.shape {
+        return Err(Error::Vectors {
+            file,
+            reason: format!(
+                "shape {:?}; kernel {} expects {:?} ({})",
+                cand.shape, k.name, expected.shape, k.expected.meaning
+            ),
+        });
+    }
+    let last = match k.metric {
+        Metric::NormOfLastAxis { .. } => *expected.shape.last().unwrap_or(&1),
+        Metric::Absolute { .. } => 1,
+    };
+    let element_shape: Vec<usize> = match k.metric {
+        Metric::NormOfLastAxis { .. } => {
+            expected.shape[..expected.shape.len().saturating_sub(1)].to_vec()
+        }
+        Metric::Absolute { .. } => expected.shape.clone(),
+    };
+    let errors = k.metric.errors(&expected.to_f64(), &cand.to_f64(), last);
+    if errors.len() != bound.len() {
+        return Err(Error::Vectors {
+            file: dir.join(&k.bound.file).display().to_string(),
+            reason: format!("{} bounds for {} elements", bound.len(), errors.len()),
+        });
+    }
+    let over = errors
+        .iter()
+        .zip(&bound)
+        .filter(|(e, b)| !(**e <= **b))
+        .count();
+    let bound_max = bound.iter().copied().fold(0.0, f64::max);
+    let mut summary = ErrorSummary::from_errors(k.metric.unit(), &errors, &[], bound_max);
+    summary.over_tolerance = over;
+    // Worst first: non-finite errors, then by error / bound.
+    let ratio = |n: usize| {
+        if !errors[n].is_finite() {
+            f64::INFINITY
+        } else if errors[n] == 0.0 {
+            0.0
+        } else {
+            errors[n] / bound[n]
+        }
+    };
+    let mut order: Vec<usize> = (0..errors.len()).collect();
+    order.sort_by(|&a, &b| ratio(b).total_cmp(&ratio(a)).then(a.cmp(&b)));
+    let inputs: Vec<(String, Array)> = k
+        .inputs
+        .iter()
+        .filter(|i| i.indexed_by_element)
+        .map(|i| Ok((i.file.clone(), Array::load(&dir.join(&i.file))?)))
+        .collect::<Result<_>>()?;
+    let worst = order
+        .iter()
+        .take(WORST_LISTED)
+        .map(|&n| {
+            let index = unflatten(n, &element_shape);
+            let rows = inputs
+                .iter()
+                .filter(|(_, a)| !index.is_empty() && !a.shape.is_empty() && index[0] < a.shape[0])
+                .map(|(name, a)| {
+                    let width = a.len() / a.shape[0].max(1);
+                    let values = a.to_f64();
+                    let row = &values[index[0] * width..(index[0] + 1) * width];
+                    (name.clone(), row.iter().take(12).copied().collect())
+                })
+                .collect();
+            WorstElement {
+                index,
+                error: errors[n],
+                bound: bound[n],
+                inputs: rows,
+            }
+        })
+        .collect();
+    Ok(VerifyReport {
+        kernel: k.name.clone(),
+        candidate: file,
+        candidate_dtype: cand.dtype(),
+        bound_formula: k.bound_formula.clone(),
+        pass: over == 0 && summary.non_finite == 0,
+        errors: summary,
+        bound_max,
+        worst,
+    })
+}
+
+/// The multi-index of flat position `n` in C order.
+fn unflatten(mut n: usize, shape: &[usize]) -> Vec<usize> {
+    let mut index = vec![0; shape.len()];
+    for (k, &d) in shape.iter().enumerate().rev() {
+        index[k] = n % d.max(1);
+        n /= d.max(1);
+    }
+    index
+}
