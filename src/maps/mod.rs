@@ -15,7 +15,9 @@
 //! | constrained Delaunay retriangulation (spade), fans, robust location | notes "Retriangulating the hole"; seed "Constructing (5/5)" | [`retriangulate`] |
 //! | levels, maximal independent sets, validity checks, bookkeeping | notes "Hierarchy", "Parameter bookkeeping"; seed "Parameterization" | [`hierarchy`] |
 //! | Π and Π⁻¹: the level maps composed forwards and backwards | notes "Parameter bookkeeping"; seed "Parameterization", "Remeshing (1/5)" | [`param`] |
-//! | point–triangle distance, sampled two-sided Hausdorff distance | issue #5 "Remeshing" | [`crate::mesh::distance`] |
+//! | point–triangle distance, BVH (parry3d), sampled two-sided Hausdorff and mean distances, wrong-facing area | issues #5 "Remeshing", #23 | [`crate::mesh::distance`] |
+//! | remesh quality: distances relative to the diagonal, smallest-angle distribution | issue #23 | [`quality`] |
+//! | distortion of Π per level and at the end: area (log of the normalised area ratio), conformal (σ_max/σ_min), folds | issue #23 | [`distortion`] |
 //! | pictures: levels, base domain, iso-parameter lines, remeshes | issue #5 "Pictures" | [`picture`] |
 //! | uniform and adaptive remeshing | notes "Smoothing and remeshing"; seed "Remeshing" | [`remesh`] |
 //! | Loop smoothing of the parameterisation in the parameter domain (charts, crease rules), smoothed uniform remesh | notes "Smoothing and remeshing"; seed "Remeshing (2/5), (3/5)" | [`smooth`] |
@@ -23,6 +25,7 @@
 //! Entry point: [`build`] (or [`build_with_progress`]), then [`Maps::param`] for Π / Π⁻¹ and
 //! [`remesh::uniform`] / [`remesh::adaptive`].
 
+pub mod distortion;
 pub mod features;
 pub mod flatten;
 #[cfg(feature = "gpu")]
@@ -31,6 +34,7 @@ pub mod hierarchy;
 pub mod param;
 pub mod picture;
 pub mod priority;
+pub mod quality;
 pub mod remesh;
 pub mod retriangulate;
 pub mod smooth;
@@ -41,7 +45,9 @@ use std::time::Instant;
 use nalgebra::Point3;
 
 pub use features::{detect_features, load_features, parse_features, FeatureOptions, Features};
-pub use hierarchy::{Level, LevelReport, Location, RejectCounts, Removal};
+pub use hierarchy::{
+    HierarchyStop, Level, LevelReport, Location, RejectCounts, Removal, StopReason,
+};
 pub use param::{BasePoint, Param, SurfacePoint};
 
 use crate::error::{Error, Result};
@@ -66,6 +72,19 @@ pub struct MapsOptions {
     /// A feature-line or boundary vertex whose two feature edges turn by more than this
     /// (radians) is a corner ([`features::vertex_role`]). Default 60°.
     pub corner_turn: f64,
+    /// Beyond the paper (issue #23): when neither the CDT nor any fan of a hole passes the
+    /// checks, try the best valid triangulation of the flattened hole by dynamic programming
+    /// ([`retriangulate::best_triangulation`]: every triangle counter-clockwise in μ and facing
+    /// the star normal's side in 3D, no diagonal that is already an edge, largest smallest
+    /// angle) before rejecting the removal. Default false (the paper's CDT with the fans).
+    pub best_triangulation: bool,
+    /// Beyond the paper (issue #23): with a `base_size` above 0 not yet reached, when a level
+    /// removes nothing but some candidates were left out of its independent set (each next to
+    /// a rejected vertex), run another level without the rejected vertices instead of stopping.
+    /// It changes nothing on a run that reaches `base_size` without such a level, nor on a run
+    /// to the coarsest base (`base_size` 0); it lets the hierarchy go on where the paper's
+    /// would stop short of the size asked for. Default false (the paper's stopping rule).
+    pub retry_rejected: bool,
 }
 
 impl Default for MapsOptions {
@@ -77,6 +96,8 @@ impl Default for MapsOptions {
             max_levels: usize::MAX,
             keep_levels: true,
             corner_turn: FeatureOptions::default().corner_turn,
+            best_triangulation: false,
+            retry_rejected: false,
         }
     }
 }
@@ -112,6 +133,8 @@ pub struct Maps {
     pub location: Vec<Location>,
     /// Removals rejected by the checks, by cause.
     pub rejects: RejectCounts,
+    /// Why the hierarchy stopped, and the state of the base domain's vertices.
+    pub stop: HierarchyStop,
     /// Seconds per stage.
     pub timings: Timings,
     /// Π and Π⁻¹ (charts over the base domain).
@@ -155,8 +178,9 @@ pub fn build_with_progress(
 
     let t1 = Instant::now();
     let mut work = Work::new(&mesh.positions, &mesh.faces, features, options.corner_turn);
+    work.best_triangulation = options.best_triangulation;
     let mut rejects = RejectCounts::default();
-    let levels = decimate(&mut work, options, &mut rejects, progress);
+    let (levels, stop) = decimate(&mut work, options, &mut rejects, progress);
     let hierarchy_time = t1.elapsed().as_secs_f64();
 
     let t2 = Instant::now();
@@ -187,6 +211,7 @@ pub fn build_with_progress(
         features: features.clone(),
         location,
         rejects,
+        stop,
         timings: Timings {
             check,
             hierarchy: hierarchy_time,

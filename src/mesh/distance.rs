@@ -1,6 +1,8 @@
-//! Point-to-surface distances: the closest point of a triangle, a uniform grid for
-//! nearest-surface queries, and the sampled two-sided Hausdorff distance. Shared by the MAPS
-//! remesh errors (issue #5) and the skinned-simplification errors (issue #6).
+//! Point-to-surface distances: the closest point of a triangle, a uniform grid and a BVH
+//! (parry3d's triangle mesh) for nearest-surface queries, the sampled two-sided Hausdorff
+//! distance and the surface comparison of issue #23 (mean distances, area facing the wrong way).
+//! Shared by the MAPS remesh errors (issues #5, #23) and the skinned-simplification errors
+//! (issue #6).
 
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
@@ -270,24 +272,188 @@ impl Hausdorff {
 
 /// Sampled Hausdorff distance: each side's [`surface_samples`] (vertices, centroids and the
 /// three centroid–corner midpoints of every face) measured exactly against the other side's
-/// triangles. A lower bound of the true Hausdorff distance, tight when the faces are small
-/// compared with the surfaces' features. Parallel, order-independent (a max).
+/// triangles (nearest triangle by [`SurfaceBvh`]). A lower bound of the true Hausdorff
+/// distance, tight when the faces are small compared with the surfaces' features. Parallel,
+/// order-independent (a max). [`compare_surfaces`] gives the same maxima and more.
 pub fn hausdorff(
     a_positions: &[Point3<f64>],
     a_faces: &[[u32; 3]],
     b_positions: &[Point3<f64>],
     b_faces: &[[u32; 3]],
 ) -> Hausdorff {
-    let one_way =
-        |from_p: &[Point3<f64>], from_f: &[[u32; 3]], to_p: &[Point3<f64>], to_f: &[[u32; 3]]| {
-            let grid = SurfaceGrid::new(to_p, to_f);
-            surface_samples(from_p, from_f)
-                .par_iter()
-                .map(|p| grid.distance(p))
-                .reduce(|| 0.0, f64::max)
-        };
-    Hausdorff {
-        a_to_b: one_way(a_positions, a_faces, b_positions, b_faces),
-        b_to_a: one_way(b_positions, b_faces, a_positions, a_faces),
+    compare_surfaces(a_positions, a_faces, b_positions, b_faces).hausdorff
+}
+
+/// The nearest point of a triangle set to a query point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Nearest {
+    /// Index of the nearest triangle.
+    pub face: u32,
+    /// The closest point on it.
+    pub point: Point3<f64>,
+    /// |point − query|.
+    pub distance: f64,
+}
+
+/// A bounding-volume hierarchy over a triangle set for nearest-surface queries: parry3d's
+/// `TriMesh` (an AABB tree of the triangles, searched best-first with the box distance as the
+/// bound), its triangle ids the indices into `faces`.
+pub struct SurfaceBvh {
+    mesh: Option<parry3d_f64::shape::TriMesh>,
+}
+
+impl SurfaceBvh {
+    /// Build the BVH of `faces` over `positions` (an empty set gives a BVH that finds nothing).
+    pub fn new(positions: &[Point3<f64>], faces: &[[u32; 3]]) -> Self {
+        use parry3d_f64::math::Vector;
+        let vertices: Vec<Vector> = positions
+            .iter()
+            .map(|p| Vector::new(p.x, p.y, p.z))
+            .collect();
+        // No flags: parry keeps the triangles as given (no merging, no removal), so its
+        // triangle ids are our face indices.
+        let mesh = parry3d_f64::shape::TriMesh::new(vertices, faces.to_vec()).ok();
+        SurfaceBvh { mesh }
+    }
+
+    /// The nearest point of the triangle set to `p` (`None` when the set is empty or `p` is
+    /// not finite).
+    pub fn nearest(&self, p: &Point3<f64>) -> Option<Nearest> {
+        use parry3d_f64::math::Vector;
+        use parry3d_f64::shape::CompositeShapeRef;
+        let mesh = self.mesh.as_ref()?;
+        let q = Vector::new(p.x, p.y, p.z);
+        let (face, proj, _) =
+            CompositeShapeRef(mesh).project_local_point_and_get_location(q, f64::MAX, false)?;
+        let point = Point3::new(proj.point.x, proj.point.y, proj.point.z);
+        let distance = (point - p).norm();
+        distance.is_finite().then_some(Nearest {
+            face,
+            point,
+            distance,
+        })
+    }
+
+    /// Distance from `p` to the nearest triangle (∞ when there is none).
+    pub fn distance(&self, p: &Point3<f64>) -> f64 {
+        self.nearest(p).map_or(f64::INFINITY, |n| n.distance)
+    }
+}
+
+/// Two surfaces compared by sampling (issue #23): Hausdorff distances, area-weighted mean
+/// distances, and the part of A's area whose normal opposes that of the nearest triangle of B.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct SurfaceComparison {
+    /// Sampled Hausdorff distances ([`hausdorff`]).
+    pub hausdorff: Hausdorff,
+    /// Mean distance from A to B: Σ_f area_f · (mean over f's four interior samples of the
+    /// distance to B) / Σ_f area_f — a four-point quadrature of (1/|A|) ∫_A d(x, B) dA.
+    pub mean_a_to_b: f64,
+    /// The same from B to A.
+    pub mean_b_to_a: f64,
+    /// Fraction of A's area (same quadrature) at whose samples the unit normal n_A of A's face
+    /// and n_B of the nearest triangle of B satisfy n_A · n_B < 0: A faces the wrong way there.
+    pub opposed_area_fraction: f64,
+}
+
+impl SurfaceComparison {
+    /// max(mean_a_to_b, mean_b_to_a): the two-sided mean distance.
+    pub fn mean(&self) -> f64 {
+        self.mean_a_to_b.max(self.mean_b_to_a)
+    }
+}
+
+/// One side of [`compare_surfaces`]: (max distance, mean distance, opposed area fraction) of
+/// the samples of `from` measured against `to`.
+fn one_way(
+    from_p: &[Point3<f64>],
+    from_f: &[[u32; 3]],
+    to_p: &[Point3<f64>],
+    to_f: &[[u32; 3]],
+) -> (f64, f64, f64) {
+    let bvh = SurfaceBvh::new(to_p, to_f);
+    let unit_normal = |p: &[Point3<f64>], t: [u32; 3]| {
+        let [a, b, c] = t.map(|v| p[v as usize]);
+        (b - a).cross(&(c - a)).try_normalize(0.0)
+    };
+    // Per face (in parallel, collected in face order so that the sums below do not depend on
+    // the thread count): (max over its interior samples, area · mean distance, opposed area).
+    let per_face: Vec<(f64, f64, f64, f64)> = from_f
+        .par_iter()
+        .map(|&t| {
+            let [a, b, c] = t.map(|v| from_p[v as usize]);
+            let area = 0.5 * (b - a).cross(&(c - a)).norm();
+            let n_from = unit_normal(from_p, t);
+            let g = Point3::from((a.coords + b.coords + c.coords) / 3.0);
+            let samples = [
+                g,
+                Point3::from((g.coords + a.coords) * 0.5),
+                Point3::from((g.coords + b.coords) * 0.5),
+                Point3::from((g.coords + c.coords) * 0.5),
+            ];
+            let (mut max, mut sum, mut opposed) = (0.0f64, 0.0, 0.0);
+            for s in &samples {
+                let Some(n) = bvh.nearest(s) else {
+                    return (f64::INFINITY, f64::INFINITY, 0.0, area);
+                };
+                max = max.max(n.distance);
+                sum += n.distance;
+                let n_to = unit_normal(to_p, to_f[n.face as usize]);
+                if let (Some(x), Some(y)) = (n_from, n_to) {
+                    if x.dot(&y) < 0.0 {
+                        opposed += area / 4.0;
+                    }
+                }
+            }
+            (max, area * sum / 4.0, opposed, area)
+        })
+        .collect();
+    let mut used = vec![false; from_p.len()];
+    for f in from_f {
+        for &v in f {
+            used[v as usize] = true;
+        }
+    }
+    let vertex_max = from_p
+        .par_iter()
+        .zip(&used)
+        .filter(|(_, &u)| u)
+        .map(|(p, _)| bvh.distance(p))
+        .reduce(|| 0.0, f64::max);
+    let (mut max, mut weighted, mut opposed, mut total) = (vertex_max, 0.0, 0.0, 0.0);
+    for &(m, w, o, a) in &per_face {
+        max = max.max(m);
+        weighted += w;
+        opposed += o;
+        total += a;
+    }
+    if total > 0.0 {
+        (max, weighted / total, opposed / total)
+    } else {
+        (max, 0.0, 0.0)
+    }
+}
+
+/// Compare surface A with surface B (issue #23): the sampled Hausdorff distances (samples of
+/// [`surface_samples`]), the mean distances and the opposed-area fraction of A
+/// ([`SurfaceComparison`]). Nearest triangles by [`SurfaceBvh`]. Parallel; every sum is taken
+/// in face order, so the result does not depend on the thread count. An empty side gives
+/// infinite distances from the other side.
+pub fn compare_surfaces(
+    a_positions: &[Point3<f64>],
+    a_faces: &[[u32; 3]],
+    b_positions: &[Point3<f64>],
+    b_faces: &[[u32; 3]],
+) -> SurfaceComparison {
+    let (ab_max, ab_mean, opposed) = one_way(a_positions, a_faces, b_positions, b_faces);
+    let (ba_max, ba_mean, _) = one_way(b_positions, b_faces, a_positions, a_faces);
+    SurfaceComparison {
+        hausdorff: Hausdorff {
+            a_to_b: ab_max,
+            b_to_a: ba_max,
+        },
+        mean_a_to_b: ab_mean,
+        mean_b_to_a: ba_mean,
+        opposed_area_fraction: opposed,
     }
 }
