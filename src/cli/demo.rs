@@ -612,7 +612,7 @@ fn maps_demo(out: &Path, report: &mut Report) -> Result<()> {
         lambda: 0.5,
         max_degree: 12,
         best_triangulation: false,
-        retry_rejected: false,
+        no_retry_rejected: false,
         features: None,
         feature_vertices: None,
         feature_edges: None,

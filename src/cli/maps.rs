@@ -40,10 +40,11 @@ pub struct MapsArgs {
     /// best valid triangulation of the flattened hole (dynamic programming) before rejecting.
     #[arg(long)]
     pub best_triangulation: bool,
-    /// Beyond the paper: when a level removes nothing before the base size is reached, give
-    /// the candidates next to the rejected vertices another level instead of stopping.
+    /// The paper's stopping rule: stop at the first level that removes nothing, even before
+    /// the base size is reached (by default the candidates next to the rejected vertices get
+    /// another level).
     #[arg(long)]
-    pub retry_rejected: bool,
+    pub no_retry_rejected: bool,
     /// Features: `auto` (detect by dihedral angle and curvature) or a sidecar file with lines
     /// `v I` (corner vertex, 0-based) and `e I J` (feature edge). None by default.
     #[arg(long)]
@@ -271,7 +272,7 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         base_size: args.base_size,
         max_degree: args.max_degree,
         best_triangulation: args.best_triangulation,
-        retry_rejected: args.retry_rejected,
+        retry_rejected: !args.no_retry_rejected,
         ..MapsOptions::default()
     };
     let bar = if progress {

@@ -83,7 +83,9 @@ pub struct MapsOptions {
     /// a rejected vertex), run another level without the rejected vertices instead of stopping.
     /// It changes nothing on a run that reaches `base_size` without such a level, nor on a run
     /// to the coarsest base (`base_size` 0); it lets the hierarchy go on where the paper's
-    /// would stop short of the size asked for. Default false (the paper's stopping rule).
+    /// would stop short of the size asked for (genus-3 model at base size 96: 102 base faces
+    /// with the paper's rule, 96 with this; every other measured model unchanged). Default
+    /// true.
     pub retry_rejected: bool,
 }
 
@@ -97,7 +99,7 @@ impl Default for MapsOptions {
             keep_levels: true,
             corner_turn: FeatureOptions::default().corner_turn,
             best_triangulation: false,
-            retry_rejected: false,
+            retry_rejected: true,
         }
     }
 }
