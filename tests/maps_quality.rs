@@ -3,6 +3,7 @@
 
 use nalgebra::{Point3, Vector3};
 use reparam::maps::distortion::{distortion, quantile, triangle_map};
+use reparam::maps::priority::{priorities, priorities_quantile};
 use reparam::maps::quality::{angle_stats, smallest_angle_deg};
 use reparam::maps::remesh::uniform;
 use reparam::maps::{build, Features, MapsOptions, StopReason};
@@ -339,6 +340,30 @@ fn retrying_rejected_neighbours_goes_on_only_where_the_paper_stops_short() {
     );
     // Whichever way it stops, the hierarchy stays a bijection with no flipped level map.
     assert_eq!(b.param.count_flipped(), 0);
+}
+
+#[test]
+fn priority_by_quantile() {
+    let area = [1.0, 2.0, 3.0, 4.0, 100.0];
+    let kappa = [0.0, 1.0, 1.0, 2.0, 50.0];
+    // q = 1 is the paper's priority, exactly.
+    assert_eq!(
+        priorities_quantile(0.5, &area, &kappa, 1.0),
+        priorities(0.5, &area, &kappa)
+    );
+    // q = 0.8: references a = 4 and κ = 2 (rank ⌈0.8 · 5⌉ = 4), terms clamped to 1.
+    let w = priorities_quantile(0.5, &area, &kappa, 0.8);
+    let expect = [0.125, 0.5, 0.625, 1.0, 1.0];
+    for (x, e) in w.iter().zip(expect) {
+        assert!((x - e).abs() < 1e-15, "{w:?}");
+    }
+    // Out of range: a typed error.
+    let m = small_torus();
+    let bad = MapsOptions {
+        priority_quantile: 0.0,
+        ..MapsOptions::default()
+    };
+    assert!(build(&m, &Features::default(), &bad).is_err());
 }
 
 // ---------------------------------------------------------------- procedural models

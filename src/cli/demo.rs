@@ -611,6 +611,7 @@ fn maps_demo(out: &Path, report: &mut Report) -> Result<()> {
         base_size: 0,
         lambda: 0.5,
         max_degree: 12,
+        priority_quantile: 1.0,
         best_triangulation: false,
         no_retry_rejected: false,
         features: None,

@@ -33,6 +33,10 @@ pub struct MapsArgs {
     /// λ of the priority w(λ, i) = λ a/max a + (1 − λ) κ/max κ.
     #[arg(long, default_value_t = 0.5)]
     pub lambda: f64,
+    /// Beyond the paper: normalise the priority's terms by this quantile over the candidates
+    /// instead of their maximum (1: the paper's maximum).
+    #[arg(long, default_value_t = 1.0)]
+    pub priority_quantile: f64,
     /// Vertices of higher degree are not removed.
     #[arg(long, default_value_t = 12)]
     pub max_degree: usize,
@@ -271,6 +275,7 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         lambda: args.lambda,
         base_size: args.base_size,
         max_degree: args.max_degree,
+        priority_quantile: args.priority_quantile,
         best_triangulation: args.best_triangulation,
         retry_rejected: !args.no_retry_rejected,
         ..MapsOptions::default()

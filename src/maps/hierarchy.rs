@@ -26,7 +26,7 @@ use rayon::prelude::*;
 
 use super::features::{vertex_role, Features, VertexRole};
 use super::flatten::{flatten_ring, RingShape};
-use super::priority::{curvature, priorities, ring_area, star_normal};
+use super::priority::{curvature, priorities_quantile, ring_area, star_normal};
 use super::quality::smallest_angle_deg;
 use super::retriangulate::{
     best_triangulation, cdt_triangulation, fan_triangulation, locate, orient2d,
@@ -676,7 +676,7 @@ pub(crate) fn decimate<'a>(
         level.candidates = candidates.iter().map(|c| c.vertex).collect();
         let area: Vec<f64> = candidates.iter().map(|c| c.area).collect();
         let kappa: Vec<f64> = candidates.iter().map(|c| c.kappa).collect();
-        let w = priorities(options.lambda, &area, &kappa);
+        let w = priorities_quantile(options.lambda, &area, &kappa, options.priority_quantile);
         let selected = independent_set(work, &candidates, &w);
         level.selected = selected.iter().map(|&c| candidates[c].vertex).collect();
         let mut slots: Vec<Option<Candidate>> = candidates.into_iter().map(Some).collect();
