@@ -7,7 +7,9 @@ use reparam::maps::priority::{priorities, priorities_quantile};
 use reparam::maps::quality::{angle_stats, smallest_angle_deg};
 use reparam::maps::remesh::uniform;
 use reparam::maps::{build, Features, MapsOptions, StopReason};
-use reparam::mesh::distance::{compare_surfaces, point_triangle_distance, SurfaceBvh};
+use reparam::mesh::distance::{
+    compare_surfaces, point_triangle_distance, NearestFeature, SurfaceBvh,
+};
 use reparam::mesh::{check_manifold, procedural, TriMesh};
 
 // ---------------------------------------------------------------- fixtures
@@ -100,6 +102,19 @@ fn bvh_nearest_distance_matches_brute_force() {
         let [a, b, c] = m.faces[n.face as usize].map(|v| m.positions[v as usize]);
         assert!((point_triangle_distance(&q, &a, &b, &c) - brute).abs() < 1e-12);
     }
+    // The feature of the nearest point, in mesh vertex indices.
+    let tri = [
+        Point3::new(5.0, 5.0, 5.0),
+        Point3::origin(),
+        Point3::new(1.0, 0.0, 0.0),
+        Point3::new(0.0, 1.0, 0.0),
+    ];
+    let one = SurfaceBvh::new(&tri, &[[1, 2, 3]]);
+    let at = |x: f64, y: f64, z: f64| one.nearest(&Point3::new(x, y, z)).unwrap().feature;
+    assert_eq!(at(-1.0, -1.0, 0.5), NearestFeature::Vertex(1));
+    assert_eq!(at(0.5, -1.0, 0.0), NearestFeature::Edge(1, 2));
+    assert_eq!(at(1.0, 1.0, 0.0), NearestFeature::Edge(2, 3));
+    assert_eq!(at(0.2, 0.2, 1.0), NearestFeature::Face);
     let empty = SurfaceBvh::new(&m.positions, &[]);
     assert!(empty.nearest(&Point3::origin()).is_none());
     assert_eq!(empty.distance(&Point3::origin()), f64::INFINITY);

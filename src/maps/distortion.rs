@@ -27,7 +27,12 @@ use super::Maps;
 pub struct DistortionStats {
     /// Input triangles measured (those whose three corners have an image).
     pub triangles: usize,
-    /// Images that folded or have no area (excluded from the figures below).
+    /// Images that folded or have no area (excluded from the figures below). Π itself never
+    /// folds (each level map is orientation preserving, [`super::Param::count_flipped`]); an
+    /// image counted here is the straight triangle of its three corners facing against the
+    /// level mesh's normals, which happens when the corners lie on faces either side of a
+    /// sharp level edge (measured at a 96-face base: 0 after the first level, 1.0% of blub's
+    /// triangles and 0.4% of the genus-3 model's at the end).
     pub folded: usize,
     /// Mean of |log r_t|.
     pub area_mean: f64,

@@ -284,11 +284,24 @@ pub fn hausdorff(
     compare_surfaces(a_positions, a_faces, b_positions, b_faces).hausdorff
 }
 
+/// Where on its triangle a nearest point lies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NearestFeature {
+    /// Inside the triangle.
+    Face,
+    /// On the edge between these two vertices (mesh vertex indices).
+    Edge(u32, u32),
+    /// At this vertex (mesh vertex index).
+    Vertex(u32),
+}
+
 /// The nearest point of a triangle set to a query point.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Nearest {
     /// Index of the nearest triangle.
     pub face: u32,
+    /// The part of that triangle it lies on.
+    pub feature: NearestFeature,
     /// The closest point on it.
     pub point: Point3<f64>,
     /// |point − query|.
@@ -323,12 +336,23 @@ impl SurfaceBvh {
         use parry3d_f64::shape::CompositeShapeRef;
         let mesh = self.mesh.as_ref()?;
         let q = Vector::new(p.x, p.y, p.z);
-        let (face, proj, _) =
+        use parry3d_f64::shape::TrianglePointLocation as L;
+        let (face, proj, location) =
             CompositeShapeRef(mesh).project_local_point_and_get_location(q, f64::MAX, false)?;
         let point = Point3::new(proj.point.x, proj.point.y, proj.point.z);
         let distance = (point - p).norm();
+        let t = mesh.indices()[face as usize];
+        // parry's edge numbering: 0 = AB, 1 = BC, 2 = AC.
+        let feature = match location {
+            L::OnVertex(i) => NearestFeature::Vertex(t[i as usize]),
+            L::OnEdge(0, _) => NearestFeature::Edge(t[0], t[1]),
+            L::OnEdge(1, _) => NearestFeature::Edge(t[1], t[2]),
+            L::OnEdge(_, _) => NearestFeature::Edge(t[0], t[2]),
+            L::OnFace(..) | L::OnSolid => NearestFeature::Face,
+        };
         distance.is_finite().then_some(Nearest {
             face,
+            feature,
             point,
             distance,
         })
@@ -352,7 +376,9 @@ pub struct SurfaceComparison {
     /// The same from B to A.
     pub mean_b_to_a: f64,
     /// Fraction of A's area (same quadrature) at whose samples the unit normal n_A of A's face
-    /// and n_B of the nearest triangle of B satisfy n_A · n_B < 0: A faces the wrong way there.
+    /// and the pseudo-normal n_B of B at the nearest point (the face normal inside a face, the
+    /// edge's or the vertex's angle-weighted pseudo-normal on an edge or at a vertex) satisfy
+    /// n_A · n_B < 0: A faces the wrong way there.
     pub opposed_area_fraction: f64,
 }
 
@@ -360,6 +386,60 @@ impl SurfaceComparison {
     /// max(mean_a_to_b, mean_b_to_a): the two-sided mean distance.
     pub fn mean(&self) -> f64 {
         self.mean_a_to_b.max(self.mean_b_to_a)
+    }
+}
+
+/// Pseudo-normals of a triangle set (Bærentzen & Aanæs, "Signed distance computation using the
+/// angle weighted pseudonormal", IEEE TVCG 2005): the unit face normal inside a face, the
+/// normalised sum of the two face normals on an edge, the angle-weighted sum of the face
+/// normals at a vertex. The side of a surface a point lies on, or the direction a surface
+/// faces at its nearest point, is then well defined even when that point is on an edge or a
+/// vertex (a crease, a thin ridge).
+struct PseudoNormals<'a> {
+    positions: &'a [Point3<f64>],
+    faces: &'a [[u32; 3]],
+    vertex: Vec<Vector3<f64>>,
+    edge: std::collections::HashMap<(u32, u32), Vector3<f64>>,
+}
+
+impl<'a> PseudoNormals<'a> {
+    fn new(positions: &'a [Point3<f64>], faces: &'a [[u32; 3]]) -> Self {
+        let mut vertex = vec![Vector3::zeros(); positions.len()];
+        let mut edge = std::collections::HashMap::new();
+        for t in faces {
+            let p = t.map(|v| positions[v as usize]);
+            let Some(n) = (p[1] - p[0]).cross(&(p[2] - p[0])).try_normalize(0.0) else {
+                continue;
+            };
+            for c in 0..3 {
+                let (u, w) = (p[(c + 1) % 3] - p[c], p[(c + 2) % 3] - p[c]);
+                let angle = u.cross(&w).norm().atan2(u.dot(&w));
+                vertex[t[c] as usize] += n * angle;
+                let (a, b) = (t[c], t[(c + 1) % 3]);
+                *edge.entry((a.min(b), a.max(b))).or_insert(Vector3::zeros()) += n;
+            }
+        }
+        PseudoNormals {
+            positions,
+            faces,
+            vertex,
+            edge,
+        }
+    }
+
+    /// The unit pseudo-normal at a nearest point (`None` where it vanishes).
+    fn at(&self, n: &Nearest) -> Option<Vector3<f64>> {
+        match n.feature {
+            NearestFeature::Face => {
+                let [a, b, c] = self.faces[n.face as usize].map(|v| self.positions[v as usize]);
+                (b - a).cross(&(c - a)).try_normalize(0.0)
+            }
+            NearestFeature::Edge(a, b) => self
+                .edge
+                .get(&(a.min(b), a.max(b)))
+                .and_then(|v| v.try_normalize(0.0)),
+            NearestFeature::Vertex(v) => self.vertex[v as usize].try_normalize(0.0),
+        }
     }
 }
 
@@ -376,6 +456,7 @@ fn one_way(
         let [a, b, c] = t.map(|v| p[v as usize]);
         (b - a).cross(&(c - a)).try_normalize(0.0)
     };
+    let pseudo = PseudoNormals::new(to_p, to_f);
     // Per face (in parallel, collected in face order so that the sums below do not depend on
     // the thread count): (max over its interior samples, area · mean distance, opposed area).
     let per_face: Vec<(f64, f64, f64, f64)> = from_f
@@ -398,7 +479,7 @@ fn one_way(
                 };
                 max = max.max(n.distance);
                 sum += n.distance;
-                let n_to = unit_normal(to_p, to_f[n.face as usize]);
+                let n_to = pseudo.at(&n);
                 if let (Some(x), Some(y)) = (n_from, n_to) {
                     if x.dot(&y) < 0.0 {
                         opposed += area / 4.0;
