@@ -45,6 +45,8 @@ fn cases() -> Vec<(String, TriMesh)> {
         ("torus 12k".to_string(), torus(96, 64)),
         ("torus 100k".to_string(), torus(320, 160)),
         ("torus 1M".to_string(), procedural::big_torus()),
+        // Issue #23's hard case: a bumpy genus-2 surface of ≈ 100k irregular triangles.
+        ("genus-2 100k".to_string(), procedural::genus_bumpy(2, 110)),
     ];
     if let Some(n) = nefertiti() {
         v.push(("nefertiti 70k".to_string(), n));
@@ -79,10 +81,13 @@ fn print_figures(cases: &[(String, TriMesh)]) {
                 let u = uniform(&maps, 3).expect("uniform");
                 let tu = t.elapsed().as_secs_f64();
                 println!(
-                    "  uniform j=3: {} triangles in {tu:.3} s (of which Hausdorff {:.3} s), Hausdorff/diag {:.2e}",
+                    "  uniform j=3: {} triangles in {tu:.3} s (of which distance figures {:.3} s), \
+                     Hausdorff/diag {:.2e}, mean/diag {:.2e}, wrong-facing area {:.2e}",
                     u.mesh.faces.len(),
                     u.hausdorff_seconds,
-                    u.hausdorff.max() / u.diagonal
+                    u.hausdorff.max() / u.diagonal,
+                    u.quality.mean_relative,
+                    u.quality.wrong_facing_area
                 );
                 for eps in [0.01, 0.005] {
                     let t = Instant::now();

@@ -602,6 +602,10 @@ fn maps_demo(out: &Path, report: &mut Report) -> Result<()> {
         mesh: "procedural:torus".into(),
         base_size: 0,
         lambda: 0.5,
+        max_degree: 12,
+        priority_quantile: 1.0,
+        best_triangulation: false,
+        no_retry_rejected: false,
         features: None,
         feature_vertices: None,
         feature_edges: None,
@@ -624,6 +628,21 @@ fn maps_demo(out: &Path, report: &mut Report) -> Result<()> {
         s.rejected.flatten,
         s.rejected.triangulation
     ));
+    let d = &s.distortion.final_map;
+    report.paragraph(&format!(
+        "Distortion of Π over the {} input triangles (`maps::distortion`): |log area ratio| mean {}, p95 {}, max {} \
+         (the input's own triangle-size spread, p95 of |log A/Ā|, is {}); σmax/σmin mean {}, p95 {}, max {}; {} folded images. \
+         `torus_area_distortion.png`: the input coloured by log area ratio (blue: Π shrinks, red: Π grows).",
+        d.triangles,
+        sig(d.area_mean, 3),
+        sig(d.area_p95, 3),
+        sig(d.area_max, 3),
+        sig(s.distortion.input_area_spread, 3),
+        sig(d.conformal_mean, 3),
+        sig(d.conformal_p95, 3),
+        sig(d.conformal_max, 3),
+        d.folded
+    ));
     let rows: Vec<Vec<String>> = s
         .remeshes
         .iter()
@@ -632,12 +651,23 @@ fn maps_demo(out: &Path, report: &mut Report) -> Result<()> {
                 r.kind.clone(),
                 r.faces.to_string(),
                 sig(r.hausdorff_relative, 3),
+                sig(r.mean_distance_relative, 3),
+                sig(r.wrong_facing_area, 3),
+                sig(r.smallest_angles.min_deg, 3),
                 sig(r.seconds, 3),
             ]
         })
         .collect();
     report.table(
-        &["remesh", "faces", "sampled Hausdorff / diagonal", "seconds"],
+        &[
+            "remesh",
+            "faces",
+            "sampled Hausdorff / diagonal",
+            "mean distance / diagonal",
+            "wrong-facing area",
+            "smallest angle (°)",
+            "seconds",
+        ],
         &rows,
     );
     report.paragraph(

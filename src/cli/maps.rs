@@ -6,11 +6,13 @@ use std::time::Instant;
 
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use reparam::maps::distortion::{distortion, Distortion};
+use reparam::maps::quality::AngleStats;
 use reparam::maps::remesh::{adaptive, uniform, AdaptiveOptions, Remesh};
 use reparam::maps::smooth::{uniform_smoothed_with, SmoothOptions, SmoothStats};
 use reparam::maps::{
     build_with_progress, detect_features, load_features, picture, FeatureOptions, Features,
-    LevelReport, Maps, MapsOptions, RejectCounts, Timings,
+    HierarchyStop, LevelReport, Maps, MapsOptions, RejectCounts, StopReason, Timings,
 };
 use reparam::mesh::{write_obj, TriMesh};
 use reparam::report::sig;
@@ -22,7 +24,8 @@ use super::inputs::builtin_mesh;
 
 #[derive(Args, Clone, Debug)]
 pub struct MapsArgs {
-    /// The mesh: an .obj, .ply or .off file, or `procedural:<name>` (e.g. procedural:torus).
+    /// The mesh: an .obj, .ply or .off file, or `procedural:<name>` (e.g. procedural:torus;
+    /// also the hard models genus2, genus3, horned, pedestal).
     pub mesh: String,
     /// Stop when the base domain has at most this many triangles (0: as coarse as possible).
     #[arg(long, default_value_t = 0)]
@@ -30,6 +33,22 @@ pub struct MapsArgs {
     /// λ of the priority w(λ, i) = λ a/max a + (1 − λ) κ/max κ.
     #[arg(long, default_value_t = 0.5)]
     pub lambda: f64,
+    /// Beyond the paper: normalise the priority's terms by this quantile over the candidates
+    /// instead of their maximum (1: the paper's maximum).
+    #[arg(long, default_value_t = 1.0)]
+    pub priority_quantile: f64,
+    /// Vertices of higher degree are not removed.
+    #[arg(long, default_value_t = 12)]
+    pub max_degree: usize,
+    /// Beyond the paper: when neither the CDT nor a fan of a hole passes the checks, try the
+    /// best valid triangulation of the flattened hole (dynamic programming) before rejecting.
+    #[arg(long)]
+    pub best_triangulation: bool,
+    /// The paper's stopping rule: stop at the first level that removes nothing, even before
+    /// the base size is reached (by default the candidates next to the rejected vertices get
+    /// another level).
+    #[arg(long)]
+    pub no_retry_rejected: bool,
     /// Features: `auto` (detect by dihedral angle and curvature) or a sidecar file with lines
     /// `v I` (corner vertex, 0-based) and `e I J` (feature edge). None by default.
     #[arg(long)]
@@ -88,7 +107,18 @@ pub struct RemeshSummary {
     pub hausdorff_remesh_to_input: f64,
     pub hausdorff_input_to_remesh: f64,
     pub hausdorff_relative: f64,
-    /// Wall-clock seconds of the remesh, and the part of them spent on the Hausdorff distance.
+    /// Area-weighted mean distance, the larger of the two directions, relative to the
+    /// bounding-box diagonal.
+    pub mean_distance_relative: f64,
+    /// Fraction of the remesh's area whose normal opposes the nearest input triangle's.
+    pub wrong_facing_area: f64,
+    /// The remesh's smallest angles (degrees): min, mean, fraction under 10°, histogram by 10°.
+    pub smallest_angles: AngleStats,
+    /// Whether it meets issue #23's targets (Hausdorff ≤ 1.5%, mean ≤ 0.1% of the diagonal,
+    /// no wrong-facing area: `RemeshQuality::faithful`).
+    pub faithful: bool,
+    /// Wall-clock seconds of the remesh, and the part of them spent on the distance figures
+    /// (Hausdorff, mean distance, wrong-facing area; one BVH per side).
     pub seconds: f64,
     pub hausdorff_seconds: f64,
     pub file: String,
@@ -109,7 +139,20 @@ pub struct MapsSummary {
     pub feature_corners: usize,
     pub feature_edges: usize,
     pub rejected: RejectCounts,
+    /// `--base-size` (0: as coarse as possible).
+    pub base_size_asked: usize,
+    /// Whether the base domain has at most `base_size_asked` faces (true when 0 was asked).
+    pub base_size_reached: bool,
+    /// Why the hierarchy stopped, and the state of the base domain's vertices.
+    pub stop: HierarchyStop,
     pub per_level: Vec<LevelReport>,
+    /// Distortion of Π per level and at the end, and the input's triangle-size spread.
+    pub distortion: Distortion,
+    /// Seconds spent measuring the distortion.
+    pub distortion_seconds: f64,
+    /// Set when a remesh is not faithful to the input: what was measured and what to try.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warning: Option<String>,
     pub timings: Timings,
     pub remeshes: Vec<RemeshSummary>,
     pub pictures: Vec<String>,
@@ -125,10 +168,26 @@ pub fn run(args: MapsArgs) -> Result<()> {
     }
 }
 
+/// The hard test models of issue #23 (`procedural::genus_bumpy`, `horned`, `pedestal`), by
+/// name: genus2, genus3, horned, pedestal (64 grid cubes along the longest side, 26k–34k
+/// triangles), genus2_100k (110 cubes, ≈ 100k triangles).
+fn hard_model(name: &str) -> Option<TriMesh> {
+    use reparam::mesh::procedural::{genus_bumpy, horned, pedestal};
+    Some(match name {
+        "genus2" => genus_bumpy(2, 64),
+        "genus3" => genus_bumpy(3, 64),
+        "genus2_100k" => genus_bumpy(2, 110),
+        "horned" => horned(64),
+        "pedestal" => pedestal(64),
+        _ => return None,
+    })
+}
+
 /// Load the mesh named on the command line.
 fn load(spec: &str) -> Result<TriMesh> {
     match spec.strip_prefix("procedural:") {
-        Some(name) => builtin_mesh(name)
+        Some(name) => hard_model(name)
+            .or_else(|| builtin_mesh(name))
             .map(|mut m| {
                 m.uvs.clear();
                 m.uv_faces.clear();
@@ -215,6 +274,10 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
     let options = MapsOptions {
         lambda: args.lambda,
         base_size: args.base_size,
+        max_degree: args.max_degree,
+        priority_quantile: args.priority_quantile,
+        best_triangulation: args.best_triangulation,
+        retry_rejected: !args.no_retry_rejected,
         ..MapsOptions::default()
     };
     let bar = if progress {
@@ -236,6 +299,10 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         per_level.push(r);
     })?;
     bar.finish_and_clear();
+    let base_size_reached = args.base_size == 0 || maps.base_faces.len() <= args.base_size;
+    if !base_size_reached {
+        eprintln!("{}", shortfall_message(&maps, args.base_size));
+    }
     std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
     let stem = stem_of(&args.mesh);
     write_obj(
@@ -255,7 +322,11 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
             vertices: r.mesh.positions.len(),
             hausdorff_remesh_to_input: r.hausdorff.a_to_b,
             hausdorff_input_to_remesh: r.hausdorff.b_to_a,
-            hausdorff_relative: r.hausdorff.max() / r.diagonal,
+            hausdorff_relative: r.quality.hausdorff_relative,
+            mean_distance_relative: r.quality.mean_relative,
+            wrong_facing_area: r.quality.wrong_facing_area,
+            smallest_angles: r.quality.angles,
+            faithful: r.quality.faithful(),
             seconds,
             hausdorff_seconds: r.hausdorff_seconds,
             file: file.display().to_string(),
@@ -287,8 +358,22 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
             record(s.remesh, kind, t.elapsed().as_secs_f64(), Some(s.stats))?;
         }
     }
+    let t = Instant::now();
+    let distortion = distortion(&maps);
+    let distortion_seconds = t.elapsed().as_secs_f64();
+    let warning = unfaithful_warning(&remeshes, &distortion, maps.base_faces.len());
+    if let Some(w) = &warning {
+        eprintln!("{w}");
+    }
     let pictures = if args.picture_size > 0 {
-        write_pictures(&maps, &made, &args.out, &stem, args.picture_size)?
+        write_pictures(
+            &maps,
+            &distortion,
+            &made,
+            &args.out,
+            &stem,
+            args.picture_size,
+        )?
     } else {
         Vec::new()
     };
@@ -308,11 +393,83 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         feature_corners: features.corners.len(),
         feature_edges: features.edges.len(),
         rejected: maps.rejects,
+        base_size_asked: args.base_size,
+        base_size_reached,
+        stop: maps.stop,
         per_level,
+        distortion,
+        distortion_seconds,
+        warning,
         timings: maps.timings,
         remeshes,
         pictures,
     })
+}
+
+/// The warning printed when the hierarchy stops above `--base-size`: the faces reached, why the
+/// last level stopped, the rejections by cause, and what the final vertices are.
+pub fn shortfall_message(maps: &Maps, asked: usize) -> String {
+    let stop = &maps.stop;
+    let why = match stop.reason {
+        StopReason::BaseSize => "it reached the base size".to_string(),
+        StopReason::MaxLevels => "the level limit was reached".to_string(),
+        StopReason::NoCandidates => "no vertex was removable".to_string(),
+        StopReason::AllRejected => format!(
+            "every selected removal of the last level was rejected ({} by the flattening guard, \
+             {} with every triangulation flipped in 3D, {} with every valid one duplicating an edge or face)",
+            stop.last_level_rejects.flatten,
+            stop.last_level_rejects.flipped,
+            stop.last_level_rejects.duplicate
+        ),
+    };
+    let r = &maps.rejects;
+    format!(
+        "warning: base domain has {} faces, {asked} were asked for: the hierarchy stopped because {why}. \
+         Rejected removals over all levels: {} by the flattening guard, {} flipped in 3D, {} duplicate edge/face. \
+         Of the {} base vertices: {} candidates, {} over the degree limit, {} corners, {} not a single fan.",
+        maps.base_faces.len(),
+        r.flatten,
+        r.flipped,
+        r.duplicate,
+        stop.vertices,
+        stop.candidates,
+        stop.over_degree,
+        stop.corners,
+        stop.not_a_fan
+    )
+}
+
+/// The warning printed when some remesh misses issue #23's targets: the base domain does not
+/// represent the shape at this size. Names the worst remesh's figures and Π's distortion and
+/// suggests a larger base or features.
+pub fn unfaithful_warning(
+    remeshes: &[RemeshSummary],
+    distortion: &Distortion,
+    base_faces: usize,
+) -> Option<String> {
+    let bad: Vec<&RemeshSummary> = remeshes.iter().filter(|r| !r.faithful).collect();
+    let worst = bad
+        .iter()
+        .max_by(|a, b| a.hausdorff_relative.total_cmp(&b.hausdorff_relative))?;
+    let d = &distortion.final_map;
+    Some(format!(
+        "warning: {} of {} remeshes miss the faithfulness targets (Hausdorff ≤ 1.5%, mean ≤ 0.1% \
+         of the diagonal, no wrong-facing area); worst {}: Hausdorff {}%, mean {}%, wrong-facing \
+         area {}%. The base domain of {base_faces} faces does not represent the shape there \
+         (Π: area distortion p95 {} against the input's spread {}, σmax/σmin p95 {}, {} folded \
+         images). Try a larger --base-size or --features auto; the picture *_area_distortion.png \
+         shows where.",
+        bad.len(),
+        remeshes.len(),
+        worst.kind,
+        sig(100.0 * worst.hausdorff_relative, 3),
+        sig(100.0 * worst.mean_distance_relative, 3),
+        sig(100.0 * worst.wrong_facing_area, 3),
+        sig(d.area_p95, 3),
+        sig(distortion.input_area_spread, 3),
+        sig(d.conformal_p95, 3),
+        d.folded
+    ))
 }
 
 /// A file-name stem for the mesh spec.
@@ -328,10 +485,12 @@ fn stem_of(spec: &str) -> String {
 }
 
 /// Levels side by side, the base domain with the input's points, iso-parameter lines of Π,
-/// iso-parameter lines of the unsmoothed and the smoothed parameterisation side by side, and
-/// one picture per remesh. Returns the file names.
+/// iso-parameter lines of the unsmoothed and the smoothed parameterisation side by side, the
+/// input coloured by the area distortion of Π, and one picture per remesh. Returns the file
+/// names.
 pub fn write_pictures(
     maps: &Maps,
+    distortion: &Distortion,
     remeshes: &[Remesh],
     out: &Path,
     stem: &str,
@@ -359,6 +518,10 @@ pub fn write_pictures(
         format!("{stem}_iso_lines_smoothed.png"),
         &picture::iso_lines_smoothed(maps, 3, size)?,
     )?;
+    save(
+        format!("{stem}_area_distortion.png"),
+        &picture::area_distortion(maps, distortion, size),
+    )?;
     for r in remeshes {
         let name = r
             .mesh
@@ -382,8 +545,8 @@ fn print_summary(s: &MapsSummary) {
         s.mesh, s.input_faces, s.input_vertices, s.levels, s.base_faces, s.base_vertices, s.feature_corners, s.feature_edges
     );
     println!(
-        "rejected removals: {} by the flattening guard, {} by the triangulation checks",
-        s.rejected.flatten, s.rejected.triangulation
+        "rejected removals: {} by the flattening guard, {} by the triangulation checks ({} flipped in 3D, {} duplicate edge/face)",
+        s.rejected.flatten, s.rejected.triangulation, s.rejected.flipped, s.rejected.duplicate
     );
     println!(
         "time: check {} s, hierarchy {} s, Π/Π⁻¹ {} s",
@@ -391,10 +554,33 @@ fn print_summary(s: &MapsSummary) {
         sig(s.timings.hierarchy, 3),
         sig(s.timings.param, 3)
     );
+    let d = &s.distortion.final_map;
+    println!(
+        "distortion of Π: |log area ratio| mean {} p95 {} max {} (input's triangle-size spread {}), \
+         σmax/σmin mean {} p95 {} max {}, {} folded of {} triangles",
+        sig(d.area_mean, 3),
+        sig(d.area_p95, 3),
+        sig(d.area_max, 3),
+        sig(s.distortion.input_area_spread, 3),
+        sig(d.conformal_mean, 3),
+        sig(d.conformal_p95, 3),
+        sig(d.conformal_max, 3),
+        d.folded,
+        d.triangles
+    );
     if !s.remeshes.is_empty() {
-        let header: Vec<String> = ["remesh", "faces", "vertices", "Hausdorff/diag", "seconds"]
-            .map(String::from)
-            .to_vec();
+        let header: Vec<String> = [
+            "remesh",
+            "faces",
+            "vertices",
+            "Hausdorff/diag",
+            "mean dist/diag",
+            "wrong-facing area",
+            "angles < 10°",
+            "seconds",
+        ]
+        .map(String::from)
+        .to_vec();
         let rows: Vec<Vec<String>> = s
             .remeshes
             .iter()
@@ -404,6 +590,9 @@ fn print_summary(s: &MapsSummary) {
                     r.faces.to_string(),
                     r.vertices.to_string(),
                     sig(r.hausdorff_relative, 3),
+                    sig(r.mean_distance_relative, 3),
+                    sig(r.wrong_facing_area, 3),
+                    sig(r.smallest_angles.below_10, 3),
                     sig(r.seconds, 3),
                 ]
             })

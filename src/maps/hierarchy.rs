@@ -13,6 +13,11 @@
 //!    orientation check, relocation of the points stored in the star;
 //! 4. commits (sequential, in priority order): reject a triangulation that would duplicate an
 //!    existing edge or face, falling back to fans; apply; stop at the target base size.
+//!
+//! A level that removes nothing ends the hierarchy, unless [`MapsOptions::retry_rejected`] and
+//! a base size was asked for: then, while some candidate was left out of the independent set,
+//! the next level runs without the vertices just rejected (the mesh did not change, so they
+//! would fail again).
 
 use std::collections::HashSet;
 
@@ -21,8 +26,11 @@ use rayon::prelude::*;
 
 use super::features::{vertex_role, Features, VertexRole};
 use super::flatten::{flatten_ring, RingShape};
-use super::priority::{curvature, priorities, ring_area, star_normal};
-use super::retriangulate::{cdt_triangulation, fan_triangulation, locate};
+use super::priority::{curvature, priorities_quantile, ring_area, star_normal};
+use super::quality::smallest_angle_deg;
+use super::retriangulate::{
+    best_triangulation, cdt_triangulation, fan_triangulation, locate, orient2d,
+};
 use super::MapsOptions;
 
 /// One level of the hierarchy, in processing order (`levels[0]` is the input mesh, the paper's
@@ -54,8 +62,50 @@ pub struct RejectCounts {
     /// a·φ_k ≥ π or a degenerate angle/radius (flatten guard).
     pub flatten: usize,
     /// Neither the CDT nor any fan passed the checks (flipped 2D/3D triangle, duplicate edge or
-    /// face, dropped feature edge).
+    /// face, dropped feature edge): `flipped + duplicate`.
     pub triangulation: usize,
+    /// Of `triangulation`: no triangulation of the flattened hole (CDT or fan) had every new
+    /// triangle facing the side of the removed star's normal in 3D (or a valid 2D fan).
+    pub flipped: usize,
+    /// Of `triangulation`: some triangulation passed the 3D check, but each such one would
+    /// have created an edge or a face that already exists (a non-manifold result).
+    pub duplicate: usize,
+}
+
+/// Why the hierarchy stopped.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// The mesh had at most `base_size` faces (`base_size` 0 never stops this way).
+    #[default]
+    BaseSize,
+    /// `max_levels` levels were run.
+    MaxLevels,
+    /// No vertex was a candidate (every alive vertex a corner, over the degree limit, or not a
+    /// single fan).
+    NoCandidates,
+    /// The last level had candidates but every selected removal was rejected.
+    AllRejected,
+}
+
+/// How the hierarchy stopped, with the state of the last mesh (issue #23: say why the base
+/// size asked for was not reached).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct HierarchyStop {
+    /// The reason.
+    pub reason: StopReason,
+    /// Alive vertices of the final mesh.
+    pub vertices: usize,
+    /// Of them: corners (tagged, or by the feature-line turn), never removed.
+    pub corners: usize,
+    /// Of them: degree above `max_degree`.
+    pub over_degree: usize,
+    /// Of them: star not a single fan.
+    pub not_a_fan: usize,
+    /// Of them: candidates for removal.
+    pub candidates: usize,
+    /// Removals rejected in the last level, by cause.
+    pub last_level_rejects: RejectCounts,
 }
 
 /// The working state of the decimation: the current mesh with dead faces left in place (face
@@ -72,6 +122,8 @@ pub(crate) struct Work<'a> {
     pub corner: Vec<bool>,
     pub alive_faces: usize,
     pub corner_turn: f64,
+    /// [`MapsOptions::best_triangulation`] (false from [`Work::new`]; set by the caller).
+    pub best_triangulation: bool,
     /// Per face: the removal that created it (`u32::MAX` for an input face).
     pub created_by: Vec<u32>,
     /// Per face: the removal that deleted it (`u32::MAX` while alive).
@@ -181,6 +233,27 @@ enum Planned {
     FlattenRejected(u32),
 }
 
+/// The outcome of [`Work::commit`].
+enum Commit {
+    Done,
+    /// No triangulation passed the 3D orientation check.
+    Flipped,
+    /// Some passed it, but each would duplicate an edge or a face.
+    Duplicate,
+}
+
+impl RejectCounts {
+    /// Count one rejection of outcome `c` (`Commit::Done` counts nothing).
+    fn add(&mut self, c: &Commit) {
+        match c {
+            Commit::Done => return,
+            Commit::Flipped => self.flipped += 1,
+            Commit::Duplicate => self.duplicate += 1,
+        }
+        self.triangulation += 1;
+    }
+}
+
 fn key(a: u32, b: u32) -> (u32, u32) {
     (a.min(b), a.max(b))
 }
@@ -215,6 +288,7 @@ impl<'a> Work<'a> {
             corner,
             alive_faces: faces.len(),
             corner_turn,
+            best_triangulation: false,
             created_by: vec![u32::MAX; faces.len()],
             removed_by: vec![u32::MAX; faces.len()],
             records: Vec::new(),
@@ -409,10 +483,11 @@ impl<'a> Work<'a> {
 
     /// Commit `plan` with the first triangulation that passes every check: the CDT, then the
     /// fans from each allowed apex (the chord ends for a feature or boundary vertex, so the
-    /// chord stays). Returns false (vertex kept) when none does.
-    fn commit(&mut self, plan: &Plan) -> bool {
+    /// chord stays). Returns the outcome (on a rejection the vertex is kept).
+    fn commit(&mut self, plan: &Plan) -> Commit {
         let k = plan.ring.verts.len();
         let mut chosen: Option<Triangulation> = None;
+        let mut any_3d = plan.cdt.is_some();
         if let Some((tris, moved)) = &plan.cdt {
             if self.valid_in_mesh(plan, tris) {
                 chosen = Some((tris.clone(), moved.clone()));
@@ -425,19 +500,62 @@ impl<'a> Work<'a> {
             };
             for apex in apexes {
                 if let Some(tris) = fan_triangulation(&plan.mu, apex, plan.chord) {
-                    if self.valid_3d(plan, &tris) && self.valid_in_mesh(plan, &tris) {
-                        let moved = self.relocate(plan, &tris);
-                        chosen = Some((tris, moved));
-                        break;
+                    if self.valid_3d(plan, &tris) {
+                        any_3d = true;
+                        if self.valid_in_mesh(plan, &tris) {
+                            let moved = self.relocate(plan, &tris);
+                            chosen = Some((tris, moved));
+                            break;
+                        }
                     }
                 }
             }
         }
+        if chosen.is_none() && self.best_triangulation {
+            if let Some(tris) = self.best_valid_triangulation(plan) {
+                any_3d = true;
+                if self.valid_in_mesh(plan, &tris) {
+                    let moved = self.relocate(plan, &tris);
+                    chosen = Some((tris, moved));
+                }
+            }
+        }
         let Some((tris, moved)) = chosen else {
-            return false;
+            return if any_3d {
+                Commit::Duplicate
+            } else {
+                Commit::Flipped
+            };
         };
         self.apply(plan, &tris, &moved);
-        true
+        Commit::Done
+    }
+
+    /// The last resort of [`Work::commit`] ([`MapsOptions::best_triangulation`]): among all
+    /// triangulations of the flattened hole whose triangles are counter-clockwise in μ and face
+    /// the star normal's side in 3D, and whose diagonals are not edges of the mesh yet, the one
+    /// whose smallest 3D angle is largest ([`best_triangulation`]). Disk and half-disk holes
+    /// only (the half disk's chord is the polygon's closing edge (K−1, 0), kept by
+    /// construction); `None` for a feature-line hole or when no such triangulation exists.
+    fn best_valid_triangulation(&self, plan: &Plan) -> Option<Vec<[usize; 3]>> {
+        if let RingShape::FeatureLine { .. } = plan.shape {
+            return None;
+        }
+        let verts = &plan.ring.verts;
+        let p = |m: usize| self.positions[verts[m] as usize];
+        let quality = |a: usize, m: usize, b: usize| {
+            if orient2d(plan.mu[a], plan.mu[m], plan.mu[b]) <= 0.0 {
+                return None;
+            }
+            let (pa, pm, pb) = (p(a), p(m), p(b));
+            if (pm - pa).cross(&(pb - pa)).dot(&plan.star_normal) <= 0.0 {
+                return None;
+            }
+            let angle = smallest_angle_deg(&pa, &pm, &pb);
+            angle.is_finite().then_some(angle)
+        };
+        let diagonal_ok = |a: usize, b: usize| !self.edge_exists(verts[a], verts[b]);
+        best_triangulation(verts.len(), quality, diagonal_ok)
     }
 
     fn apply(&mut self, plan: &Plan, tris: &[[usize; 3]], moved: &[(u32, usize, [f64; 3])]) {
@@ -524,18 +642,25 @@ pub struct LevelReport {
 }
 
 /// Run levels until the target base size is reached or no candidate is removable. Returns the
-/// levels and the final working state.
+/// levels and how the hierarchy stopped ([`HierarchyStop`]).
 pub(crate) fn decimate<'a>(
     work: &mut Work<'a>,
     options: &MapsOptions,
     rejects: &mut RejectCounts,
     progress: &mut dyn FnMut(LevelReport),
-) -> Vec<Level> {
+) -> (Vec<Level>, HierarchyStop) {
     let mut levels = Vec::new();
-    loop {
-        if work.alive_faces <= options.base_size || levels.len() >= options.max_levels {
-            break;
+    let mut last_level_rejects = RejectCounts::default();
+    // Vertices rejected since the mesh last changed ([`MapsOptions::retry_rejected`]).
+    let mut excluded: HashSet<u32> = HashSet::new();
+    let reason = loop {
+        if work.alive_faces <= options.base_size {
+            break StopReason::BaseSize;
         }
+        if levels.len() >= options.max_levels {
+            break StopReason::MaxLevels;
+        }
+        let mut level_rejects = RejectCounts::default();
         let mut level = Level {
             faces: if options.keep_levels {
                 work.alive_faces_list()
@@ -544,11 +669,14 @@ pub(crate) fn decimate<'a>(
             },
             ..Level::default()
         };
-        let candidates = candidates(work, options);
+        let candidates: Vec<Candidate> = candidates(work, options)
+            .into_iter()
+            .filter(|c| !excluded.contains(&c.vertex))
+            .collect();
         level.candidates = candidates.iter().map(|c| c.vertex).collect();
         let area: Vec<f64> = candidates.iter().map(|c| c.area).collect();
         let kappa: Vec<f64> = candidates.iter().map(|c| c.kappa).collect();
-        let w = priorities(options.lambda, &area, &kappa);
+        let w = priorities_quantile(options.lambda, &area, &kappa, options.priority_quantile);
         let selected = independent_set(work, &candidates, &w);
         level.selected = selected.iter().map(|&c| candidates[c].vertex).collect();
         let mut slots: Vec<Option<Candidate>> = candidates.into_iter().map(Some).collect();
@@ -567,19 +695,26 @@ pub(crate) fn decimate<'a>(
             }
             match planned {
                 Planned::FlattenRejected(v) => {
-                    rejects.flatten += 1;
+                    level_rejects.flatten += 1;
                     level.rejected.push(v);
                 }
                 Planned::Plan(plan) => {
-                    if work.commit(&plan) {
+                    let outcome = work.commit(&plan);
+                    if let Commit::Done = outcome {
                         level.removed.push(plan.vertex);
                     } else {
-                        rejects.triangulation += 1;
+                        level_rejects.add(&outcome);
                         level.rejected.push(plan.vertex);
                     }
                 }
             }
         }
+        rejects.flatten += level_rejects.flatten;
+        rejects.triangulation += level_rejects.triangulation;
+        rejects.flipped += level_rejects.flipped;
+        rejects.duplicate += level_rejects.duplicate;
+        last_level_rejects = level_rejects;
+        let no_candidates = level.candidates.is_empty();
         let removed = level.removed.len();
         progress(LevelReport {
             level: levels.len(),
@@ -587,12 +722,62 @@ pub(crate) fn decimate<'a>(
             removed,
             rejected: level.rejected.len(),
         });
+        let untried = level.candidates.len() > level.selected.len();
+        let rejected = level.rejected.clone();
         levels.push(level);
-        if removed == 0 {
-            break;
+        if removed > 0 {
+            excluded.clear();
+        } else if options.retry_rejected && options.base_size > 0 && untried {
+            // Nothing changed, so the rejected vertices would be rejected again; their
+            // neighbours, kept out of this level's independent set by them, get their turn.
+            excluded.extend(rejected);
+        } else {
+            break if no_candidates {
+                StopReason::NoCandidates
+            } else {
+                StopReason::AllRejected
+            };
+        }
+    };
+    let stop = stop_state(work, options, reason, last_level_rejects);
+    (levels, stop)
+}
+
+/// [`HierarchyStop`] of the final mesh: every alive vertex classified as a corner, over the
+/// degree limit, not a single fan, or a candidate (the order of the tests in [`candidates`]).
+fn stop_state(
+    work: &Work,
+    options: &MapsOptions,
+    reason: StopReason,
+    last_level_rejects: RejectCounts,
+) -> HierarchyStop {
+    let mut stop = HierarchyStop {
+        reason,
+        last_level_rejects,
+        ..HierarchyStop::default()
+    };
+    for v in 0..work.positions.len() as u32 {
+        if !work.vert_alive[v as usize] {
+            continue;
+        }
+        stop.vertices += 1;
+        if work.corner[v as usize] {
+            stop.corners += 1;
+            continue;
+        }
+        let Some(ring) = work.ring(v) else {
+            stop.not_a_fan += 1;
+            continue;
+        };
+        if ring.verts.len() > options.max_degree || ring.verts.len() < 3 {
+            stop.over_degree += 1;
+        } else if work.shape(v, &ring).is_none() {
+            stop.corners += 1;
+        } else {
+            stop.candidates += 1;
         }
     }
-    levels
+    stop
 }
 
 /// The removable vertices of the current mesh with their ring, shape, 1-ring area and curvature,

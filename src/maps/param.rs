@@ -99,9 +99,28 @@ impl Param {
         if f as usize >= self.input_faces {
             return None;
         }
+        let (face, bary) = self.forward_until(f, b, usize::MAX)?;
+        Some(BasePoint {
+            face: self.face_to_base[face as usize],
+            bary,
+        })
+    }
+
+    /// Π_l of the point with barycentrics `b` in decimation face `f`: replay only the removals
+    /// with commit index below `limit` (the first `limit` records), from `f` onwards. With
+    /// `limit` the number of removals committed by the end of level l this is the map from the
+    /// input to the mesh after level l (issue #23's per-level distortion); it continues from
+    /// any face of an earlier level, so levels can be stepped one after another. Returns a
+    /// decimation face id (see [`Param::face`]) and barycentrics; `None` for a face id out of
+    /// range.
+    pub fn forward_until(&self, f: u32, b: [f64; 3], limit: usize) -> Option<(u32, [f64; 3])> {
         let (mut face, mut bary) = (f, b);
-        while self.removed_by[face as usize] != u32::MAX {
-            let r = &self.records[self.removed_by[face as usize] as usize];
+        loop {
+            let r = *self.removed_by.get(face as usize)?;
+            if r == u32::MAX || r as usize >= limit {
+                return Some((face, bary));
+            }
+            let r = &self.records[r as usize];
             let u = self.to_plane(r, face, bary);
             let new: Vec<[usize; 3]> = (0..r.new_count)
                 .map(|n| {
@@ -113,10 +132,6 @@ impl Param {
             face = r.new_first + n as u32;
             bary = clamp(l);
         }
-        Some(BasePoint {
-            face: self.face_to_base[face as usize],
-            bary,
-        })
     }
 
     /// Π⁻¹ of a base point: replay backwards the removals that created the faces it passes
@@ -186,7 +201,8 @@ impl Param {
         &self.records
     }
 
-    /// The decimation face `f` (input faces are `0 .. input_faces`).
+    /// The decimation face `f` (input faces are `0 .. input_faces`). Panics when `f` is out of
+    /// range (ids come from this `Param`).
     pub fn face(&self, f: u32) -> [u32; 3] {
         self.faces[f as usize]
     }

@@ -1,6 +1,7 @@
 //! Pictures of a MAPS hierarchy (issue #5 "Pictures"), drawn with the CPU reference
 //! rasteriser ([`crate::raster`]): levels side by side, the base domain with the input vertices
-//! coloured by base triangle, iso-parameter lines of Π on the input, remeshes.
+//! coloured by base triangle, iso-parameter lines of Π on the input, remeshes, and the input
+//! coloured by the area distortion of Π (issue #23).
 
 use nalgebra::{Matrix4, Vector3};
 
@@ -330,5 +331,45 @@ pub fn remesh_picture(maps: &Maps, remesh: &TriMesh, size: usize) -> Image<Rgba8
         size,
         |_| [225, 215, 190, 255],
         width,
+    )
+}
+
+/// The colour of log r (area distortion, [`super::distortion`]): white at 0, towards blue where
+/// Π shrinks a triangle (log r < 0), towards red where it grows one, saturated at |log r| =
+/// `range`; grey for a folded image (`None`).
+pub fn distortion_colour(log_r: Option<f64>, range: f64) -> Rgba8 {
+    let Some(x) = log_r else {
+        return [110, 110, 110, 255];
+    };
+    let t = (x / range).clamp(-1.0, 1.0);
+    let fade = |k: f64| (255.0 * (1.0 - k)) as u8;
+    if t >= 0.0 {
+        [255, fade(t), fade(t), 255]
+    } else {
+        [fade(-t), fade(-t), 255, 255]
+    }
+}
+
+/// The input mesh, each triangle coloured by the area distortion log r of the final Π
+/// ([`distortion_colour`], saturated at |log r| = ln 4: a triangle whose share of the base
+/// domain is 4× or ¼ of its share of the surface).
+pub fn area_distortion(
+    maps: &Maps,
+    distortion: &super::distortion::Distortion,
+    size: usize,
+) -> Image<Rgba8> {
+    let input = input_mesh(maps);
+    let range = 4f64.ln();
+    render_wire(
+        &input,
+        &camera(&input),
+        size,
+        |f| {
+            distortion_colour(
+                distortion.log_area_ratio.get(f as usize).copied().flatten(),
+                range,
+            )
+        },
+        0.0,
     )
 }

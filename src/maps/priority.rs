@@ -92,3 +92,28 @@ pub fn priorities(lambda: f64, area: &[f64], kappa: &[f64]) -> Vec<f64> {
         })
         .collect()
 }
+
+/// Beyond the paper (issue #23, [`crate::maps::MapsOptions::priority_quantile`]): w(λ, i) with
+/// each term normalised by its `q`-quantile over the level's candidates instead of its maximum
+/// and clamped to 1: w = λ min(a/a_q, 1) + (1 − λ) min(κ/κ_q, 1). A few extreme values (a
+/// needle tip's κ, a huge flat triangle's a) then no longer squash the term to ≈ 0 for every
+/// other vertex. A term whose quantile is 0 contributes 0. `q` ≥ 1 is the paper's [`priorities`].
+pub fn priorities_quantile(lambda: f64, area: &[f64], kappa: &[f64], q: f64) -> Vec<f64> {
+    if q >= 1.0 {
+        return priorities(lambda, area, kappa);
+    }
+    let reference = |v: &[f64]| {
+        let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+        s.sort_by(f64::total_cmp);
+        crate::maps::distortion::quantile(&s, q.max(0.0))
+    };
+    let (ra, rk) = (reference(area), reference(kappa));
+    area.iter()
+        .zip(kappa)
+        .map(|(&a, &k)| {
+            let ta = if ra > 0.0 { (a / ra).min(1.0) } else { 0.0 };
+            let tk = if rk > 0.0 { (k / rk).min(1.0) } else { 0.0 };
+            lambda * ta + (1.0 - lambda) * tk
+        })
+        .collect()
+}

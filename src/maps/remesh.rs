@@ -13,10 +13,11 @@ use nalgebra::Point3;
 use rayon::prelude::*;
 
 use super::param::BasePoint;
+use super::quality::{remesh_quality, RemeshQuality};
 use super::retriangulate::locate;
 use super::Maps;
 use crate::error::{Error, Result};
-use crate::mesh::distance::{hausdorff, point_triangle_distance, Hausdorff};
+use crate::mesh::distance::{point_triangle_distance, Hausdorff};
 use crate::mesh::TriMesh;
 
 /// The exact parameter of a remesh vertex, reduced to its coarsest dyadic depth.
@@ -144,9 +145,11 @@ pub struct Remesh {
     pub diagonal: f64,
     /// Remesh vertices whose Π⁻¹ found no input face (placed on the flat base triangle).
     pub unmapped: usize,
-    /// Seconds spent on the Hausdorff distance (included in the caller's total; the paper's
-    /// remesh times have no such measurement).
+    /// Seconds spent on the distance figures, Hausdorff included (part of the caller's total;
+    /// the paper's remesh times have no such measurement).
     pub hausdorff_seconds: f64,
+    /// Mean distances, wrong-facing area and angles ([`super::quality`], issue #23).
+    pub quality: RemeshQuality,
 }
 
 /// Faces 4^j F₀ and vertices V₀ + E₀(2^j − 1) + F₀(2^j − 1)(2^j − 2)/2 of a uniform remesh of
@@ -517,7 +520,8 @@ fn assemble(maps: &Maps, tris: &[DyadicTri], name: String) -> Remesh {
     finish(maps, name, positions, faces, params, unmapped)
 }
 
-/// The remesh of placed vertices: the mesh, and its sampled Hausdorff distance to the input.
+/// The remesh of placed vertices: the mesh, and its quality against the input
+/// ([`remesh_quality`]: Hausdorff and mean distances, wrong-facing area, angles).
 pub(crate) fn finish(
     maps: &Maps,
     name: String,
@@ -527,16 +531,22 @@ pub(crate) fn finish(
     unmapped: usize,
 ) -> Remesh {
     let (lo, hi) = bbox(&maps.positions);
-    let t = std::time::Instant::now();
-    let hausdorff = hausdorff(&positions, &faces, &maps.positions, &maps.input_faces);
-    let hausdorff_seconds = t.elapsed().as_secs_f64();
+    let diagonal = (hi - lo).norm();
+    let quality = remesh_quality(
+        &positions,
+        &faces,
+        &maps.positions,
+        &maps.input_faces,
+        diagonal,
+    );
     Remesh {
         mesh: TriMesh::with_shared_indices(name, positions, Vec::new(), faces),
         params,
-        hausdorff,
-        diagonal: (hi - lo).norm(),
+        hausdorff: quality.distances.hausdorff,
+        diagonal,
         unmapped,
-        hausdorff_seconds,
+        hausdorff_seconds: quality.distance_seconds,
+        quality,
     }
 }
 

@@ -147,3 +147,63 @@ pub fn locate(u: [f64; 2], mu: &[[f64; 2]], tris: &[[usize; 3]]) -> (usize, [f64
     }
     (best.0, best.1)
 }
+
+/// The triangulation of the polygon 0, 1, …, K−1 (counter-clockwise, the edge (K−1, 0)
+/// always kept) that maximises the smallest `quality` of its triangles, among those whose
+/// triangles (a, m, b), a < m < b, all have `quality(a, m, b)` = `Some(q)` and whose
+/// diagonals (a, b) all pass `diagonal_ok(a, b)`; `None` when there is none. Dynamic
+/// programming over sub-polygons (Klincsek 1980, the max–min triangulation of a polygon):
+/// best(a, b) = max over a < m < b of min(q(a, m, b), best(a, m), best(m, b)),
+/// best(a, a+1) = +∞, in O(K³). Triangles are returned counter-clockwise (a, m, b), sorted.
+///
+/// Beyond the paper (issue #23): the hierarchy's last resort when neither the CDT nor a fan of
+/// a hole passes the checks ([`crate::maps::MapsOptions::best_triangulation`]).
+pub fn best_triangulation(
+    k: usize,
+    quality: impl Fn(usize, usize, usize) -> Option<f64>,
+    diagonal_ok: impl Fn(usize, usize) -> bool,
+) -> Option<Vec<[usize; 3]>> {
+    if k < 3 {
+        return None;
+    }
+    let idx = |a: usize, b: usize| a * k + b;
+    let mut best = vec![f64::NEG_INFINITY; k * k];
+    let mut split = vec![usize::MAX; k * k];
+    for a in 0..k - 1 {
+        best[idx(a, a + 1)] = f64::INFINITY;
+    }
+    for len in 2..k {
+        for a in 0..k - len {
+            let b = a + len;
+            if (a, b) != (0, k - 1) && !diagonal_ok(a, b) {
+                continue;
+            }
+            for m in a + 1..b {
+                let Some(q) = quality(a, m, b) else {
+                    continue;
+                };
+                let v = q.min(best[idx(a, m)]).min(best[idx(m, b)]);
+                if v > best[idx(a, b)] {
+                    best[idx(a, b)] = v;
+                    split[idx(a, b)] = m;
+                }
+            }
+        }
+    }
+    if split[idx(0, k - 1)] == usize::MAX {
+        return None;
+    }
+    let mut tris = Vec::with_capacity(k - 2);
+    let mut stack = vec![(0, k - 1)];
+    while let Some((a, b)) = stack.pop() {
+        if b - a < 2 {
+            continue;
+        }
+        let m = split[idx(a, b)];
+        tris.push([a, m, b]);
+        stack.push((a, m));
+        stack.push((m, b));
+    }
+    tris.sort_unstable();
+    Some(tris)
+}

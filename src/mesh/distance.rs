@@ -1,6 +1,8 @@
-//! Point-to-surface distances: the closest point of a triangle, a uniform grid for
-//! nearest-surface queries, and the sampled two-sided Hausdorff distance. Shared by the MAPS
-//! remesh errors (issue #5) and the skinned-simplification errors (issue #6).
+//! Point-to-surface distances: the closest point of a triangle, a uniform grid and a BVH
+//! (parry3d's triangle mesh) for nearest-surface queries, the sampled two-sided Hausdorff
+//! distance and the surface comparison of issue #23 (mean distances, area facing the wrong way).
+//! Shared by the MAPS remesh errors (issues #5, #23) and the skinned-simplification errors
+//! (issue #6).
 
 use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
@@ -270,24 +272,269 @@ impl Hausdorff {
 
 /// Sampled Hausdorff distance: each side's [`surface_samples`] (vertices, centroids and the
 /// three centroid–corner midpoints of every face) measured exactly against the other side's
-/// triangles. A lower bound of the true Hausdorff distance, tight when the faces are small
-/// compared with the surfaces' features. Parallel, order-independent (a max).
+/// triangles (nearest triangle by [`SurfaceBvh`]). A lower bound of the true Hausdorff
+/// distance, tight when the faces are small compared with the surfaces' features. Parallel,
+/// order-independent (a max). [`compare_surfaces`] gives the same maxima and more.
 pub fn hausdorff(
     a_positions: &[Point3<f64>],
     a_faces: &[[u32; 3]],
     b_positions: &[Point3<f64>],
     b_faces: &[[u32; 3]],
 ) -> Hausdorff {
-    let one_way =
-        |from_p: &[Point3<f64>], from_f: &[[u32; 3]], to_p: &[Point3<f64>], to_f: &[[u32; 3]]| {
-            let grid = SurfaceGrid::new(to_p, to_f);
-            surface_samples(from_p, from_f)
-                .par_iter()
-                .map(|p| grid.distance(p))
-                .reduce(|| 0.0, f64::max)
+    compare_surfaces(a_positions, a_faces, b_positions, b_faces).hausdorff
+}
+
+/// Where on its triangle a nearest point lies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NearestFeature {
+    /// Inside the triangle.
+    Face,
+    /// On the edge between these two vertices (mesh vertex indices).
+    Edge(u32, u32),
+    /// At this vertex (mesh vertex index).
+    Vertex(u32),
+}
+
+/// The nearest point of a triangle set to a query point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Nearest {
+    /// Index of the nearest triangle.
+    pub face: u32,
+    /// The part of that triangle it lies on.
+    pub feature: NearestFeature,
+    /// The closest point on it.
+    pub point: Point3<f64>,
+    /// |point − query|.
+    pub distance: f64,
+}
+
+/// A bounding-volume hierarchy over a triangle set for nearest-surface queries: parry3d's
+/// `TriMesh` (an AABB tree of the triangles, searched best-first with the box distance as the
+/// bound), its triangle ids the indices into `faces`.
+pub struct SurfaceBvh {
+    mesh: Option<parry3d_f64::shape::TriMesh>,
+}
+
+impl SurfaceBvh {
+    /// Build the BVH of `faces` over `positions` (an empty set gives a BVH that finds nothing).
+    pub fn new(positions: &[Point3<f64>], faces: &[[u32; 3]]) -> Self {
+        use parry3d_f64::math::Vector;
+        let vertices: Vec<Vector> = positions
+            .iter()
+            .map(|p| Vector::new(p.x, p.y, p.z))
+            .collect();
+        // No flags: parry keeps the triangles as given (no merging, no removal), so its
+        // triangle ids are our face indices.
+        let mesh = parry3d_f64::shape::TriMesh::new(vertices, faces.to_vec()).ok();
+        SurfaceBvh { mesh }
+    }
+
+    /// The nearest point of the triangle set to `p` (`None` when the set is empty or `p` is
+    /// not finite).
+    pub fn nearest(&self, p: &Point3<f64>) -> Option<Nearest> {
+        use parry3d_f64::math::Vector;
+        use parry3d_f64::shape::CompositeShapeRef;
+        let mesh = self.mesh.as_ref()?;
+        let q = Vector::new(p.x, p.y, p.z);
+        use parry3d_f64::shape::TrianglePointLocation as L;
+        let (face, proj, location) =
+            CompositeShapeRef(mesh).project_local_point_and_get_location(q, f64::MAX, false)?;
+        let point = Point3::new(proj.point.x, proj.point.y, proj.point.z);
+        let distance = (point - p).norm();
+        let t = mesh.indices()[face as usize];
+        // parry's edge numbering: 0 = AB, 1 = BC, 2 = AC.
+        let feature = match location {
+            L::OnVertex(i) => NearestFeature::Vertex(t[i as usize]),
+            L::OnEdge(0, _) => NearestFeature::Edge(t[0], t[1]),
+            L::OnEdge(1, _) => NearestFeature::Edge(t[1], t[2]),
+            L::OnEdge(_, _) => NearestFeature::Edge(t[0], t[2]),
+            L::OnFace(..) | L::OnSolid => NearestFeature::Face,
         };
-    Hausdorff {
-        a_to_b: one_way(a_positions, a_faces, b_positions, b_faces),
-        b_to_a: one_way(b_positions, b_faces, a_positions, a_faces),
+        distance.is_finite().then_some(Nearest {
+            face,
+            feature,
+            point,
+            distance,
+        })
+    }
+
+    /// Distance from `p` to the nearest triangle (∞ when there is none).
+    pub fn distance(&self, p: &Point3<f64>) -> f64 {
+        self.nearest(p).map_or(f64::INFINITY, |n| n.distance)
+    }
+}
+
+/// Two surfaces compared by sampling (issue #23): Hausdorff distances, area-weighted mean
+/// distances, and the part of A's area whose normal opposes that of the nearest triangle of B.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct SurfaceComparison {
+    /// Sampled Hausdorff distances ([`hausdorff`]).
+    pub hausdorff: Hausdorff,
+    /// Mean distance from A to B: Σ_f area_f · (mean over f's four interior samples of the
+    /// distance to B) / Σ_f area_f — a four-point quadrature of (1/|A|) ∫_A d(x, B) dA.
+    pub mean_a_to_b: f64,
+    /// The same from B to A.
+    pub mean_b_to_a: f64,
+    /// Fraction of A's area (same quadrature) at whose samples the unit normal n_A of A's face
+    /// and the pseudo-normal n_B of B at the nearest point (the face normal inside a face, the
+    /// edge's or the vertex's angle-weighted pseudo-normal on an edge or at a vertex) satisfy
+    /// n_A · n_B < 0: A faces the wrong way there.
+    pub opposed_area_fraction: f64,
+}
+
+impl SurfaceComparison {
+    /// max(mean_a_to_b, mean_b_to_a): the two-sided mean distance.
+    pub fn mean(&self) -> f64 {
+        self.mean_a_to_b.max(self.mean_b_to_a)
+    }
+}
+
+/// Pseudo-normals of a triangle set (Bærentzen & Aanæs, "Signed distance computation using the
+/// angle weighted pseudonormal", IEEE TVCG 2005): the unit face normal inside a face, the
+/// normalised sum of the two face normals on an edge, the angle-weighted sum of the face
+/// normals at a vertex. The side of a surface a point lies on, or the direction a surface
+/// faces at its nearest point, is then well defined even when that point is on an edge or a
+/// vertex (a crease, a thin ridge).
+struct PseudoNormals<'a> {
+    positions: &'a [Point3<f64>],
+    faces: &'a [[u32; 3]],
+    vertex: Vec<Vector3<f64>>,
+    edge: std::collections::HashMap<(u32, u32), Vector3<f64>>,
+}
+
+impl<'a> PseudoNormals<'a> {
+    fn new(positions: &'a [Point3<f64>], faces: &'a [[u32; 3]]) -> Self {
+        let mut vertex = vec![Vector3::zeros(); positions.len()];
+        let mut edge = std::collections::HashMap::new();
+        for t in faces {
+            let p = t.map(|v| positions[v as usize]);
+            let Some(n) = (p[1] - p[0]).cross(&(p[2] - p[0])).try_normalize(0.0) else {
+                continue;
+            };
+            for c in 0..3 {
+                let (u, w) = (p[(c + 1) % 3] - p[c], p[(c + 2) % 3] - p[c]);
+                let angle = u.cross(&w).norm().atan2(u.dot(&w));
+                vertex[t[c] as usize] += n * angle;
+                let (a, b) = (t[c], t[(c + 1) % 3]);
+                *edge.entry((a.min(b), a.max(b))).or_insert(Vector3::zeros()) += n;
+            }
+        }
+        PseudoNormals {
+            positions,
+            faces,
+            vertex,
+            edge,
+        }
+    }
+
+    /// The unit pseudo-normal at a nearest point (`None` where it vanishes).
+    fn at(&self, n: &Nearest) -> Option<Vector3<f64>> {
+        match n.feature {
+            NearestFeature::Face => {
+                let [a, b, c] = self.faces[n.face as usize].map(|v| self.positions[v as usize]);
+                (b - a).cross(&(c - a)).try_normalize(0.0)
+            }
+            NearestFeature::Edge(a, b) => self
+                .edge
+                .get(&(a.min(b), a.max(b)))
+                .and_then(|v| v.try_normalize(0.0)),
+            NearestFeature::Vertex(v) => self.vertex[v as usize].try_normalize(0.0),
+        }
+    }
+}
+
+/// One side of [`compare_surfaces`]: (max distance, mean distance, opposed area fraction) of
+/// the samples of `from` measured against `to`.
+fn one_way(
+    from_p: &[Point3<f64>],
+    from_f: &[[u32; 3]],
+    to_p: &[Point3<f64>],
+    to_f: &[[u32; 3]],
+) -> (f64, f64, f64) {
+    let bvh = SurfaceBvh::new(to_p, to_f);
+    let unit_normal = |p: &[Point3<f64>], t: [u32; 3]| {
+        let [a, b, c] = t.map(|v| p[v as usize]);
+        (b - a).cross(&(c - a)).try_normalize(0.0)
+    };
+    let pseudo = PseudoNormals::new(to_p, to_f);
+    // Per face (in parallel, collected in face order so that the sums below do not depend on
+    // the thread count): (max over its interior samples, area · mean distance, opposed area).
+    let per_face: Vec<(f64, f64, f64, f64)> = from_f
+        .par_iter()
+        .map(|&t| {
+            let [a, b, c] = t.map(|v| from_p[v as usize]);
+            let area = 0.5 * (b - a).cross(&(c - a)).norm();
+            let n_from = unit_normal(from_p, t);
+            let g = Point3::from((a.coords + b.coords + c.coords) / 3.0);
+            let samples = [
+                g,
+                Point3::from((g.coords + a.coords) * 0.5),
+                Point3::from((g.coords + b.coords) * 0.5),
+                Point3::from((g.coords + c.coords) * 0.5),
+            ];
+            let (mut max, mut sum, mut opposed) = (0.0f64, 0.0, 0.0);
+            for s in &samples {
+                let Some(n) = bvh.nearest(s) else {
+                    return (f64::INFINITY, f64::INFINITY, 0.0, area);
+                };
+                max = max.max(n.distance);
+                sum += n.distance;
+                let n_to = pseudo.at(&n);
+                if let (Some(x), Some(y)) = (n_from, n_to) {
+                    if x.dot(&y) < 0.0 {
+                        opposed += area / 4.0;
+                    }
+                }
+            }
+            (max, area * sum / 4.0, opposed, area)
+        })
+        .collect();
+    let mut used = vec![false; from_p.len()];
+    for f in from_f {
+        for &v in f {
+            used[v as usize] = true;
+        }
+    }
+    let vertex_max = from_p
+        .par_iter()
+        .zip(&used)
+        .filter(|(_, &u)| u)
+        .map(|(p, _)| bvh.distance(p))
+        .reduce(|| 0.0, f64::max);
+    let (mut max, mut weighted, mut opposed, mut total) = (vertex_max, 0.0, 0.0, 0.0);
+    for &(m, w, o, a) in &per_face {
+        max = max.max(m);
+        weighted += w;
+        opposed += o;
+        total += a;
+    }
+    if total > 0.0 {
+        (max, weighted / total, opposed / total)
+    } else {
+        (max, 0.0, 0.0)
+    }
+}
+
+/// Compare surface A with surface B (issue #23): the sampled Hausdorff distances (samples of
+/// [`surface_samples`]), the mean distances and the opposed-area fraction of A
+/// ([`SurfaceComparison`]). Nearest triangles by [`SurfaceBvh`]. Parallel; every sum is taken
+/// in face order, so the result does not depend on the thread count. An empty side gives
+/// infinite distances from the other side.
+pub fn compare_surfaces(
+    a_positions: &[Point3<f64>],
+    a_faces: &[[u32; 3]],
+    b_positions: &[Point3<f64>],
+    b_faces: &[[u32; 3]],
+) -> SurfaceComparison {
+    let (ab_max, ab_mean, opposed) = one_way(a_positions, a_faces, b_positions, b_faces);
+    let (ba_max, ba_mean, _) = one_way(b_positions, b_faces, a_positions, a_faces);
+    SurfaceComparison {
+        hausdorff: Hausdorff {
+            a_to_b: ab_max,
+            b_to_a: ba_max,
+        },
+        mean_a_to_b: ab_mean,
+        mean_b_to_a: ba_mean,
+        opposed_area_fraction: opposed,
     }
 }

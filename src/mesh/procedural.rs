@@ -399,3 +399,373 @@ fn unit_hash(i: usize, j: usize, salt: u64) -> f64 {
     x ^= x >> 31;
     (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
 }
+
+// ---------------------------------------------------------------------------------------------
+// Implicit test models for MAPS on hard shapes (issue #23): higher genus with bumps, thin
+// features, a flat region next to a detailed one. Each is the zero set of f (f < 0 inside,
+// close to a signed distance), extracted by marching tetrahedra on a regular grid and relaxed
+// along the surface, so the triangles are irregular in size and shape like a scan's.
+// ---------------------------------------------------------------------------------------------
+
+/// Signed distance to a torus around the axis through `c` parallel to z, major radius `big_r`,
+/// tube radius `small_r`: √((√((x − c_x)² + (y − c_y)²) − R)² + (z − c_z)²) − r.
+fn torus_sdf(p: &Point3<f64>, c: &Point3<f64>, big_r: f64, small_r: f64) -> f64 {
+    let d = p - c;
+    let ring = (d.x * d.x + d.y * d.y).sqrt() - big_r;
+    (ring * ring + d.z * d.z).sqrt() - small_r
+}
+
+/// Smooth minimum (polynomial, blend width `k` > 0): min(a, b) − h² k / 4 with
+/// h = max(k − |a − b|, 0) / k. Equal to min(a, b) when |a − b| ≥ k.
+fn smooth_min(a: f64, b: f64, k: f64) -> f64 {
+    let h = (k - (a - b).abs()).max(0.0) / k;
+    a.min(b) - h * h * k / 4.0
+}
+
+/// Signed distance to an axis-aligned box of centre `c` and half extents `half`.
+fn box_sdf(p: &Point3<f64>, c: &Point3<f64>, half: [f64; 3]) -> f64 {
+    let q = [0, 1, 2].map(|a| (p[a] - c[a]).abs() - half[a]);
+    let outside = q.iter().map(|x| x.max(0.0).powi(2)).sum::<f64>().sqrt();
+    outside + q[0].max(q[1]).max(q[2]).min(0.0)
+}
+
+/// Distance to the segment a–b minus a radius going linearly from `ra` at a to `rb` at b (a
+/// tapered capsule: a horn).
+fn horn_sdf(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>, ra: f64, rb: f64) -> f64 {
+    let ab = b - a;
+    let t = ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0);
+    (p - (a + ab * t)).norm() - (ra + (rb - ra) * t)
+}
+
+/// Gaussian bumps: Σ_k amplitude · exp(−|p − c_k|² / width²).
+fn bumps(p: &Point3<f64>, centres: &[Point3<f64>], amplitude: f64, width: f64) -> f64 {
+    centres
+        .iter()
+        .map(|c| amplitude * (-(p - c).norm_squared() / (width * width)).exp())
+        .sum()
+}
+
+/// The zero set of `f` over the box [lo, hi] by marching tetrahedra: a grid of cubes of side
+/// h = longest side / `cells`, each cube split into six tetrahedra around its main diagonal
+/// (the split matches across shared faces, so the surface is a closed 2-manifold when f > 0 on
+/// the box's boundary); grid values within 1e-9 h of 0 are moved to +1e-9 h so the surface
+/// never passes through a grid point (no zero-area triangle). A tetrahedron with one vertex of
+/// different sign gives a triangle, one with two and two a quad split along its shorter
+/// diagonal; each triangle faces the positive side (outwards). Vertices are the linear zero
+/// crossings on the grid edges, shared between neighbouring tetrahedra.
+fn marching_tetrahedra(
+    f: &dyn Fn(&Point3<f64>) -> f64,
+    lo: Point3<f64>,
+    hi: Point3<f64>,
+    cells: usize,
+) -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
+    const TETS: [[usize; 4]; 6] = [
+        [0, 1, 3, 7],
+        [0, 3, 2, 7],
+        [0, 2, 6, 7],
+        [0, 6, 4, 7],
+        [0, 4, 5, 7],
+        [0, 5, 1, 7],
+    ];
+    let ext = hi - lo;
+    let h = ext.max() / cells.max(4) as f64;
+    let n = [0, 1, 2].map(|a| ((ext[a] / h).ceil() as usize).max(1) + 1);
+    let node = |i: usize, j: usize, k: usize| (k * n[1] + j) * n[0] + i;
+    let point = |id: usize| {
+        let (i, j, k) = (id % n[0], (id / n[0]) % n[1], id / (n[0] * n[1]));
+        Point3::new(
+            lo.x + i as f64 * h,
+            lo.y + j as f64 * h,
+            lo.z + k as f64 * h,
+        )
+    };
+    let values: Vec<f64> = (0..n[0] * n[1] * n[2])
+        .map(|id| {
+            let v = f(&point(id));
+            if v.abs() < 1e-9 * h {
+                1e-9 * h
+            } else {
+                v
+            }
+        })
+        .collect();
+    let mut positions: Vec<Point3<f64>> = Vec::new();
+    let mut faces: Vec<[u32; 3]> = Vec::new();
+    let mut on_edge: std::collections::HashMap<(usize, usize), u32> =
+        std::collections::HashMap::new();
+    let mut crossing = |a: usize, b: usize, positions: &mut Vec<Point3<f64>>| -> u32 {
+        let key = (a.min(b), a.max(b));
+        *on_edge.entry(key).or_insert_with(|| {
+            let (va, vb) = (values[key.0], values[key.1]);
+            let t = va / (va - vb);
+            let (pa, pb) = (point(key.0), point(key.1));
+            positions.push(pa + (pb - pa) * t);
+            positions.len() as u32 - 1
+        })
+    };
+    for k in 0..n[2] - 1 {
+        for j in 0..n[1] - 1 {
+            for i in 0..n[0] - 1 {
+                let corner = |b: usize| node(i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1));
+                for tet in TETS {
+                    let v = tet.map(corner);
+                    let (pos, neg): (Vec<usize>, Vec<usize>) =
+                        v.iter().partition(|&&id| values[id] > 0.0);
+                    if pos.is_empty() || neg.is_empty() {
+                        continue;
+                    }
+                    let centre = |ids: &[usize]| {
+                        ids.iter()
+                            .map(|&id| point(id).coords)
+                            .sum::<nalgebra::Vector3<f64>>()
+                            / ids.len() as f64
+                    };
+                    let outward = centre(&pos) - centre(&neg);
+                    let mut polygon: Vec<u32> = Vec::new();
+                    match (pos.len(), neg.len()) {
+                        (1, 3) => {
+                            for &q in &neg {
+                                polygon.push(crossing(pos[0], q, &mut positions));
+                            }
+                        }
+                        (3, 1) => {
+                            for &q in &pos {
+                                polygon.push(crossing(neg[0], q, &mut positions));
+                            }
+                        }
+                        _ => {
+                            let (a, b, c, d) = (pos[0], pos[1], neg[0], neg[1]);
+                            for (x, y) in [(a, c), (a, d), (b, d), (b, c)] {
+                                polygon.push(crossing(x, y, &mut positions));
+                            }
+                        }
+                    }
+                    let tris: Vec<[u32; 3]> = if polygon.len() == 3 {
+                        vec![[polygon[0], polygon[1], polygon[2]]]
+                    } else {
+                        let p = polygon
+                            .iter()
+                            .map(|&q| positions[q as usize])
+                            .collect::<Vec<_>>();
+                        if (p[0] - p[2]).norm() <= (p[1] - p[3]).norm() {
+                            vec![
+                                [polygon[0], polygon[1], polygon[2]],
+                                [polygon[0], polygon[2], polygon[3]],
+                            ]
+                        } else {
+                            vec![
+                                [polygon[0], polygon[1], polygon[3]],
+                                [polygon[1], polygon[2], polygon[3]],
+                            ]
+                        }
+                    };
+                    for t in tris {
+                        let [a, b, c] = t.map(|q| positions[q as usize]);
+                        if (b - a).cross(&(c - a)).dot(&outward) >= 0.0 {
+                            faces.push(t);
+                        } else {
+                            faces.push([t[0], t[2], t[1]]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    (positions, faces)
+}
+
+/// `rounds` rounds of relaxation along the surface: every vertex moves halfway to the mean of
+/// its neighbours, then back onto f = 0 by two Newton steps p ← p − f(p) ∇f / |∇f|² (∇f by
+/// central differences of step 10⁻⁴ `h`). Kept only if no face ends up facing against ∇f at
+/// its centroid (otherwise the unrelaxed positions are returned).
+fn relax_on_surface(
+    f: &dyn Fn(&Point3<f64>) -> f64,
+    positions: Vec<Point3<f64>>,
+    faces: &[[u32; 3]],
+    rounds: usize,
+    h: f64,
+) -> Vec<Point3<f64>> {
+    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); positions.len()];
+    for t in faces {
+        for c in 0..3 {
+            let (a, b) = (t[c], t[(c + 1) % 3]);
+            if !neighbours[a as usize].contains(&b) {
+                neighbours[a as usize].push(b);
+                neighbours[b as usize].push(a);
+            }
+        }
+    }
+    let eps = 1e-4 * h;
+    let gradient = |p: &Point3<f64>| {
+        nalgebra::Vector3::from([0, 1, 2].map(|a| {
+            let mut d = nalgebra::Vector3::zeros();
+            d[a] = eps;
+            (f(&(p + d)) - f(&(p - d))) / (2.0 * eps)
+        }))
+    };
+    let project = |mut p: Point3<f64>| {
+        for _ in 0..2 {
+            let g = gradient(&p);
+            let g2 = g.norm_squared();
+            if g2 > 0.0 {
+                p -= g * (f(&p) / g2);
+            }
+        }
+        p
+    };
+    let mut relaxed = positions.clone();
+    for _ in 0..rounds {
+        relaxed = (0..relaxed.len())
+            .map(|v| {
+                let ns = &neighbours[v];
+                if ns.is_empty() {
+                    return relaxed[v];
+                }
+                let mean = ns
+                    .iter()
+                    .map(|&w| relaxed[w as usize].coords)
+                    .sum::<nalgebra::Vector3<f64>>()
+                    / ns.len() as f64;
+                project(Point3::from((relaxed[v].coords + mean) * 0.5))
+            })
+            .collect();
+    }
+    let facing_out = faces.iter().all(|t| {
+        let [a, b, c] = t.map(|v| relaxed[v as usize]);
+        let g = Point3::from((a.coords + b.coords + c.coords) / 3.0);
+        (b - a).cross(&(c - a)).dot(&gradient(&g)) > 0.0
+    });
+    if facing_out {
+        relaxed
+    } else {
+        positions
+    }
+}
+
+/// A mesh of the zero set of `f` in [lo, hi] ([`marching_tetrahedra`] with `cells` cubes along
+/// the longest side, then three rounds of [`relax_on_surface`]).
+fn implicit_mesh(
+    short: &str,
+    f: &dyn Fn(&Point3<f64>) -> f64,
+    lo: Point3<f64>,
+    hi: Point3<f64>,
+    cells: usize,
+) -> TriMesh {
+    let (positions, faces) = marching_tetrahedra(f, lo, hi, cells);
+    let h = (hi - lo).max() / cells.max(4) as f64;
+    let positions = relax_on_surface(f, positions, &faces, 3, h);
+    TriMesh::with_shared_indices(name(short), positions, Vec::new(), faces)
+}
+
+/// A closed surface of genus `genus` (≥ 1, at most 8): `genus` tori of major radius 1 and tube
+/// radius 0.38 in a row along x, centres 2 apart so that neighbouring core circles touch at one
+/// point (a chain of rings, genus = number of rings), joined by a smooth minimum of width
+/// 0.15, with three Gaussian bumps per ring (height 0.1, width 0.18) at pseudo-random points of
+/// its tube. `cells` ≥ 8 grid cubes along the longest side (about 9 × cells² triangles per ring
+/// at genus 2: 64 gives ≈ 30k triangles). Euler characteristic 2 − 2·genus.
+pub fn genus_bumpy(genus: usize, cells: usize) -> TriMesh {
+    let g = genus.clamp(1, 8);
+    let (big_r, small_r) = (1.0, 0.38);
+    let centres: Vec<Point3<f64>> = (0..g)
+        .map(|k| Point3::new(2.0 * big_r * k as f64, 0.0, 0.0))
+        .collect();
+    let bump_centres: Vec<Point3<f64>> = centres
+        .iter()
+        .enumerate()
+        .flat_map(|(k, c)| {
+            (0..3).map(move |m| {
+                let theta = std::f64::consts::PI * unit_hash(k, m, 11);
+                let phi = std::f64::consts::PI * unit_hash(k, m, 12);
+                let ring = big_r + small_r * phi.cos();
+                c + nalgebra::Vector3::new(
+                    ring * theta.cos(),
+                    ring * theta.sin(),
+                    small_r * phi.sin(),
+                )
+            })
+        })
+        .collect();
+    let f = move |p: &Point3<f64>| {
+        let rings = centres
+            .iter()
+            .map(|c| torus_sdf(p, c, big_r, small_r))
+            .fold(f64::INFINITY, |a, b| {
+                if a.is_infinite() {
+                    b
+                } else {
+                    smooth_min(a, b, 0.15)
+                }
+            });
+        rings - bumps(p, &bump_centres, 0.1, 0.18)
+    };
+    let margin = small_r + 0.3;
+    let lo = Point3::new(-big_r - margin, -big_r - margin, -margin);
+    let hi = Point3::new(
+        2.0 * big_r * (g - 1) as f64 + big_r + margin,
+        big_r + margin,
+        margin,
+    );
+    implicit_mesh(&format!("genus{g}"), &f, lo, hi, cells.max(8))
+}
+
+/// Thin features (issue #23, like blub's fins): an ellipsoidal body (semi-axes 1, 0.6, 0.5)
+/// with two horns (tapered capsules of length ≈ 0.9, radius 0.14 → 0.08) and a fin (a box
+/// 1.0 × 0.14 × 0.5) on its back, blended with a smooth minimum of width 0.08. `cells` ≥ 8
+/// grid cubes along the longest side; the horn tips and the fin (0.16 and 0.14 thick) are
+/// resolved, as one closed genus-0 surface, from about 48 on (thickness above two cubes).
+pub fn horned(cells: usize) -> TriMesh {
+    let body = |p: &Point3<f64>| {
+        let q = nalgebra::Vector3::new(p.x / 1.0, p.y / 0.6, p.z / 0.5);
+        (q.norm() - 1.0) * 0.5
+    };
+    let f = move |p: &Point3<f64>| {
+        let horn1 = horn_sdf(
+            p,
+            &Point3::new(0.7, 0.25, 0.25),
+            &Point3::new(1.3, 0.6, 0.8),
+            0.14,
+            0.08,
+        );
+        let horn2 = horn_sdf(
+            p,
+            &Point3::new(0.7, -0.25, 0.25),
+            &Point3::new(1.3, -0.6, 0.8),
+            0.14,
+            0.08,
+        );
+        let fin = box_sdf(p, &Point3::new(-0.2, 0.0, 0.6), [0.5, 0.07, 0.25]);
+        let mut d = body(p);
+        for part in [horn1, horn2, fin] {
+            d = smooth_min(d, part, 0.08);
+        }
+        d
+    };
+    let lo = Point3::new(-1.3, -1.0, -0.8);
+    let hi = Point3::new(1.7, 1.0, 1.2);
+    implicit_mesh("horned", &f, lo, hi, cells.max(8))
+}
+
+/// A large flat region next to a detailed one (issue #23, like nefertiti's base): a rounded
+/// box pedestal (2.4 × 1.6 × 0.6, edges rounded by 0.05) under a sphere of radius 0.75 covered
+/// with 24 bumps (height 0.06, width 0.12) and a ripple 0.02 sin 14x sin 14y sin 14z, blended
+/// with a smooth minimum of width 0.1. `cells` ≥ 8 grid cubes along the longest side. Genus 0.
+pub fn pedestal(cells: usize) -> TriMesh {
+    let head = Point3::new(0.0, 0.0, 0.7);
+    let bump_centres: Vec<Point3<f64>> = (0..24)
+        .map(|k| {
+            let theta = std::f64::consts::PI * unit_hash(k, 0, 21);
+            let z = 0.2 + 0.8 * (0.5 + 0.5 * unit_hash(k, 0, 22));
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            head + nalgebra::Vector3::new(r * theta.cos(), r * theta.sin(), z) * 0.75
+        })
+        .collect();
+    let f = move |p: &Point3<f64>| {
+        let base = box_sdf(p, &Point3::new(0.0, 0.0, -0.25), [1.15, 0.75, 0.25]) - 0.05;
+        let ripple = 0.02 * (14.0 * p.x).sin() * (14.0 * p.y).sin() * (14.0 * p.z).sin();
+        let sphere = (p - head).norm() - 0.75 - bumps(p, &bump_centres, 0.06, 0.12) - ripple;
+        smooth_min(base, sphere, 0.1)
+    };
+    let lo = Point3::new(-1.45, -1.05, -0.8);
+    let hi = Point3::new(1.45, 1.05, 1.75);
+    implicit_mesh("pedestal", &f, lo, hi, cells.max(8))
+}

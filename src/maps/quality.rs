@@ -1,0 +1,133 @@
+//! Remesh quality beside the Hausdorff distance (issue #23): how far the remesh lies from the
+//! input on average, how much of its area faces the wrong way, and how thin its triangles are.
+//! The distance figures come from [`crate::mesh::distance::compare_surfaces`] (a BVH from the
+//! parry3d crate); this file adds the angle distribution and the figures relative to the
+//! input's bounding-box diagonal.
+
+use nalgebra::Point3;
+
+use crate::mesh::distance::{compare_surfaces, SurfaceComparison};
+
+/// Issue #23's target for a faithful remesh: two-sided Hausdorff distance at most 1.5% of the
+/// bounding-box diagonal.
+pub const FAITHFUL_HAUSDORFF: f64 = 0.015;
+
+/// Issue #23's target for a faithful remesh: mean distance at most 0.1% of the diagonal.
+pub const FAITHFUL_MEAN: f64 = 0.001;
+
+/// Upper ends (degrees) of the bins of [`AngleStats::histogram`]: [0, 10), [10, 20), [20, 30),
+/// [30, 40), [40, 50), [50, 60]. The smallest angle of a triangle is at most 60°.
+pub const ANGLE_BINS_DEG: [f64; 6] = [10.0, 20.0, 30.0, 40.0, 50.0, 60.0];
+
+/// The distribution over the faces of a mesh of each face's smallest angle.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct AngleStats {
+    /// The smallest angle of any face, degrees (0 for a degenerate face).
+    pub min_deg: f64,
+    /// Mean over faces of the smallest angle, degrees.
+    pub mean_deg: f64,
+    /// Fraction of faces whose smallest angle is below 10°.
+    pub below_10: f64,
+    /// Face counts per bin of [`ANGLE_BINS_DEG`].
+    pub histogram: [usize; 6],
+}
+
+/// The smallest angle of triangle (a, b, c) in degrees: min over corners of
+/// atan2(|u × v|, u · v), u and v the corner's two edge vectors (exact near 0 and 180°, unlike
+/// acos). 0 for a degenerate triangle.
+pub fn smallest_angle_deg(a: &Point3<f64>, b: &Point3<f64>, c: &Point3<f64>) -> f64 {
+    let corner = |p: &Point3<f64>, q: &Point3<f64>, r: &Point3<f64>| {
+        let (u, v) = (q - p, r - p);
+        u.cross(&v).norm().atan2(u.dot(&v))
+    };
+    let m = corner(a, b, c).min(corner(b, c, a)).min(corner(c, a, b));
+    if m.is_finite() {
+        m.to_degrees()
+    } else {
+        0.0
+    }
+}
+
+/// [`AngleStats`] of the faces of a mesh (all zero for no faces).
+pub fn angle_stats(positions: &[Point3<f64>], faces: &[[u32; 3]]) -> AngleStats {
+    if faces.is_empty() {
+        return AngleStats::default();
+    }
+    let mut stats = AngleStats {
+        min_deg: f64::INFINITY,
+        ..AngleStats::default()
+    };
+    let mut sum = 0.0;
+    let mut below_10 = 0usize;
+    for f in faces {
+        let [a, b, c] = f.map(|v| positions[v as usize]);
+        let angle = smallest_angle_deg(&a, &b, &c);
+        stats.min_deg = stats.min_deg.min(angle);
+        sum += angle;
+        if angle < 10.0 {
+            below_10 += 1;
+        }
+        let bin = ANGLE_BINS_DEG
+            .iter()
+            .position(|&hi| angle < hi)
+            .unwrap_or(ANGLE_BINS_DEG.len() - 1);
+        stats.histogram[bin] += 1;
+    }
+    stats.mean_deg = sum / faces.len() as f64;
+    stats.below_10 = below_10 as f64 / faces.len() as f64;
+    stats
+}
+
+/// Quality of a remesh against its input (issue #23).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct RemeshQuality {
+    /// Remesh (A) against input (B): Hausdorff, mean distances, opposed-area fraction of the
+    /// remesh ([`SurfaceComparison`]).
+    pub distances: SurfaceComparison,
+    /// The input's bounding-box diagonal.
+    pub diagonal: f64,
+    /// max(Hausdorff both ways) / diagonal.
+    pub hausdorff_relative: f64,
+    /// max(mean both ways) / diagonal.
+    pub mean_relative: f64,
+    /// Fraction of the remesh's area whose normal opposes the nearest input triangle's.
+    pub wrong_facing_area: f64,
+    /// The remesh's smallest angles.
+    pub angles: AngleStats,
+    /// Wall-clock seconds of the distance figures (BVH builds and queries).
+    pub distance_seconds: f64,
+}
+
+impl RemeshQuality {
+    /// Whether the remesh meets issue #23's targets: Hausdorff ≤ [`FAITHFUL_HAUSDORFF`], mean
+    /// distance ≤ [`FAITHFUL_MEAN`] (relative to the diagonal), no area facing the wrong way.
+    pub fn faithful(&self) -> bool {
+        self.hausdorff_relative <= FAITHFUL_HAUSDORFF
+            && self.mean_relative <= FAITHFUL_MEAN
+            && self.wrong_facing_area == 0.0
+    }
+}
+
+/// Measure `remesh` against `input` ([`RemeshQuality`]); `diagonal` is the input's bounding-box
+/// diagonal (a zero diagonal gives relative figures of 0).
+pub fn remesh_quality(
+    remesh_positions: &[Point3<f64>],
+    remesh_faces: &[[u32; 3]],
+    input_positions: &[Point3<f64>],
+    input_faces: &[[u32; 3]],
+    diagonal: f64,
+) -> RemeshQuality {
+    let t = std::time::Instant::now();
+    let distances = compare_surfaces(remesh_positions, remesh_faces, input_positions, input_faces);
+    let distance_seconds = t.elapsed().as_secs_f64();
+    let relative = |x: f64| if diagonal > 0.0 { x / diagonal } else { 0.0 };
+    RemeshQuality {
+        distances,
+        diagonal,
+        hausdorff_relative: relative(distances.hausdorff.max()),
+        mean_relative: relative(distances.mean()),
+        wrong_facing_area: distances.opposed_area_fraction,
+        angles: angle_stats(remesh_positions, remesh_faces),
+        distance_seconds,
+    }
+}
