@@ -36,5 +36,7 @@ pub use eval::{
     INTERIOR_POINTS,
 };
 pub use moebius::{ExpLog, Mobius, Sl2};
-pub use precompute::{precompute, Bpm, BpmOptions, Fit, Order, PrecomputeReport, TriangleMaps};
+pub use precompute::{
+    precompute, Bpm, BpmOptions, Fit, Order, PrecomputeReport, TriangleMaps, Unfold,
+};
 pub use quality::{qc_protocol, QcStats};
