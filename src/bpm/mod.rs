@@ -16,7 +16,7 @@
 //! | stage | seed step | file |
 //! |---|---|---|
 //! | SL(2,C) maps, fits, exp/log | 3, 4, 8 | [`moebius`] |
-//! | star layout, orientation fix, log ratios | 2–5 | [`precompute()`] |
+//! | star layout (correct or authors' unfolding, [`Unfold`]), orientation fix, log ratios | 2–5 | [`precompute()`] |
 //! | edge-barycentric weights, blending, evaluation | 6–9 | [`eval`] |
 //! | quality protocol (QC = σmax/σmin) | authors' protocol | [`quality`] |
 //!

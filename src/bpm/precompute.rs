@@ -2,7 +2,8 @@
 //! fix, the Möbius maps of t and its three neighbours, and the log Möbius ratios.
 //!
 //! The WGSL twin is `gpu/shaders/bpm_precompute.wgsl` (`star_layout`, `place_apex`,
-//! `triangle_maps`), reading the same [`Star`] gathered here.
+//! `triangle_maps`), reading the same [`Star`] gathered here; it implements the correct
+//! unfolding only ([`Unfold::Correct`]), not the authors' ([`place_apex_authors`]).
 
 use nalgebra::{Point3, Vector3};
 use num_complex::Complex64 as C;
