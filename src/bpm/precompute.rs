@@ -49,9 +49,9 @@ pub enum Order {
 ///
 /// The authors' MATLAB code (shirrorbe/BPM, `IsometricEmbeddingFStar`) rotates the neighbour
 /// about the edge by θ = atan2(‖v₁ × v₂‖, v₁·v₂) − π/2 (v₁ = edge × ẑ, v₂ the neighbour's normal)
-/// and keeps x and y. ‖v₁ × v₂‖ drops the sign of cos φ, so for φ > 90° the rotation is by φ − π
-/// instead of −φ: the neighbour stays 2φ − π out of the plane, its projection is shortened, and
-/// past 135° its apex lands on t's side of the edge. The default is right because only the
+/// and keeps x and y. ‖v₁ × v₂‖ drops the sign of cos φ, so for φ > 90° it turns the neighbour
+/// back by only π − φ instead of φ: the neighbour stays 2φ − π out of the plane, its projection
+/// is shortened, and past 135° its apex lands on t's side of the edge. The default is right because only the
 /// hinge rotation by the full fold angle is an isometry of the neighbour (seed step 2(c), "rotate
 /// so they lie in t's plane"; notes step 1): M_e must be fitted to the neighbour's true shape.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
@@ -324,8 +324,8 @@ fn hinge_coordinates(p_a: &Point3<f64>, p_b: &Point3<f64>, p_apex: &Point3<f64>)
     (r.dot(&u), u.cross(&r).norm())
 }
 
-/// Cosine of the fold angle φ ∈ [0, π] of the neighbour across edge a→b of t, whose unit
-/// normal is `normal` (0 when t is degenerate).
+/// Cosine of the fold angle φ ∈ [0, π] of the neighbour across edge a→b of t; `normal` is t's
+/// unit normal (zero for a degenerate t, which gives cos φ = 0: not counted as folded past 90°).
 ///
 /// cos φ = (r⊥ · o)/|r⊥|, r⊥ = r − (r·u)u the apex's offset from the edge line (r = p_apex − p_a,
 /// u the edge's unit vector) and o = u × n the in-plane direction away from t: 1 when the
