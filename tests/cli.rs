@@ -32,6 +32,67 @@ fn bpm_qc_prints_json() {
 }
 
 #[test]
+fn bpm_qc_reports_folded_neighbours_and_both_unfoldings() {
+    let qc = |unfold: &str| {
+        let (ok, stdout, stderr) = reparam(&[
+            "bpm",
+            "qc",
+            "procedural:folded_star",
+            "--subdiv",
+            "2",
+            "--unfold",
+            unfold,
+            "--json",
+        ]);
+        assert!(ok, "{stderr}");
+        serde_json::from_str::<serde_json::Value>(&stdout).expect("valid JSON")
+    };
+    let (correct, authors) = (qc("correct"), qc("authors"));
+    assert_eq!(correct["unfold"], "Correct");
+    assert_eq!(authors["unfold"], "Authors");
+    // One neighbour folded by 150°, seen from both faces of its edge.
+    for v in [&correct, &authors] {
+        assert_eq!(v["precompute"]["neighbours_folded_past_90"], 2);
+        assert_eq!(v["precompute"]["neighbours_folded_past_135"], 2);
+    }
+    // Linear interpolation never reads the neighbours; BPM does.
+    assert_eq!(correct["linear"], authors["linear"]);
+    assert_ne!(correct["bpm"]["mean"], authors["bpm"]["mean"]);
+    // The default is the correct unfolding.
+    let (ok, stdout, stderr) = reparam(&[
+        "bpm",
+        "qc",
+        "procedural:folded_star",
+        "--subdiv",
+        "2",
+        "--json",
+    ]);
+    assert!(ok, "{stderr}");
+    let default: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(default["unfold"], "Correct");
+    assert_eq!(default["bpm"], correct["bpm"]);
+}
+
+#[test]
+fn bpm_render_refuses_the_authors_unfolding_on_the_gpu() {
+    let (ok, _, stderr) = reparam(&[
+        "bpm",
+        "render",
+        "procedural:folded_star",
+        "--backend",
+        "gpu",
+        "--unfold",
+        "authors",
+    ]);
+    assert!(!ok);
+    assert!(
+        stderr.contains("--unfold authors needs --backend cpu"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+#[test]
 fn bpm_render_writes_a_png() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("cone.png");

@@ -166,6 +166,36 @@ fn a_perturbed_gpu_input_is_reported_over_its_bound_with_exit_1() {
 }
 
 #[test]
+fn the_authors_unfolding_checks_the_eval_kernel_only_and_says_why() {
+    if gpu_or_skip().is_none() {
+        return;
+    }
+    let (code, stdout, stderr) = reparam(&[
+        "crosscheck",
+        "bpm",
+        "--mesh",
+        "procedural:folded_star",
+        "--unfold",
+        "authors",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{stderr}\n{stdout}");
+    let rows = rows(&stdout);
+    let kernels: Vec<&str> = rows.iter().map(|r| r["kernel"].as_str().unwrap()).collect();
+    // The GPU precompute implements only the correct unfolding: its rows, and the render row
+    // built on it, are left out rather than compared against the authors' layout.
+    assert_eq!(kernels, ["bpm_eval: BPM uv", "bpm_eval: linear uv"]);
+    for r in &rows {
+        assert_eq!(r["verdict"], "pass", "{r}");
+    }
+    let note = rows[0].to_string();
+    assert!(
+        note.contains("--unfold authors") && note.contains("implements only the correct unfolding"),
+        "{note}"
+    );
+}
+
+#[test]
 fn list_adapters_lists_at_least_one() {
     if gpu_or_skip().is_none() {
         return;

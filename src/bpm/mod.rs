@@ -16,7 +16,7 @@
 //! | stage | seed step | file |
 //! |---|---|---|
 //! | SL(2,C) maps, fits, exp/log | 3, 4, 8 | [`moebius`] |
-//! | star layout, orientation fix, log ratios | 2–5 | [`precompute()`] |
+//! | star layout (correct or authors' unfolding, [`Unfold`]), orientation fix, log ratios | 2–5 | [`precompute()`] |
 //! | edge-barycentric weights, blending, evaluation | 6–9 | [`eval`] |
 //! | quality protocol (QC = σmax/σmin) | authors' protocol | [`quality`] |
 //!
@@ -36,5 +36,7 @@ pub use eval::{
     INTERIOR_POINTS,
 };
 pub use moebius::{ExpLog, Mobius, Sl2};
-pub use precompute::{precompute, Bpm, BpmOptions, Fit, Order, PrecomputeReport, TriangleMaps};
+pub use precompute::{
+    precompute, Bpm, BpmOptions, Fit, Order, PrecomputeReport, TriangleMaps, Unfold,
+};
 pub use quality::{qc_protocol, QcStats};

@@ -2,7 +2,8 @@
 //! fix, the Möbius maps of t and its three neighbours, and the log Möbius ratios.
 //!
 //! The WGSL twin is `gpu/shaders/bpm_precompute.wgsl` (`star_layout`, `place_apex`,
-//! `triangle_maps`), reading the same [`Star`] gathered here.
+//! `triangle_maps`), reading the same [`Star`] gathered here; it implements the correct
+//! unfolding only ([`Unfold::Correct`]), not the authors' ([`place_apex_authors`]).
 
 use nalgebra::{Point3, Vector3};
 use num_complex::Complex64 as C;
@@ -36,6 +37,33 @@ pub enum Order {
     Left,
 }
 
+/// How a neighbour's apex is laid out in t's plane (seed step 2(c), notes step 1).
+///
+/// With φ ∈ [0, π] the fold angle between t and the neighbour across edge a→b (0: coplanar),
+/// `along`, `perp` the apex's distance along and from the edge line, and dir the unit vector of
+/// z_b − z_a, the apex goes to
+///
+/// ```text
+///   z = z_a + dir · (along − i · perp · cos ρ),   ρ = 0 (Correct),  ρ = max(0, 2φ − π) (Authors)
+/// ```
+///
+/// The authors' MATLAB code (shirrorbe/BPM, `IsometricEmbeddingFStar`) rotates the neighbour
+/// about the edge by θ = atan2(‖v₁ × v₂‖, v₁·v₂) − π/2 (v₁ = edge × ẑ, v₂ the neighbour's normal)
+/// and keeps x and y. ‖v₁ × v₂‖ drops the sign of cos φ, so for φ > 90° it turns the neighbour
+/// back by only π − φ instead of φ: the neighbour stays 2φ − π out of the plane, its projection
+/// is shortened, and past 135° its apex lands on t's side of the edge. The default is right because only the
+/// hinge rotation by the full fold angle is an isometry of the neighbour (seed step 2(c), "rotate
+/// so they lie in t's plane"; notes step 1): M_e must be fitted to the neighbour's true shape.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
+pub enum Unfold {
+    /// Hinge rotation by the full fold angle (ρ = 0): the isometric unfolding. Default.
+    #[default]
+    Correct,
+    /// The authors' code (ρ = max(0, 2φ − π)), to reproduce the published figures. Differs from
+    /// `Correct` only for neighbours folded past 90°.
+    Authors,
+}
+
 /// Options of the BPM precomputation and evaluation. `Default` is the reference setting.
 #[derive(Clone, Copy, Debug, PartialEq, Default, serde::Serialize)]
 pub struct BpmOptions {
@@ -46,6 +74,9 @@ pub struct BpmOptions {
     pub exp_log: ExpLog,
     /// Multiplication order (default: right, the seed's).
     pub order: Order,
+    /// Layout of the neighbours' apices (default: the correct, isometric unfolding; the GPU
+    /// precompute kernel implements only that one).
+    pub unfold: Unfold,
 }
 
 /// One triangle's star as both the CPU and the GPU precompute read it: six points (t's corners
@@ -97,6 +128,13 @@ pub struct PrecomputeReport {
     pub non_manifold_edges: usize,
     /// Edges whose two faces disagree on orientation: treated as boundary.
     pub misoriented_edges: usize,
+    /// Neighbours folded by more than 90° against their face (one count per face and edge, so
+    /// an interior edge counts twice; degenerate faces left out): the neighbours whose layout
+    /// [`Unfold::Authors`] changes, whichever unfolding was used.
+    pub neighbours_folded_past_90: usize,
+    /// Of those, neighbours folded by more than 135°, which [`Unfold::Authors`] lays out on t's
+    /// side of the shared edge (folded back over t).
+    pub neighbours_folded_past_135: usize,
 }
 
 /// The precomputed BPM interpolant of a mesh.
@@ -123,6 +161,14 @@ pub fn precompute(mesh: &TriMesh, options: BpmOptions) -> Result<Bpm> {
         .par_iter()
         .map(|star| triangle_maps(star, options))
         .collect();
+    let folds: Vec<[f64; 3]> = stars.par_iter().map(fold_cosines).collect();
+    let folded_past = |cos_max: f64| {
+        folds
+            .iter()
+            .flatten()
+            .filter(|&&cos_phi| cos_phi < cos_max)
+            .count()
+    };
     let degenerate_ids: Vec<usize> = (0..stars.len()).filter(|&f| stars[f].degenerate).collect();
     let report = PrecomputeReport {
         faces: mesh.face_count(),
@@ -133,6 +179,9 @@ pub fn precompute(mesh: &TriMesh, options: BpmOptions) -> Result<Bpm> {
         seam_edges: adjacency.seam_edges,
         non_manifold_edges: adjacency.non_manifold_edges,
         misoriented_edges: adjacency.misoriented_edges,
+        // φ > 90° ⟺ cos φ < 0; φ > 135° ⟺ cos φ < −1/√2.
+        neighbours_folded_past_90: folded_past(0.0),
+        neighbours_folded_past_135: folded_past(-std::f64::consts::FRAC_1_SQRT_2),
     };
     Ok(Bpm {
         maps,
@@ -214,11 +263,12 @@ pub fn signed_area2(a: C, b: C, c: C) -> f64 {
 /// Lay out the star in t's own frame (seed step 2, notes step 1–2).
 ///
 /// z_i = 0, z_j = |p_j − p_i| on the real axis, z_k = ((p_k − p_i)·e₁) + i |e₁ × (p_k − p_i)|;
-/// each neighbour's apex is unfolded across its edge by [`place_apex`]. If t's UV triangle is
-/// clockwise, the whole star is mirrored (z ↦ z̄) so the layout and UV orientations agree;
-/// otherwise "each triangle maps to an infinite amount of texture" (seed §1.2). Returns the
-/// six layout points and whether the star was mirrored.
-pub fn star_layout(p: &[Point3<f64>; 6], w_t: [C; 3]) -> ([C; 6], bool) {
+/// each neighbour's apex is unfolded across its edge by [`place_apex`] ([`Unfold::Correct`]) or
+/// [`place_apex_authors`] ([`Unfold::Authors`]). If t's UV triangle is clockwise, the whole star
+/// is mirrored (z ↦ z̄) so the layout and UV orientations agree; otherwise "each triangle maps
+/// to an infinite amount of texture" (seed §1.2). Returns the six layout points and whether the
+/// star was mirrored.
+pub fn star_layout(p: &[Point3<f64>; 6], w_t: [C; 3], unfold: Unfold) -> ([C; 6], bool) {
     let ej = p[1] - p[0];
     let length = ej.norm();
     let e1 = ej / length;
@@ -226,9 +276,13 @@ pub fn star_layout(p: &[Point3<f64>; 6], w_t: [C; 3]) -> ([C; 6], bool) {
     let mut z = [C::new(0.0, 0.0); 6];
     z[1] = C::new(length, 0.0);
     z[2] = C::new(pk.dot(&e1), e1.cross(&pk).norm());
+    let normal = triangle_normal(p);
     for e in 0..3 {
         let [a, b] = EDGE_CORNERS[e];
-        z[3 + e] = place_apex(z[a], z[b], &p[a], &p[b], &p[3 + e]);
+        z[3 + e] = match unfold {
+            Unfold::Correct => place_apex(z[a], z[b], &p[a], &p[b], &p[3 + e]),
+            Unfold::Authors => place_apex_authors(z[a], z[b], &p[a], &p[b], &normal, &p[3 + e]),
+        };
     }
     let mirrored = signed_area2(w_t[0], w_t[1], w_t[2]) < 0.0;
     if mirrored {
@@ -239,18 +293,96 @@ pub fn star_layout(p: &[Point3<f64>; 6], w_t: [C; 3]) -> ([C; 6], bool) {
     (z, mirrored)
 }
 
+/// Unit normal n = (p_j − p_i) × (p_k − p_i) / |…| of t (the first three points of a star);
+/// zero for a degenerate t.
+fn triangle_normal(p: &[Point3<f64>; 6]) -> Vector3<f64> {
+    let n = (p[1] - p[0]).cross(&(p[2] - p[0]));
+    let length = n.norm();
+    if length > 0.0 {
+        n / length
+    } else {
+        Vector3::zeros()
+    }
+}
+
 /// Unfold a neighbour's apex across the edge a→b of t (an isometric hinge rotation).
 ///
 /// With u = (p_b − p_a)/|p_b − p_a|: along = (p_apex − p_a)·u, perp = |u × (p_apex − p_a)|; in the
 /// layout the apex goes to z_a + dir·(along − i·perp), dir = (z_b − z_a)/|z_b − z_a|, i.e. to the
 /// right of a→b, opposite t's interior.
 pub fn place_apex(z_a: C, z_b: C, p_a: &Point3<f64>, p_b: &Point3<f64>, p_apex: &Point3<f64>) -> C {
-    let u: Vector3<f64> = (p_b - p_a).normalize();
-    let r = p_apex - p_a;
-    let along = r.dot(&u);
-    let perp = u.cross(&r).norm();
+    let (along, perp) = hinge_coordinates(p_a, p_b, p_apex);
     let dir = (z_b - z_a) / c_abs(z_b - z_a);
     z_a + dir * C::new(along, -perp)
+}
+
+/// (along, perp) = ((p_apex − p_a)·u, |u × (p_apex − p_a)|), u = (p_b − p_a)/|p_b − p_a|: the
+/// apex's distance along the edge line and from it.
+fn hinge_coordinates(p_a: &Point3<f64>, p_b: &Point3<f64>, p_apex: &Point3<f64>) -> (f64, f64) {
+    let u: Vector3<f64> = (p_b - p_a).normalize();
+    let r = p_apex - p_a;
+    (r.dot(&u), u.cross(&r).norm())
+}
+
+/// Cosine of the fold angle φ ∈ [0, π] of the neighbour across edge a→b of t; `normal` is t's
+/// unit normal (zero for a degenerate t, which gives cos φ = 0: not counted as folded past 90°).
+///
+/// cos φ = (r⊥ · o)/|r⊥|, r⊥ = r − (r·u)u the apex's offset from the edge line (r = p_apex − p_a,
+/// u the edge's unit vector) and o = u × n the in-plane direction away from t: 1 when the
+/// neighbour is coplanar with t, 0 at a right angle, −1 when folded flat onto t.
+pub fn fold_cosine(
+    p_a: &Point3<f64>,
+    p_b: &Point3<f64>,
+    normal: &Vector3<f64>,
+    p_apex: &Point3<f64>,
+) -> f64 {
+    let u: Vector3<f64> = (p_b - p_a).normalize();
+    let r = p_apex - p_a;
+    let perp = u.cross(&r).norm();
+    let cos_phi = r.dot(&u.cross(normal)) / perp;
+    if cos_phi.is_finite() {
+        cos_phi.clamp(-1.0, 1.0)
+    } else {
+        1.0
+    }
+}
+
+/// The fold cosines ([`fold_cosine`]) of a star's three neighbours; 1 (coplanar) where there is
+/// no neighbour or t is degenerate.
+pub fn fold_cosines(star: &Star) -> [f64; 3] {
+    let normal = triangle_normal(&star.p);
+    std::array::from_fn(|e| {
+        let [a, b] = EDGE_CORNERS[e];
+        match star.neighbour[e] && !star.degenerate {
+            true => fold_cosine(&star.p[a], &star.p[b], &normal, &star.p[3 + e]),
+            false => 1.0,
+        }
+    })
+}
+
+/// The authors' layout of a neighbour's apex ([`Unfold::Authors`]): their rotation about the
+/// edge by θ = atan2(‖v₁ × v₂‖, v₁·v₂) − π/2, then x and y in t's frame.
+///
+/// z_a + dir·(along − i·perp·cos ρ), ρ = max(0, 2φ − π), with along, perp, dir as in
+/// [`place_apex`] and φ the fold angle ([`fold_cosine`]). For φ ≤ 90° this is [`place_apex`]
+/// exactly (same operations); for φ > 90°, cos ρ = cos(2φ − π) = 1 − 2 cos²φ, negative (apex on
+/// t's side) past 135°.
+pub fn place_apex_authors(
+    z_a: C,
+    z_b: C,
+    p_a: &Point3<f64>,
+    p_b: &Point3<f64>,
+    normal: &Vector3<f64>,
+    p_apex: &Point3<f64>,
+) -> C {
+    let cos_phi = fold_cosine(p_a, p_b, normal, p_apex);
+    let cos_rho = match cos_phi >= 0.0 {
+        true => 1.0,
+        false => 1.0 - 2.0 * cos_phi * cos_phi,
+    };
+    let (along, perp) = hinge_coordinates(p_a, p_b, p_apex);
+    let dir = (z_b - z_a) / c_abs(z_b - z_a);
+    z_a + dir * C::new(along, -perp * cos_rho)
 }
 
 /// All per-triangle data of one star (seed steps 2–4).
@@ -261,7 +393,7 @@ pub fn place_apex(z_a: C, z_b: C, p_a: &Point3<f64>, p_b: &Point3<f64>, p_apex: 
 #[allow(clippy::needless_range_loop)] // e names the edge in every per-edge array
 pub fn triangle_maps(star: &Star, options: BpmOptions) -> TriangleMaps {
     let uv = [star.w[0], star.w[1], star.w[2]];
-    let (z, mirrored) = star_layout(&star.p, uv);
+    let (z, mirrored) = star_layout(&star.p, uv, options.unfold);
     let mut maps = TriangleMaps {
         z: [z[0], z[1], z[2]],
         uv,

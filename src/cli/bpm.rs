@@ -5,7 +5,9 @@ use std::time::Instant;
 
 use clap::{Args, Subcommand, ValueEnum};
 use reparam::bpm::render::{render_cpu, RenderOptions};
-use reparam::bpm::{precompute, qc_protocol, BpmOptions, Fit, Interp, PrecomputeReport, QcStats};
+use reparam::bpm::{
+    precompute, qc_protocol, BpmOptions, Fit, Interp, PrecomputeReport, QcStats, Unfold,
+};
 use reparam::report::sig;
 use reparam::texture::save_png;
 use reparam::Result;
@@ -59,6 +61,26 @@ impl From<FitArg> for Fit {
     }
 }
 
+/// `--unfold`: how the neighbours of each triangle are laid out in its plane ([`Unfold`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum UnfoldArg {
+    /// The isometric hinge unfolding (reparam's reference figures).
+    #[default]
+    Correct,
+    /// The authors' MATLAB code: neighbours folded past 90° are not rotated flat (reproduces
+    /// the published figures).
+    Authors,
+}
+
+impl From<UnfoldArg> for Unfold {
+    fn from(a: UnfoldArg) -> Unfold {
+        match a {
+            UnfoldArg::Correct => Unfold::Correct,
+            UnfoldArg::Authors => Unfold::Authors,
+        }
+    }
+}
+
 #[derive(Args)]
 pub struct RenderArgs {
     /// OBJ file (with `vt` and optionally an MTL texture) or `procedural:<name>`.
@@ -70,6 +92,9 @@ pub struct RenderArgs {
     /// Möbius fit (the GPU backend's precompute uses it too).
     #[arg(long, value_enum, default_value = "local")]
     pub fit: FitArg,
+    /// Neighbour layout: `authors` reproduces the authors' code (CPU backend only).
+    #[arg(long, value_enum, default_value = "correct")]
+    pub unfold: UnfoldArg,
     /// Texture image; default: the mesh's material texture, else a built-in UV grid.
     #[arg(long)]
     pub texture: Option<PathBuf>,
@@ -99,6 +124,9 @@ pub struct QcArgs {
     pub subdiv: u32,
     #[arg(long, value_enum, default_value = "local")]
     pub fit: FitArg,
+    /// Neighbour layout: `authors` reproduces the authors' code and the published figures.
+    #[arg(long, value_enum, default_value = "correct")]
+    pub unfold: UnfoldArg,
     /// Print machine-readable results.
     #[arg(long)]
     pub json: bool,
@@ -117,6 +145,7 @@ struct RenderResult {
     output: PathBuf,
     backend: String,
     interp: Interp,
+    unfold: Unfold,
     width: u32,
     height: u32,
     precompute: PrecomputeReport,
@@ -128,9 +157,17 @@ struct RenderResult {
 }
 
 fn render(args: RenderArgs) -> Result<()> {
+    if args.backend == Backend::Gpu && args.unfold == UnfoldArg::Authors {
+        return Err(reparam::Error::InvalidArgument(
+            "--unfold authors needs --backend cpu: the GPU precompute kernel implements only the \
+             correct unfolding"
+                .into(),
+        ));
+    }
     let mesh = load_mesh(&args.mesh)?;
     let bpm_options = BpmOptions {
         fit: args.fit.into(),
+        unfold: args.unfold.into(),
         ..Default::default()
     };
     let bpm = precompute(&mesh, bpm_options)?;
@@ -154,6 +191,7 @@ fn render(args: RenderArgs) -> Result<()> {
         output: args.output.clone(),
         backend: format!("{:?}", args.backend).to_lowercase(),
         interp: options.interp,
+        unfold: bpm.options.unfold,
         width: options.width,
         height: options.height,
         precompute: bpm.report.clone(),
@@ -241,12 +279,17 @@ pub fn print_precompute_report(r: &PrecomputeReport) {
         r.non_manifold_edges,
         r.misoriented_edges
     );
+    println!(
+        "neighbours folded past 90° (laid out differently by --unfold authors): {}, of which past 135° (folded back over their face): {}",
+        r.neighbours_folded_past_90, r.neighbours_folded_past_135
+    );
 }
 
 #[derive(Serialize)]
 struct QcResult {
     mesh: String,
     subdiv: u32,
+    unfold: Unfold,
     precompute: PrecomputeReport,
     linear: QcStats,
     bpm: QcStats,
@@ -260,6 +303,7 @@ fn qc(args: QcArgs) -> Result<()> {
         &mesh,
         BpmOptions {
             fit: args.fit.into(),
+            unfold: args.unfold.into(),
             ..Default::default()
         },
     )?;
@@ -268,6 +312,7 @@ fn qc(args: QcArgs) -> Result<()> {
     let result = QcResult {
         mesh: mesh.name.clone(),
         subdiv: args.subdiv,
+        unfold: bpm.options.unfold,
         precompute: bpm.report.clone(),
         linear,
         bpm: bpm_stats,
@@ -278,8 +323,8 @@ fn qc(args: QcArgs) -> Result<()> {
     }
     print_precompute_report(&bpm.report);
     println!(
-        "QC = σmax/σmin over {} sub-triangles ({} subdivisions per face), area-weighted:",
-        result.bpm.sub_triangles, args.subdiv
+        "QC = σmax/σmin over {} sub-triangles ({} subdivisions per face, {:?} unfolding), area-weighted:",
+        result.bpm.sub_triangles, args.subdiv, result.unfold
     );
     println!("{}", qc_table(&[&result.linear, &result.bpm]));
     println!("({} s)", sig(result.seconds, 3));

@@ -72,6 +72,11 @@ pub struct BpmInput {
     /// built-in mesh.
     #[arg(long)]
     pub mesh: Vec<String>,
+    /// Neighbour layout of the reference. `authors` (the authors' code, see `bpm qc --unfold`)
+    /// checks the eval kernel only: the GPU precompute implements the correct unfolding alone.
+    /// The --sweep always uses the correct one.
+    #[arg(long, value_enum, default_value = "correct")]
+    pub unfold: super::bpm::UnfoldArg,
     #[command(flatten)]
     pub common: Common,
 }
@@ -333,6 +338,7 @@ pub fn rows_for(
                 &BpmInput {
                     mesh: Vec::new(),
                     common: c.clone(),
+                    ..Default::default()
                 },
             )?;
             rows.extend(gridwarp_rows(gpu, &default_gridwarp_args()?)?);
@@ -358,7 +364,7 @@ pub fn bpm_meshes(input: &BpmInput) -> Result<Vec<reparam::mesh::TriMesh>> {
 
 #[cfg(feature = "gpu")]
 fn bpm_rows(gpu: &reparam_gpu::Gpu, input: &BpmInput) -> Result<Vec<reparam::crosscheck::Row>> {
-    use reparam::crosscheck::bpm::bpm_rows_with;
+    use reparam::crosscheck::bpm::bpm_rows_with_options;
     let texture = reparam::texture::checker(512, 16);
     let mut rows = Vec::new();
     for mesh in bpm_meshes(input)? {
@@ -368,11 +374,15 @@ fn bpm_rows(gpu: &reparam_gpu::Gpu, input: &BpmInput) -> Result<Vec<reparam::cro
                 mesh.name
             )));
         }
-        rows.extend(bpm_rows_with(
+        rows.extend(bpm_rows_with_options(
             gpu,
             &mesh,
             &texture,
             input.common.perturb_gpu_input,
+            reparam::bpm::BpmOptions {
+                unfold: input.unfold.into(),
+                ..Default::default()
+            },
         )?);
     }
     Ok(rows)

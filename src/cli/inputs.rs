@@ -58,7 +58,7 @@ pub fn parse_direction(s: &str) -> std::result::Result<Vector3<f64>, String> {
 }
 
 /// Names accepted after `procedural:`.
-pub const BUILTIN_MESHES: [&str; 9] = [
+pub const BUILTIN_MESHES: [&str; 10] = [
     "star",
     "star_affine",
     "cone",
@@ -68,6 +68,7 @@ pub const BUILTIN_MESHES: [&str; 9] = [
     "tiny_far_uv",
     "wavy",
     "big_torus",
+    "folded_star",
 ];
 
 /// The built-in mesh called `name` (see [`BUILTIN_MESHES`]), at the size the demo uses.
@@ -82,6 +83,8 @@ pub fn builtin_mesh(name: &str) -> Option<TriMesh> {
         "tiny_far_uv" => procedural::tiny_far_uv(8),
         "wavy" => procedural::wavy_grid(16),
         "big_torus" => procedural::big_torus(),
+        // One neighbour folded by 150°, past the 135° where the authors' unfolding flips it.
+        "folded_star" => procedural::folded_star(150f64.to_radians()),
         _ => return None,
     })
 }

@@ -18,7 +18,7 @@ use crate::bpm::gpu::{
     eval_gpu, maps_to_gpu, precompute_gpu, sample_as_gpu_sees_it, samples_to_gpu,
 };
 use crate::bpm::render::{render_cpu, RenderOptions};
-use crate::bpm::{face_samples, precompute, Bpm, BpmOptions, Fit, Interp, Sample};
+use crate::bpm::{face_samples, precompute, Bpm, BpmOptions, Fit, Interp, Sample, Unfold};
 use crate::error::Result;
 use crate::mesh::TriMesh;
 use crate::report::sig;
@@ -183,10 +183,24 @@ pub fn bpm_rows_with(
     texture: &crate::texture::Image<[u8; 4]>,
     perturb: bool,
 ) -> Result<Vec<Row>> {
+    bpm_rows_with_options(gpu, mesh, texture, perturb, BpmOptions::default())
+}
+
+/// [`bpm_rows_with`] with the reference precomputed under `options`. With
+/// [`Unfold::Authors`] only the eval kernel's rows are produced (on the reference's maps, laid
+/// out as the authors' code does): the GPU precompute kernel, and the render pipeline built on
+/// it, implement only the correct unfolding, so their rows are left out and the first row says so.
+pub fn bpm_rows_with_options(
+    gpu: &Gpu,
+    mesh: &TriMesh,
+    texture: &crate::texture::Image<[u8; 4]>,
+    perturb: bool,
+    options: BpmOptions,
+) -> Result<Vec<Row>> {
     let algorithm = "bpm";
     let name = mesh.name.clone();
     let mesh = round_mesh_to_f32(mesh);
-    let (reference, precompute_cpu) = time_cpu(|| precompute(&mesh, BpmOptions::default()));
+    let (reference, precompute_cpu) = time_cpu(|| precompute(&mesh, options));
     let reference = reference?;
     let samples = crosscheck_samples(mesh.face_count());
     let gpu_samples = samples_to_gpu(&samples);
@@ -223,11 +237,17 @@ pub fn bpm_rows_with(
             Bounds::Uniform(tol),
             eval_formula,
         )
-        .with_note(&format!(
-            "{} faces, {} samples",
-            mesh.face_count(),
-            samples.len()
-        ))
+        .with_note(&match options.unfold {
+            Unfold::Correct => format!("{} faces, {} samples", mesh.face_count(), samples.len()),
+            Unfold::Authors => format!(
+                "{} faces, {} samples; --unfold authors: maps laid out as the authors' code does \
+                 ({} neighbours folded past 90°); bpm_precompute and bpm_render rows left out \
+                 (the GPU precompute implements only the correct unfolding)",
+                mesh.face_count(),
+                samples.len(),
+                reference.report.neighbours_folded_past_90
+            ),
+        })
         .with_timing(Timing {
             cpu_ms: Some(eval_cpu),
             ..eval_gpu_t
@@ -240,6 +260,9 @@ pub fn bpm_rows_with(
             eval_formula,
         ),
     ];
+    if options.unfold == Unfold::Authors {
+        return Ok(rows);
+    }
     for fit in [Fit::Local, Fit::Determinant] {
         let (maps, t) = time_gpu_warm(gpu, || precompute_gpu(gpu, &mesh, fit))?;
         let uv = eval_gpu(gpu, &maps, &gpu_samples, Interp::Bpm)?;

@@ -278,6 +278,40 @@ pub fn param_grid(
     )
 }
 
+/// A triangle t = (0, 1, 2) with its three neighbours (four faces), the neighbour (1, 0, 3)
+/// across t's first edge folded about that edge by `fold` radians: 0 leaves it coplanar, π lays
+/// it flat back onto t (the fold angle φ of `bpm::precompute::fold_cosine`). The other two
+/// neighbours are coplanar with t. UVs are an anisotropic affine map of the unfolded positions,
+/// `u = 0.5 + 0.3 x + 0.1 y`, `v = 0.3 − 0.05 x + 0.25 y` (determinant 0.08 > 0), so the correct
+/// unfolding reproduces them exactly.
+///
+/// For the BPM unfolding tests: the authors' layout differs from the correct one only for
+/// `fold` > π/2.
+pub fn folded_star(fold: f64) -> TriMesh {
+    // The flat apex (0.55, −0.7, 0) rotated about the x axis (t's first edge) by `fold`.
+    let folded_apex = Point3::new(0.55, -0.7 * fold.cos(), 0.7 * fold.sin());
+    let flat = [
+        Point3::new(0.0, 0.0, 0.0),
+        Point3::new(1.0, 0.0, 0.0),
+        Point3::new(0.4, 0.8, 0.0),
+        Point3::new(0.55, -0.7, 0.0),
+        Point3::new(1.25, 0.85, 0.0),
+        Point3::new(-0.35, 0.65, 0.0),
+    ];
+    let uvs = flat
+        .iter()
+        .map(|p| Point2::new(0.5 + 0.3 * p.x + 0.1 * p.y, 0.3 - 0.05 * p.x + 0.25 * p.y))
+        .collect();
+    let mut positions = flat.to_vec();
+    positions[3] = folded_apex;
+    TriMesh::with_shared_indices(
+        name("folded_star"),
+        positions,
+        uvs,
+        vec![[0, 1, 2], [1, 0, 3], [2, 1, 4], [0, 2, 5]],
+    )
+}
+
 /// The small built-in meshes (each under a few thousand triangles), for cross-check loops.
 pub fn all_small() -> Vec<TriMesh> {
     vec![
