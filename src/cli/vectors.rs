@@ -84,7 +84,15 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
             }
             let kernels = reparam::vectors::bpm::eval_vectors(&m)?;
             let candidates = match gpu {
-                Some(g) => reparam::vectors::bpm::gpu_candidates(g, &m)?,
+                Some(g) => {
+                    let mut c = reparam::vectors::bpm::gpu_candidates(g, &m)?;
+                    // Not a kernel of its own: the seed's fit, to verify with --kernel bpm_eval.
+                    c.push((
+                        "bpm_eval.determinant_fit".into(),
+                        reparam::vectors::bpm::determinant_fit_candidate(g, &m)?,
+                    ));
+                    c
+                }
                 None => Vec::new(),
             };
             Ok((kernels, mesh.clone(), candidates))

@@ -134,3 +134,20 @@ pub fn gpu_candidates(gpu: &reparam_gpu::Gpu, mesh: &TriMesh) -> Result<Vec<(Str
     }
     Ok(out)
 }
+
+/// The seed's determinant fit in f32 as a `bpm_eval` candidate: `bpm_precompute` with
+/// [`crate::bpm::Fit::Determinant`], then `bpm_eval` (BPM), on the same mesh and samples — what
+/// a straight port of the seed computes. It fails where the UVs are far from the origin
+/// compared with their triangles' size (the speckling of issue #2).
+#[cfg(feature = "gpu")]
+pub fn determinant_fit_candidate(gpu: &reparam_gpu::Gpu, mesh: &TriMesh) -> Result<Array> {
+    use crate::bpm::gpu::{eval_gpu, precompute_gpu};
+    let mesh = round_mesh_to_f32(mesh);
+    let samples = samples_to_gpu(&crosscheck_samples(mesh.face_count()));
+    let maps = precompute_gpu(gpu, &mesh, crate::bpm::Fit::Determinant)?;
+    let uv = eval_gpu(gpu, &maps, &samples, Interp::Bpm)?;
+    Ok(Array::f32(
+        &[uv.len(), 2],
+        uv.iter().flat_map(|c| [c.re as f32, c.im as f32]).collect(),
+    ))
+}

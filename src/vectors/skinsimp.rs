@@ -63,10 +63,7 @@ fn reference_data(input: &Input, options: &Options) -> Result<CrossCheckData> {
 
 /// The vectors of `input` (normalised to the unit box and rounded to f32, as the cross-check
 /// does), and reparam's own GPU outputs as candidates when `kernels` is given.
-pub fn vectors(
-    input: &Input,
-    kernels: Option<&SkinsimpKernels>,
-) -> Result<VectorsAndCandidates> {
+pub fn vectors(input: &Input, kernels: Option<&SkinsimpKernels>) -> Result<VectorsAndCandidates> {
     let options = Options::default();
     let data = match kernels {
         Some(k) => {
