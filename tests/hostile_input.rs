@@ -127,3 +127,116 @@ fn a_long_run_of_continued_lines_is_read_in_linear_time() {
     assert_eq!(mesh.face_count(), lines + 2);
 }
 
+// ---------------------------------------------------------------------------------------------
+// Declared counts that the file cannot hold
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn off_counts_beyond_the_file_are_errors_without_allocating_them() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, header) in [
+        // 99 999 999 999 vertices in a 14-byte file: was reserved up front (an abort).
+        ("huge.off", "99999999999 1\n"),
+        // 2⁶³ vertices: was a "capacity overflow" panic.
+        ("two63.off", "OFF\n9223372036854775808 1 0\n"),
+        // Above u64: not a count.
+        ("two64.off", "OFF\n18446744073709551616 1 0\n"),
+        (
+            "faces.off",
+            "OFF\n3 9223372036854775807 0\n0 0 0\n1 0 0\n0 1 0\n",
+        ),
+    ] {
+        let path = write(dir.path(), name, header);
+        let error = within(Duration::from_secs(1), name, || {
+            load_mesh(&path).unwrap_err()
+        });
+        assert!(matches!(error, Error::MeshParse { .. }), "{name}: {error}");
+        one_line_naming(&error, &path);
+    }
+}
+
+/// A PLY header of `format` with the `elements` lines, and `data` after it.
+fn ply(format: &str, elements: &str, data: &[u8]) -> Vec<u8> {
+    let mut bytes = format!("ply\nformat {format} 1.0\n{elements}end_header\n").into_bytes();
+    bytes.extend_from_slice(data);
+    bytes
+}
+
+#[test]
+fn ply_headers_that_overflow_or_overstate_their_counts_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let vertex = "property float x\nproperty float y\nproperty float z\n";
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        // A count above u64: `ply-rs` unwrapped its parse (a panic).
+        (
+            "above_u64.ply",
+            ply(
+                "ascii",
+                &format!("element vertex 99999999999999999999999\n{vertex}"),
+                b"",
+            ),
+            "larger than 2^64",
+        ),
+        // A version above u64: the same unwrap.
+        (
+            "version.ply",
+            b"ply\nformat ascii 99999999999999999999999.0\nend_header\n".to_vec(),
+            "version number",
+        ),
+        // No properties and 10¹² elements: read 10¹² empty elements from nothing (8 GB).
+        (
+            "no_properties.ply",
+            ply(
+                "binary_little_endian",
+                "element vertex 1000000000000\n",
+                b"",
+            ),
+            "needs at least",
+        ),
+        // 10¹² vertices declared, three given.
+        (
+            "declared.ply",
+            ply(
+                "ascii",
+                &format!("element vertex 1000000000000\n{vertex}"),
+                b"0 0 0\n1 0 0\n0 1 0\n",
+            ),
+            "needs at least",
+        ),
+        // An empty file: `ply-rs` printed three lines of debug dump.
+        ("empty.ply", Vec::new(), "PLY"),
+    ];
+    for (name, bytes, expected) in cases {
+        let path = write(dir.path(), name, bytes);
+        let error = within(Duration::from_secs(1), name, || {
+            load_mesh(&path).unwrap_err()
+        });
+        let shown = one_line_naming(&error, &path);
+        assert!(shown.contains(expected), "{name}: {shown}");
+    }
+}
+
+#[test]
+fn a_valid_binary_ply_still_loads() {
+    let mut data = Vec::new();
+    for p in [[0f32, 0., 0.], [1., 0., 0.], [0., 1., 0.]] {
+        for c in p {
+            data.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    data.push(3);
+    for i in [0i32, 1, 2] {
+        data.extend_from_slice(&i.to_le_bytes());
+    }
+    let bytes = ply(
+        "binary_little_endian",
+        "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+         element face 1\nproperty list uchar int vertex_indices\n",
+        &data,
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "tri.ply", bytes);
+    let mesh = load_mesh(&path).unwrap();
+    assert_eq!((mesh.positions.len(), mesh.faces.len()), (3, 1));
+}
+
