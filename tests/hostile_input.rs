@@ -240,3 +240,32 @@ fn a_valid_binary_ply_still_loads() {
     assert_eq!((mesh.positions.len(), mesh.faces.len()), (3, 1));
 }
 
+// ---------------------------------------------------------------------------------------------
+// Material libraries that never end
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn a_material_library_that_is_a_device_is_refused_not_read() {
+    if !Path::new("/dev/zero").exists() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "device.obj",
+        "mtllib /dev/zero\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n",
+    );
+    let error = within(Duration::from_secs(2), "loading", || {
+        load_obj(&path).unwrap_err()
+    });
+    let shown = one_line_naming(&error, &path);
+    assert!(shown.contains("/dev/zero: not a regular file"), "{shown}");
+    // A missing library is still no texture, not an error.
+    let path = write(
+        dir.path(),
+        "missing.obj",
+        "mtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    );
+    assert!(load_obj(&path).unwrap().texture.is_none());
+}
+
