@@ -269,3 +269,52 @@ fn a_material_library_that_is_a_device_is_refused_not_read() {
     assert!(load_obj(&path).unwrap().texture.is_none());
 }
 
+// ---------------------------------------------------------------------------------------------
+// Gridwarp: a degenerate rest frame
+// ---------------------------------------------------------------------------------------------
+
+/// A 2×2-quad grid over UV [0, 1]², vertex 1 moved onto vertex 0 when `collapse` (the edge
+/// along u of face 0 then has zero length: X_u = 0 there).
+fn grid_mesh(collapse: bool) -> TriMesh {
+    let mut positions = Vec::new();
+    let mut uvs = Vec::new();
+    for j in 0..3 {
+        for i in 0..3 {
+            let (u, v) = (i as f64 / 2.0, j as f64 / 2.0);
+            positions.push(Point3::new(u, v, 0.0));
+            uvs.push(Point2::new(u, v));
+        }
+    }
+    if collapse {
+        positions[1] = positions[0];
+    }
+    let id = |i: u32, j: u32| j * 3 + i;
+    let mut faces = Vec::new();
+    for j in 0..2 {
+        for i in 0..2 {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            faces.push([a, b, c]);
+            faces.push([a, c, d]);
+        }
+    }
+    TriMesh::with_shared_indices("rest.obj", positions, uvs, faces)
+}
+
+#[test]
+fn coincident_rest_vertices_are_an_error_naming_the_face_not_a_nan() {
+    // Before: O_s = 0 under the collapsed face, and the rigid-stretch mean and max were NaN
+    // (`null` in --json) with exit 0.
+    let roi = Roi::new(0.0, 1.0, 0.0, 1.0).unwrap();
+    let fine = frames_fields(&grid_mesh(false), &[grid_mesh(false)], &roi, (8, 8)).unwrap();
+    assert!(fine.o_s.values.iter().all(|v| v.is_finite() && *v > 0.0));
+    let rest = grid_mesh(true);
+    let error = frames_fields(&rest, &[grid_mesh(false)], &roi, (8, 8)).unwrap_err();
+    let shown = error.to_string();
+    assert!(!shown.contains('\n'), "{shown}");
+    assert!(
+        matches!(error, Error::DegenerateFace { ref mesh, .. } if mesh == "rest.obj"),
+        "{shown}"
+    );
+    assert!(shown.contains("rest frame"), "{shown}");
+}
+
