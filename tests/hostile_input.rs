@@ -318,3 +318,75 @@ fn coincident_rest_vertices_are_an_error_naming_the_face_not_a_nan() {
     assert!(shown.contains("rest frame"), "{shown}");
 }
 
+// ---------------------------------------------------------------------------------------------
+// Images whose header declares more pixels than anyone should allocate
+// ---------------------------------------------------------------------------------------------
+
+/// CRC-32 (IEEE) of `bytes`, for a hand-made PNG chunk.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in bytes {
+        crc ^= b as u32;
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0xEDB8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
+}
+
+#[test]
+fn a_png_declaring_100000_by_100000_pixels_is_refused_from_its_header() {
+    let mut ihdr = Vec::new();
+    ihdr.extend_from_slice(&100_000u32.to_be_bytes());
+    ihdr.extend_from_slice(&100_000u32.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 6, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    // A few bytes of (empty-block) zlib data: the header is all there is to this image.
+    for (kind, data) in [
+        (b"IHDR", ihdr.as_slice()),
+        (b"IDAT", &[0x78, 0x01, 0x01, 0x00, 0x00, 0xff, 0xff][..]),
+        (b"IEND", &[][..]),
+    ] {
+        png.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        let chunk = [&kind[..], data].concat();
+        png.extend_from_slice(&chunk);
+        png.extend_from_slice(&crc32(&chunk).to_be_bytes());
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "huge.png", png);
+    let error = within(Duration::from_secs(1), "decoding", || {
+        load_gray_f32(&path).unwrap_err()
+    });
+    let shown = one_line_naming(&error, &path);
+    assert!(shown.contains("100000x100000"), "{shown}");
+    assert!(shown.contains("REPARAM_MAX_IMAGE_PIXELS"), "{shown}");
+}
+
+#[test]
+fn an_exr_data_window_with_ymin_above_ymax_is_refused_before_allocation() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("window.exr");
+    save_exr_rg(&path, 4, 4, &[[0.5, 0.5]; 16]).unwrap();
+    assert_eq!(load_gray_f32(&path).unwrap().width, 4);
+    // dataWindow (box2i): xmin ymin xmax ymax. ymin = 10⁹ above ymax = 3: the crate swaps them
+    // into a window of 10⁹ rows and reserved it (8 GB and more) before failing.
+    let mut bytes = fs::read(&path).unwrap();
+    let key = b"dataWindow\0box2i\0";
+    let at = bytes
+        .windows(key.len())
+        .position(|w| w == key)
+        .expect("a dataWindow attribute")
+        + key.len()
+        + 4;
+    bytes[at + 4..at + 8].copy_from_slice(&1_000_000_000i32.to_le_bytes());
+    fs::write(&path, &bytes).unwrap();
+    let error = within(Duration::from_secs(1), "decoding", || {
+        load_gray_f32(&path).unwrap_err()
+    });
+    let shown = one_line_naming(&error, &path);
+    assert!(shown.contains("data window"), "{shown}");
+}
