@@ -175,7 +175,7 @@ fn ply_headers_that_overflow_or_overstate_their_counts_are_one_line_errors() {
                 &format!("element vertex 99999999999999999999999\n{vertex}"),
                 b"",
             ),
-            "larger than 2^64",
+            "does not fit in 64 bits",
         ),
         // A version above u64: the same unwrap.
         (
@@ -204,7 +204,13 @@ fn ply_headers_that_overflow_or_overstate_their_counts_are_one_line_errors() {
             "needs at least",
         ),
         // An empty file: `ply-rs` printed three lines of debug dump.
-        ("empty.ply", Vec::new(), "PLY"),
+        ("empty.ply", Vec::new(), "not a PLY file"),
+        // A malformed property line: `ply-rs`'s message, its first line only.
+        (
+            "property.ply",
+            ply("ascii", "element vertex 1\nproperty float\n", b"0\n"),
+            "Line 4",
+        ),
     ];
     for (name, bytes, expected) in cases {
         let path = write(dir.path(), name, bytes);
@@ -213,6 +219,10 @@ fn ply_headers_that_overflow_or_overstate_their_counts_are_one_line_errors() {
         });
         let shown = one_line_naming(&error, &path);
         assert!(shown.contains(expected), "{name}: {shown}");
+        assert!(
+            !shown.contains("ParseError"),
+            "{name}: a debug dump: {shown}"
+        );
     }
 }
 

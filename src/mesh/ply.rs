@@ -19,7 +19,7 @@ use crate::error::{Error, Result};
 ///
 /// The header is checked first ([`check_header`]) so that `ply-rs` never sees a number it
 /// would overflow on (it panics) nor a declared count the file cannot hold (it would allocate
-/// for it); the crate's own errors are folded onto one line.
+/// for it); of the crate's own multi-line errors the first line is kept.
 ///
 /// Errors: [`Error::Io`] when unreadable; [`Error::MeshParse`] when `ply-rs` rejects the file,
 /// when `vertex`/`face` or `x y z`/`vertex_indices` are missing or of a wrong type (naming the
@@ -115,7 +115,9 @@ fn index_list(p: &Property) -> Option<Vec<u32>> {
 ///   cannot be "read" 10¹² times from nothing. The counts times those sizes must fit in the
 ///   bytes after the header.
 ///
-/// Anything else (a malformed line, a missing `end_header`) is left to `ply-rs` to report.
+/// A file not starting with `ply` is refused here too (with a plain message). Anything else (a
+/// malformed line, a missing `end_header`) is left to `ply-rs`, whose message's first line is
+/// kept.
 /// Errors are one line naming the header line.
 fn check_header(bytes: &[u8]) -> std::result::Result<(), String> {
     let mut offset = 0;
@@ -123,6 +125,10 @@ fn check_header(bytes: &[u8]) -> std::result::Result<(), String> {
     // (element line, count, minimum bytes per element)
     let mut elements: Vec<(usize, u64, u64)> = Vec::new();
     let mut data_start = None;
+    let first = bytes.split(|&b| b == b'\n').next().unwrap_or(&[]);
+    if first.trim_ascii() != b"ply" {
+        return Err("header line 1: the file does not start with `ply` (not a PLY file)".into());
+    }
     for (number, raw) in bytes.split(|&b| b == b'\n').enumerate() {
         offset += raw.len() + 1;
         let line = String::from_utf8_lossy(raw);
@@ -133,13 +139,15 @@ fn check_header(bytes: &[u8]) -> std::result::Result<(), String> {
                 binary = words.get(1).is_some_and(|w| w.starts_with("binary"));
                 let version = words.get(2).copied().unwrap_or("");
                 for part in version.splitn(2, '.') {
-                    leading_u64(part)
-                        .map_err(|digits| at(format!("version number {digits} is too large")))?;
+                    leading_u64(part).map_err(|digits| {
+                        at(format!("version number {digits} does not fit in 64 bits"))
+                    })?;
                 }
             }
             Some("element") => {
-                let count = leading_u64(words.get(2).copied().unwrap_or(""))
-                    .map_err(|digits| at(format!("element count {digits} is larger than 2^64")))?;
+                let count = leading_u64(words.get(2).copied().unwrap_or("")).map_err(|digits| {
+                    at(format!("element count {digits} does not fit in 64 bits"))
+                })?;
                 elements.push((number + 1, count, u64::from(!binary)));
             }
             Some("property") => {
@@ -200,11 +208,12 @@ fn property_min_bytes(words: &[&str]) -> u64 {
     }
 }
 
-/// A multi-line error text (as `ply-rs` writes them) folded onto one line.
+/// The first line of a `ply-rs` error: its message. The lines after it are the offending input
+/// and a debug dump of the parser state, not for the user.
 fn one_line(text: &str) -> String {
     text.lines()
         .map(str::trim)
-        .filter(|l| !l.is_empty())
-        .collect::<Vec<_>>()
-        .join("; ")
+        .find(|l| !l.is_empty())
+        .unwrap_or("unreadable file")
+        .to_string()
 }
