@@ -10,10 +10,11 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use nalgebra::{Point2, Point3};
+use nalgebra::{Point2, Point3, Vector3};
 use reparam::bpm::{precompute, BpmOptions};
 use reparam::gridwarp::rasterize::{frames_fields, Roi};
 use reparam::mesh::{check_manifold, load_mesh, load_obj, Adjacency, TriMesh};
+use reparam::raster::{rasterize, Camera};
 use reparam::texture::{load_gray_f32, save_exr_rg};
 use reparam::Error;
 
@@ -125,6 +126,31 @@ fn a_long_run_of_continued_lines_is_read_in_linear_time() {
         load_obj(&path).unwrap()
     });
     assert_eq!(mesh.face_count(), lines + 2);
+}
+
+#[test]
+fn a_triangle_repeated_many_times_is_rasterised_once() {
+    // 40 000 exact copies of one of a quad's two triangles: the copies can never win a pixel
+    // (equal depth, higher face index), so the picture is the quad's. Before: each copy was
+    // drawn over half the picture (the 200 000-corner polygon rendered in 15 s at 256²).
+    let positions = vec![
+        Point3::new(0.0, 0.0, 0.0),
+        Point3::new(1.0, 0.0, 0.0),
+        Point3::new(1.0, 1.0, 0.0),
+        Point3::new(0.0, 1.0, 0.0),
+    ];
+    let quad = vec![[0, 1, 2], [0, 2, 3]];
+    let mut repeated = quad.clone();
+    repeated.extend(std::iter::repeat_n([0, 1, 2], 40_000));
+    let mesh = |faces| TriMesh::with_shared_indices("quad", positions.clone(), Vec::new(), faces);
+    let (quad, repeated) = (mesh(quad), mesh(repeated));
+    let camera = Camera::frame_mesh(&quad, Vector3::new(0.0, 0.0, 1.0), 1.0);
+    let expected = rasterize(&quad, &camera.view_proj(), 256, 256);
+    assert!(expected.covered_pixels() > 10_000);
+    let drawn = within(Duration::from_secs(3), "rasterising", || {
+        rasterize(&repeated, &camera.view_proj(), 256, 256)
+    });
+    assert!(drawn == expected, "the repeats changed the picture");
 }
 
 // ---------------------------------------------------------------------------------------------
