@@ -17,7 +17,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use reparam::mesh::procedural::{cone_fan, torus};
-use reparam::mesh::{load_mesh, write_obj, TriMesh};
+use reparam::mesh::{load_gltf, load_mesh, write_obj, TriMesh};
+use reparam::skinsimp::glb::glb_bytes;
+use reparam::skinsimp::tube::skinned_tube;
 use reparam::texture::{load_gray_f32, save_exr_rg, save_png, Image};
 
 /// xorshift64*: deterministic, no dependency.
@@ -77,12 +79,30 @@ fn tokens(bytes: &[u8]) -> Vec<(usize, usize)> {
     out
 }
 
+/// Byte ranges of the maximal runs of ASCII digits of `bytes`.
+fn digit_runs(bytes: &[u8]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i].is_ascii_digit() {
+            let start = i;
+            while i < bytes.len() && bytes[i].is_ascii_digit() {
+                i += 1;
+            }
+            out.push((start, i));
+        } else {
+            i += 1;
+        }
+    }
+    out
+}
+
 /// One to three mutations of `seed` (`other` is a second seed for splicing).
 fn mutate(rng: &mut Rng, seed: &[u8], other: &[u8]) -> Vec<u8> {
     let mut bytes = seed.to_vec();
     for _ in 0..1 + rng.below(3) {
         let toks = tokens(&bytes);
-        match rng.below(8) {
+        match rng.below(9) {
             0 if !bytes.is_empty() => {
                 let i = rng.below(bytes.len());
                 bytes[i] ^= 1 << rng.below(8);
@@ -116,6 +136,15 @@ fn mutate(rng: &mut Rng, seed: &[u8], other: &[u8]) -> Vec<u8> {
             6 => {
                 let n = rng.below(bytes.len() + 1);
                 bytes.truncate(n);
+            }
+            7 => {
+                // A run of digits (a count, an index, a JSON number) made hostile.
+                let runs = digit_runs(&bytes);
+                if !runs.is_empty() {
+                    let (s, e) = runs[rng.below(runs.len())];
+                    let number = HOSTILE_NUMBERS[rng.below(HOSTILE_NUMBERS.len())];
+                    bytes.splice(s..e, number.bytes());
+                }
             }
             _ => {
                 let cut = rng.below(bytes.len() + 1);
@@ -314,4 +343,48 @@ fn fuzz_png_and_exr() {
         load_gray_f32,
         finite_image,
     );
+}
+
+/// Standard base64 (for a `.gltf` seed with its buffer in a `data:` URI).
+fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
+        for k in 0..4 {
+            out.push(if k <= chunk.len() {
+                ALPHABET[(n >> (18 - 6 * k) & 63) as usize] as char
+            } else {
+                '='
+            });
+        }
+    }
+    out
+}
+
+/// The GLB's JSON chunk, pretty-printed (tokens to mutate), with its BIN chunk as a data URI.
+fn gltf_text(glb: &[u8]) -> Vec<u8> {
+    let chunk = |at: usize| {
+        let length = u32::from_le_bytes(glb[at..at + 4].try_into().unwrap()) as usize;
+        &glb[at + 8..at + 8 + length]
+    };
+    let json = chunk(12);
+    let bin = chunk(12 + 8 + json.len());
+    let mut document: serde_json::Value = serde_json::from_slice(json).unwrap();
+    document["buffers"][0]["uri"] =
+        format!("data:application/octet-stream;base64,{}", base64(bin)).into();
+    serde_json::to_vec_pretty(&document).unwrap()
+}
+
+#[test]
+fn fuzz_gltf_and_glb() {
+    let glb = glb_bytes(&skinned_tube(6, 2)).unwrap();
+    let check = |skinned: &reparam::mesh::SkinnedMesh| finite_mesh(&skinned.mesh);
+    fuzz("gltf", &[gltf_text(&glb)], load_gltf, check);
+    fuzz("glb", &[glb], load_gltf, check);
 }
