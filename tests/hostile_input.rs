@@ -426,3 +426,14 @@ fn an_exr_data_window_with_ymin_above_ymax_is_refused_before_allocation() {
     let shown = one_line_naming(&error, &path);
     assert!(shown.contains("data window"), "{shown}");
 }
+
+#[test]
+fn an_exr_that_makes_the_exr_crate_assert_is_an_error_naming_the_file() {
+    // Found by tests/fuzz_parsers.rs: exr 1.74 panics ("line should have been filtered") on
+    // this mutated 8x8 EXR instead of returning an error; contained at the loader boundary.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/hostile/exr_line_not_filtered.exr");
+    let error = load_gray_f32(&path).unwrap_err();
+    let shown = one_line_naming(&error, &path);
+    assert!(shown.contains("malformed block data"), "{shown}");
+}
