@@ -154,11 +154,59 @@ pub fn save_exr_rg(path: &Path, width: usize, height: usize, values: &[[f32; 2]]
         .map_err(|e| exr_error(path, e))
 }
 
-fn open_image(path: &Path) -> Result<image::DynamicImage> {
+/// Default largest image read, in pixels (16384 × 16384): a 100 000 × 100 000 header is
+/// refused before anything is allocated for it. Raise it with the environment variable
+/// [`MAX_IMAGE_PIXELS_VARIABLE`] when a real texture or height map is larger.
+pub const DEFAULT_MAX_IMAGE_PIXELS: u64 = 1 << 28;
+
+/// Environment variable that overrides [`DEFAULT_MAX_IMAGE_PIXELS`] (a positive integer).
+pub const MAX_IMAGE_PIXELS_VARIABLE: &str = "REPARAM_MAX_IMAGE_PIXELS";
+
+/// The pixel limit in force: [`MAX_IMAGE_PIXELS_VARIABLE`] when set to a positive integer,
+/// else [`DEFAULT_MAX_IMAGE_PIXELS`].
+pub fn max_image_pixels() -> u64 {
+    std::env::var(MAX_IMAGE_PIXELS_VARIABLE)
+        .ok()
+        .and_then(|v| v.trim().parse::<u64>().ok())
+        .filter(|&n| n > 0)
+        .unwrap_or(DEFAULT_MAX_IMAGE_PIXELS)
+}
+
+/// Refuse an image whose header declares more than [`max_image_pixels`] pixels, before any
+/// pixel memory is reserved. `what` names the part of the file (e.g. an EXR layer).
+fn check_image_size(path: &Path, what: &str, width: u64, height: u64) -> Result<()> {
+    let limit = max_image_pixels();
+    if width.saturating_mul(height) > limit {
+        return Err(Error::Image {
+            path: path.to_path_buf(),
+            message: format!(
+                "{what} declares {width}x{height} pixels, more than the limit of {limit}; \
+                 if the image is real, raise the limit with {MAX_IMAGE_PIXELS_VARIABLE}=<pixels>"
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Open an image reader with the format guessed from the contents.
+fn image_reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>> {
     let reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
-    let reader = reader
-        .with_guessed_format()
-        .map_err(|e| Error::io(path, e))?;
+    reader.with_guessed_format().map_err(|e| Error::io(path, e))
+}
+
+/// Decode a PNG or JPEG after reading its header alone: its declared size is checked against
+/// [`max_image_pixels`] first, and the decoder's own allocation limit is set to what that size
+/// needs (16 bytes a pixel, 16-bit RGBA), so the limit can be raised past the `image` crate's
+/// default of 512 MiB.
+fn open_image(path: &Path) -> Result<image::DynamicImage> {
+    let (width, height) = image_reader(path)?
+        .into_dimensions()
+        .map_err(|e| image_error(path, e))?;
+    check_image_size(path, "the header", width.into(), height.into())?;
+    let mut reader = image_reader(path)?;
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(max_image_pixels().saturating_mul(16));
+    reader.limits(limits);
     reader.decode().map_err(|e| image_error(path, e))
 }
 
@@ -182,15 +230,55 @@ fn exr_error(path: &Path, error: exr::error::Error) -> Error {
     }
 }
 
+/// Read an EXR's headers alone and check every layer's data window against
+/// [`max_image_pixels`]: the `exr` crate reserves the whole image before it reads a pixel, so
+/// a window of 10⁹ rows (or one with ymin above ymax, which the crate swaps into a huge one)
+/// would reserve gigabytes from a few hundred bytes.
+fn check_exr_size(path: &Path) -> Result<()> {
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| exr_error(path, e))?;
+    for (k, header) in meta.headers.iter().enumerate() {
+        let window = header.data_window();
+        check_image_size(
+            path,
+            &format!("layer {k}'s data window"),
+            window.size.width() as u64,
+            window.size.height() as u64,
+        )?;
+    }
+    Ok(())
+}
+
+/// Decode an EXR, containing a panic of the `exr` crate at this boundary.
+///
+/// `exr` 1.74 asserts on some malformed chunk tables ("line should have been filtered", found
+/// by `tests/fuzz_parsers.rs`) instead of returning an error. No check of ours before the call
+/// covers that (it is deep in the block layout), so the panic is caught here and becomes an
+/// [`Error::Image`] naming the file: a last resort, which still lets the default panic hook
+/// print its message to stderr.
+fn read_exr(path: &Path) -> Result<exrp::Image<exrp::Layer<exrp::AnyChannels<exrp::FlatSamples>>>> {
+    let read = || {
+        exrp::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .from_file(path)
+    };
+    match std::panic::catch_unwind(read) {
+        Ok(result) => result.map_err(|e| exr_error(path, e)),
+        Err(_) => Err(Error::Image {
+            path: path.to_path_buf(),
+            message: "the EXR decoder failed on malformed block data (the file is damaged); \
+                      re-export the image"
+                .into(),
+        }),
+    }
+}
+
 fn load_exr_gray(path: &Path) -> Result<Image<f32>> {
-    let image = exrp::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_file(path)
-        .map_err(|e| exr_error(path, e))?;
+    check_exr_size(path)?;
+    let image = read_exr(path)?;
     let layer = &image.layer_data;
     let (width, height) = (layer.size.width(), layer.size.height());
     let channel = |name: &str| {

@@ -201,3 +201,64 @@ fn gridwarp_prints_json_and_reduces_rigid_stretch() {
     ]);
     assert!(!ok && stderr.contains("--grid"), "{stderr}");
 }
+
+#[test]
+fn bpm_qc_on_only_degenerate_faces_is_an_error_not_null_figures() {
+    // Issue #25: every face skipped left the QC mean and percentiles NaN (`null`) with exit 0.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("flat.obj");
+    std::fs::write(
+        &path,
+        "v 0 0 0\nv 1 0 0\nv 2 0 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n",
+    )
+    .unwrap();
+    let (ok, stdout, stderr) = reparam(&["bpm", "qc", path.to_str().unwrap(), "--json"]);
+    assert!(!ok, "{stdout}");
+    assert!(!stdout.contains("null"), "{stdout}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("flat.obj") && stderr.contains("no face can be measured"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn the_200000_corner_polygon_of_issue_25_is_measured_and_rendered_quickly() {
+    // One face line of 200 000 corners cycling over three vertices (800 KB): 199 998 faces,
+    // four edges each shared by tens of thousands of them. Before: minutes (quadratic).
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("polygon.obj");
+    let mut text = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf");
+    for k in 0..200_000 {
+        text += &format!(" {0}/{0}", k % 3 + 1);
+    }
+    std::fs::write(&path, text + "\n").unwrap();
+    let start = std::time::Instant::now();
+    let (ok, stdout, stderr) = reparam(&[
+        "bpm",
+        "qc",
+        path.to_str().unwrap(),
+        "--subdiv",
+        "0",
+        "--json",
+    ]);
+    assert!(ok, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(v["precompute"]["faces"], 199_998);
+    assert_eq!(v["precompute"]["non_manifold_edges"], 4);
+    assert!(v["bpm"]["mean"].as_f64().unwrap().is_finite(), "{stdout}");
+    let out = dir.path().join("polygon.png");
+    let (ok, _, stderr) = reparam(&[
+        "bpm",
+        "render",
+        path.to_str().unwrap(),
+        "--size",
+        "32x32",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    // About 1 s in a debug build on a loaded machine; the quadratic code took minutes.
+    let took = start.elapsed();
+    assert!(took < std::time::Duration::from_secs(30), "took {took:?}");
+}

@@ -945,3 +945,28 @@ fn structural_problems_are_errors_naming_the_element() {
         assert_eq!(element, expected);
     }
 }
+
+#[test]
+fn animation_channels_on_a_missing_node_or_the_matrix_path_are_errors_naming_the_channel() {
+    // Issue #25: `gltf` leaves channel targets unchecked and panics on reading them (an index
+    // out of range in `Target::node`, an unwrapped invalid path in `Target::property`).
+    let (mut document, bin) = strip(&StripOptions::default());
+    document["animations"][1]["channels"][0]["target"]["node"] = json!(42);
+    let (_dir, path, loaded) = load_document(&document, &bin);
+    let (element, message) = gltf_error(loaded, &path);
+    assert_eq!(element, "animations[1].channels[0].target.node");
+    assert!(message.contains("node 42 does not exist"), "{message}");
+    let (mut document, bin) = strip(&StripOptions::default());
+    document["animations"][0]["channels"][0]["target"]["path"] = json!("matrix");
+    let (_dir, path, loaded) = load_document(&document, &bin);
+    let (element, message) = gltf_error(loaded, &path);
+    assert_eq!(element, "animations[0].channels[0].target.path");
+    assert!(message.contains("\"matrix\""), "{message}");
+    let shown = Error::Gltf {
+        path: path.clone(),
+        element,
+        message,
+    }
+    .to_string();
+    assert!(!shown.contains('\n'), "one line: {shown}");
+}

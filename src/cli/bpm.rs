@@ -309,6 +309,9 @@ fn qc(args: QcArgs) -> Result<()> {
     )?;
     let linear = qc_protocol(&bpm, Interp::Linear, args.subdiv);
     let bpm_stats = qc_protocol(&bpm, Interp::Bpm, args.subdiv);
+    for stats in [&linear, &bpm_stats] {
+        check_measured(&mesh.name, &bpm.report, stats)?;
+    }
     let result = QcResult {
         mesh: mesh.name.clone(),
         subdiv: args.subdiv,
@@ -329,6 +332,24 @@ fn qc(args: QcArgs) -> Result<()> {
     println!("{}", qc_table(&[&result.linear, &result.bpm]));
     println!("({} s)", sig(result.seconds, 3));
     Ok(())
+}
+
+/// The QC figures exist: at least one sub-triangle has a finite QC. When every face is
+/// degenerate (skipped) or every sub-triangle collapsed, the mean and the percentiles would be
+/// NaN (`null` in `--json`) with exit 0; this is an error naming the mesh and a degenerate face.
+fn check_measured(mesh: &str, report: &PrecomputeReport, stats: &QcStats) -> Result<()> {
+    if stats.sub_triangles > stats.collapsed {
+        return Ok(());
+    }
+    Err(reparam::Error::DegenerateFace {
+        mesh: mesh.to_string(),
+        face: report.degenerate_examples.first().copied().unwrap_or(0),
+        reason: format!(
+            "no face can be measured ({} of {} faces degenerate, {} sub-triangles collapsed), \
+             so the QC figures are undefined; give the mesh faces of non-zero area in 3D and UV",
+            report.degenerate_faces, report.faces, stats.collapsed
+        ),
+    })
 }
 
 /// A plain-text table of QC statistics, one row per interpolant.

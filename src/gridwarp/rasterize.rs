@@ -200,6 +200,7 @@ pub fn frames_fields(
         check_same_layout(rest, frame, k)?;
     }
     let map = texel_map(rest, roi, size)?;
+    check_rest_partials(rest, &map)?;
     let (o_s, o_t) = stretch_from_map(rest, roi, &map);
     let jacobians = frames
         .iter()
@@ -219,6 +220,37 @@ pub fn frames_fields(
         jacobians,
         coverage: map.coverage,
     })
+}
+
+/// Every rest face under a texel of the map has non-zero, finite 3D partials X_u and X_v.
+///
+/// The rest stretch O_s = ‖X_u‖, O_t = ‖X_v‖ divides every stretch ratio (energy and the
+/// rigid-stretch figure), so a rest triangle with coincident vertices along u or v would turn
+/// them into NaN or infinity (written as `null` in `--json`). Such a face is an error naming
+/// the rest mesh and the face, rather than a silent NaN.
+fn check_rest_partials(rest: &TriMesh, map: &TexelMap) -> Result<()> {
+    let mut checked = vec![false; rest.faces.len()];
+    for &f in &map.face {
+        let f = f as usize;
+        if std::mem::replace(&mut checked[f], true) {
+            continue;
+        }
+        let (xu, xv) = face_partials(rest, f);
+        let usable = |x: Vector3<f64>| x.norm() > 0.0 && x.norm().is_finite();
+        if !(usable(xu) && usable(xv)) {
+            let [a, b, c] = rest.faces[f];
+            return Err(Error::DegenerateFace {
+                mesh: rest.name.clone(),
+                face: f,
+                reason: format!(
+                    "in the rest frame its 3D triangle (vertices {a}, {b}, {c}) has zero length \
+                     along u or v (coincident vertices), so the texture stretch there is \
+                     undefined; separate or merge the vertices, or choose a --roi without it"
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 fn check_same_layout(rest: &TriMesh, frame: &TriMesh, k: usize) -> Result<()> {

@@ -63,12 +63,15 @@ impl Adjacency {
     /// group alone, in parallel, and scattered to its face. O(F log F), deterministic.
     pub fn new(mesh: &TriMesh) -> Self {
         let records = sorted_edge_records(mesh);
-        let kinds: Vec<(u32, EdgeKind, bool)> = (0..records.len())
-            .into_par_iter()
-            .map(|i| {
-                let group = group_of(&records, i);
-                let (kind, first) = classify_record(mesh, &records[group.clone()], i - group.start);
-                (records[i].flat, kind, first)
+        let groups = group_ranges(&records);
+        let kinds: Vec<(u32, EdgeKind, bool)> = groups
+            .par_iter()
+            .flat_map_iter(|group| {
+                let members = &records[group.clone()];
+                (0..members.len()).map(move |k| {
+                    let (kind, first) = classify_record(mesh, members, k);
+                    (members[k].flat, kind, first)
+                })
             })
             .collect();
         let mut edges = vec![[EdgeKind::Boundary; 3]; mesh.faces.len()];
@@ -175,18 +178,21 @@ fn sorted_edge_records(mesh: &TriMesh) -> Vec<EdgeRecord> {
     records
 }
 
-/// The index range of the records sharing record `i`'s undirected edge.
-fn group_of(records: &[EdgeRecord], i: usize) -> std::ops::Range<usize> {
-    let same = |j: usize| records[j].lo == records[i].lo && records[j].hi == records[i].hi;
-    let mut start = i;
-    while start > 0 && same(start - 1) {
-        start -= 1;
+/// The index ranges of the runs of records sharing one undirected edge, in order, found in one
+/// pass: O(records) however many faces share an edge (a per-record scan of its run would be
+/// quadratic in the run's length, e.g. 200 000 faces of one degenerate polygon on one edge).
+fn group_ranges(records: &[EdgeRecord]) -> Vec<std::ops::Range<usize>> {
+    let mut groups = Vec::new();
+    let mut start = 0;
+    for i in 1..=records.len() {
+        let ends = i == records.len()
+            || (records[i].lo, records[i].hi) != (records[start].lo, records[start].hi);
+        if ends {
+            groups.push(start..i);
+            start = i;
+        }
     }
-    let mut end = i + 1;
-    while end < records.len() && same(end) {
-        end += 1;
-    }
-    start..end
+    groups
 }
 
 /// What lies across record `k` of `group`, and whether `k` is the group's first record.

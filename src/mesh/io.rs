@@ -6,7 +6,7 @@
 //! parser is in `obj_check.rs`.
 
 use std::fs;
-use std::io::{BufWriter, Write};
+use std::io::{BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 
 use super::obj_check::{keyword, parse_obj, statement_argument};
@@ -40,24 +40,62 @@ pub fn load_obj(path: &Path) -> Result<TriMesh> {
     let text = fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let parsed = parse_obj(&text, path)?;
     let mut mesh = parsed.mesh;
-    mesh.texture = find_diffuse_texture(path, &parsed.material_libraries);
+    mesh.texture = find_diffuse_texture(path, &parsed.material_libraries)?;
     mesh.validate()?;
     Ok(mesh)
 }
 
+/// Largest material library read, in bytes: an MTL is a few hundred bytes of text, so a
+/// larger one is almost surely a wrong `mtllib` (or a device file), refused rather than read.
+pub const MAX_MTL_BYTES: u64 = 16 << 20;
+
 /// The first `map_Kd` in the first readable material library that has one, resolved relative to
-/// the OBJ's directory. A missing or unreadable library is skipped (no texture, not an error).
-fn find_diffuse_texture(obj_path: &Path, libraries: &[String]) -> Option<PathBuf> {
+/// the OBJ's directory. A missing or unreadable library is skipped (no texture, not an error);
+/// one that is not a regular file (`mtllib /dev/zero`) or is larger than [`MAX_MTL_BYTES`] is
+/// an error, since reading it would never end or fill the memory.
+fn find_diffuse_texture(obj_path: &Path, libraries: &[String]) -> Result<Option<PathBuf>> {
     let dir = obj_path.parent().unwrap_or(Path::new(""));
     for library in libraries {
-        let Ok(mtl_text) = fs::read_to_string(dir.join(library)) else {
+        let Some(mtl_text) = read_material_library(obj_path, &dir.join(library))? else {
             continue;
         };
         if let Some(texture) = first_map_kd(&mtl_text) {
-            return Some(dir.join(texture));
+            return Ok(Some(dir.join(texture)));
         }
     }
-    None
+    Ok(None)
+}
+
+/// Read one material library: `None` when it cannot be opened or is not UTF-8 (skipped, as
+/// before), an error naming the OBJ and the library when it is not a regular file or is larger
+/// than [`MAX_MTL_BYTES`]. The size is checked on the open file and the read is capped, so
+/// neither a device nor a file growing meanwhile is read without end.
+fn read_material_library(obj_path: &Path, mtl_path: &Path) -> Result<Option<String>> {
+    let Ok(file) = fs::File::open(mtl_path) else {
+        return Ok(None);
+    };
+    let refuse = |what: String| Error::MeshParse {
+        path: obj_path.to_path_buf(),
+        message: format!(
+            "mtllib {}: {what}; point `mtllib` at the material (.mtl) file or remove the line",
+            mtl_path.display()
+        ),
+    };
+    let metadata = file.metadata().map_err(|e| Error::io(mtl_path, e))?;
+    if !metadata.is_file() {
+        return Err(refuse("not a regular file".into()));
+    }
+    let mut bytes = Vec::new();
+    file.take(MAX_MTL_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| Error::io(mtl_path, e))?;
+    if bytes.len() as u64 > MAX_MTL_BYTES {
+        return Err(refuse(format!(
+            "larger than {} MiB, too large for a material library",
+            MAX_MTL_BYTES >> 20
+        )));
+    }
+    Ok(String::from_utf8(bytes).ok())
 }
 
 /// The file named by the first `map_Kd` statement. Options (`map_Kd -s 1 1 1 file.png`) are

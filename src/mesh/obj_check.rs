@@ -79,8 +79,14 @@ fn statements(text: &str) -> impl Iterator<Item = (usize, Cow<'_, str>)> {
         let (index, first) = lines.next()?;
         let mut statement = Cow::Borrowed(without_comment(first));
         while let Some(start) = statement.trim_end().strip_suffix('\\') {
+            // Appending in place keeps a long run of continued lines linear (re-formatting the
+            // whole statement at every line was quadratic).
+            let keep = start.len();
             let next = lines.next().map_or("", |(_, line)| without_comment(line));
-            statement = Cow::Owned(format!("{start} {next}"));
+            let owned = statement.to_mut();
+            owned.truncate(keep);
+            owned.push(' ');
+            owned.push_str(next);
         }
         Some((index + 1, statement))
     })

@@ -35,6 +35,12 @@ fn data_lines(text: &str) -> impl Iterator<Item = (usize, Vec<&str>)> {
     })
 }
 
+/// Fewest bytes a vertex line takes (`0 0 0` and a newline): caps the reservation for the
+/// declared vertex count.
+const MIN_VERTEX_BYTES: usize = 6;
+/// Fewest bytes a face line takes (`3 0 1 2` and a newline), one triangle at least.
+const MIN_FACE_BYTES: usize = 8;
+
 /// Parse OFF text (see the module docs); `path` is only used in error messages.
 pub fn parse_off(text: &str, path: &Path) -> Result<TriMesh> {
     let err = |line: usize, message: String| Error::MeshParse {
@@ -64,8 +70,10 @@ pub fn parse_off(text: &str, path: &Path) -> Result<TriMesh> {
     };
     let vertex_count = parse_count(counts.first(), "vertex")?;
     let face_count = parse_count(counts.get(1), "face")?;
-    let mut positions = Vec::with_capacity(vertex_count);
-    let mut faces = Vec::with_capacity(face_count);
+    // The declared counts only bound what is reserved by what the text can hold: a header
+    // claiming 10¹¹ vertices in a 14-byte file must fail on the missing lines, not allocate.
+    let mut positions = Vec::with_capacity(vertex_count.min(text.len() / MIN_VERTEX_BYTES));
+    let mut faces = Vec::with_capacity(face_count.min(text.len() / MIN_FACE_BYTES));
     for _ in 0..vertex_count {
         let (n, words) = lines
             .next()

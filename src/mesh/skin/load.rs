@@ -771,9 +771,10 @@ impl GltfFile {
 
 /// Parse a `.gltf` (JSON) or `.glb` (binary) file and validate it.
 ///
-/// Two checks run before the crate's own validation, which would otherwise panic: a GLB header
-/// length below the header size, and a `POSITION` accessor index out of range (the crate's
-/// validator looks the accessor up unchecked).
+/// Three checks run before the crate's own validation, which would otherwise panic: a GLB header
+/// length below the header size, a `POSITION` accessor index out of range (the crate's
+/// validator looks the accessor up unchecked), and animation channel targets (the crate does not
+/// validate them and panics on reading a missing node or an unknown path such as `"matrix"`).
 fn parse_document(bytes: &[u8], path: &Path) -> Result<gltf::Gltf> {
     let parse_error = |message: String| Error::MeshParse {
         path: path.to_path_buf(),
@@ -791,6 +792,7 @@ fn parse_document(bytes: &[u8], path: &Path) -> Result<gltf::Gltf> {
         .map_err(|e| parse_error(format!("not a glTF 2.0 file: {e}")))?;
     let json = document.into_json();
     check_position_accessors(&json, path)?;
+    check_animation_targets(&json, path)?;
     let document = Document::from_json(json).map_err(|e| match e {
         gltf::Error::Validation(problems) => validation_error(&problems, path),
         other => parse_error(other.to_string()),
@@ -816,6 +818,40 @@ fn check_position_accessors(json: &gltf::json::Root, path: &Path) -> Result<()> 
                         ),
                     });
                 }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Every animation channel targets an existing node and a known path (`translation`,
+/// `rotation`, `scale` or `weights`). `gltf` 1.4 leaves both unchecked and then panics in
+/// `Target::node` (index out of range) and `Target::property` (unwraps an invalid path).
+fn check_animation_targets(json: &gltf::json::Root, path: &Path) -> Result<()> {
+    use gltf::json::validation::Checked;
+    let nodes = json.nodes.len();
+    for (a, animation) in json.animations.iter().enumerate() {
+        for (c, channel) in animation.channels.iter().enumerate() {
+            let element = |field: &str| format!("animations[{a}].channels[{c}].target.{field}");
+            let error = |field: &str, message: String| Error::Gltf {
+                path: path.to_path_buf(),
+                element: element(field),
+                message,
+            };
+            let node = channel.target.node.value();
+            if node >= nodes {
+                return Err(error(
+                    "node",
+                    format!("node {node} does not exist ({nodes} nodes); point the channel at an existing node or remove it"),
+                ));
+            }
+            if matches!(channel.target.path, Checked::Invalid) {
+                return Err(error(
+                    "path",
+                    "not one of translation, rotation, scale, weights (glTF animates no other \
+                     property, e.g. not \"matrix\"); fix the path or remove the channel"
+                        .into(),
+                ));
             }
         }
     }

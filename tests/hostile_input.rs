@@ -1,0 +1,439 @@
+//! Hostile input (issue #25): every malformed file found by fuzzing the command line gives a
+//! typed, one-line error naming the file and the element (or a correct result) in linear time
+//! and bounded memory, never a panic, a hang, an abort or a NaN.
+//!
+//! The time bounds below are generous (tens of times what the linear code takes in a debug build
+//! on a loaded machine) and far below what the quadratic code they replace took at these sizes.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use nalgebra::{Point2, Point3, Vector3};
+use reparam::bpm::{precompute, BpmOptions};
+use reparam::gridwarp::rasterize::{frames_fields, Roi};
+use reparam::mesh::{check_manifold, load_mesh, load_obj, Adjacency, TriMesh};
+use reparam::raster::{rasterize, Camera};
+use reparam::texture::{load_gray_f32, save_exr_rg};
+use reparam::Error;
+
+/// Write `bytes` as `name` in `dir`.
+fn write(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
+    let path = dir.join(name);
+    fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// The error's message, checked to be one line that names `path`.
+fn one_line_naming(error: &Error, path: &Path) -> String {
+    let shown = error.to_string();
+    assert!(!shown.contains('\n'), "not one line: {shown:?}");
+    assert!(
+        shown.contains(&path.display().to_string()),
+        "does not name {}: {shown}",
+        path.display()
+    );
+    shown
+}
+
+/// Run `f`, asserting it takes less than `limit`.
+fn within<T>(limit: Duration, what: &str, f: impl FnOnce() -> T) -> T {
+    let start = Instant::now();
+    let result = f();
+    let took = start.elapsed();
+    assert!(took < limit, "{what} took {took:?} (limit {limit:?})");
+    result
+}
+
+// ---------------------------------------------------------------------------------------------
+// Super-linear paths
+// ---------------------------------------------------------------------------------------------
+
+/// An OBJ with one triangle's three vertices and UVs and one face line of `corners` corners
+/// cycling through them: its fan has `corners − 2` faces, about two thirds of them on each of
+/// the three edges (one degenerate, non-manifold edge shared by tens of thousands of faces).
+fn huge_polygon_obj(corners: usize) -> String {
+    let mut text = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf");
+    for k in 0..corners {
+        let i = k % 3 + 1;
+        write!(text, " {i}/{i}").unwrap();
+    }
+    text.push('\n');
+    text
+}
+
+#[test]
+fn a_polygon_of_many_corners_on_one_edge_is_handled_in_linear_time() {
+    // Before: the faces sharing an edge were found by scanning from every record to both ends
+    // of its run (quadratic in the run): 8 000 corners took 0.45 s in release, 40 000 over 10 s.
+    let corners = 40_000;
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "polygon.obj", huge_polygon_obj(corners));
+    let mesh = load_obj(&path).unwrap();
+    assert_eq!(mesh.face_count(), corners - 2);
+    let adjacency = within(Duration::from_secs(3), "adjacency", || {
+        Adjacency::new(&mesh)
+    });
+    // The fan (1, 2, 3), (1, 3, 1), (1, 1, 2), … uses the edges 12, 23, 13 and 11, each in
+    // thousands of faces.
+    assert_eq!(adjacency.non_manifold_edges, 4);
+    let bpm = within(Duration::from_secs(5), "BPM precompute", || {
+        precompute(&mesh, BpmOptions::default()).unwrap()
+    });
+    // Every face but the first of each cycle repeats a vertex: linear fallback, counted.
+    assert_eq!(bpm.report.non_manifold_edges, 4);
+    assert!(bpm.report.degenerate_faces >= 2 * (corners - 2) / 3 - 1);
+    // `maps` refuses it (a repeated vertex) at once.
+    let error = within(Duration::from_secs(3), "manifold check", || {
+        check_manifold(&mesh).unwrap_err()
+    });
+    assert!(matches!(error, Error::DegenerateFace { .. }), "{error}");
+}
+
+#[test]
+fn a_vertex_in_every_face_of_a_huge_fan_is_checked_in_linear_time() {
+    // A disk fanned from one boundary vertex: every edge is manifold, so the vertex check runs,
+    // and vertex 0 is in all 150 000 faces. Before: each neighbour was looked up by a linear
+    // scan of the vertex's faces (quadratic in its degree, about 10¹⁰ comparisons here).
+    let n = 150_000;
+    let positions = (0..n)
+        .map(|k| {
+            let a = std::f64::consts::TAU * k as f64 / n as f64;
+            Point3::new(a.cos(), a.sin(), 0.0)
+        })
+        .collect();
+    let faces = (1..n as u32 - 1).map(|k| [0, k, k + 1]).collect();
+    let mesh = TriMesh::with_shared_indices("fan", positions, Vec::new(), faces);
+    within(Duration::from_secs(5), "manifold check of the fan", || {
+        check_manifold(&mesh).unwrap()
+    });
+}
+
+#[test]
+fn a_long_run_of_continued_lines_is_read_in_linear_time() {
+    // 200 000 lines `1 \` continuing one face statement. Before: the statement was re-formatted
+    // at every line (quadratic: about 10¹¹ bytes copied here).
+    let lines = 200_000;
+    let mut text = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 \\\n");
+    for _ in 0..lines {
+        text.push_str("1 \\\n");
+    }
+    text.push_str("2\n");
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "continued.obj", text);
+    let mesh = within(Duration::from_secs(5), "loading", || {
+        load_obj(&path).unwrap()
+    });
+    assert_eq!(mesh.face_count(), lines + 2);
+}
+
+#[test]
+fn a_triangle_repeated_many_times_is_rasterised_once() {
+    // 40 000 exact copies of one of a quad's two triangles: the copies can never win a pixel
+    // (equal depth, higher face index), so the picture is the quad's. Before: each copy was
+    // drawn over half the picture (the 200 000-corner polygon rendered in 15 s at 256²).
+    let positions = vec![
+        Point3::new(0.0, 0.0, 0.0),
+        Point3::new(1.0, 0.0, 0.0),
+        Point3::new(1.0, 1.0, 0.0),
+        Point3::new(0.0, 1.0, 0.0),
+    ];
+    let quad = vec![[0, 1, 2], [0, 2, 3]];
+    let mut repeated = quad.clone();
+    repeated.extend(std::iter::repeat_n([0, 1, 2], 40_000));
+    let mesh = |faces| TriMesh::with_shared_indices("quad", positions.clone(), Vec::new(), faces);
+    let (quad, repeated) = (mesh(quad), mesh(repeated));
+    let camera = Camera::frame_mesh(&quad, Vector3::new(0.0, 0.0, 1.0), 1.0);
+    let expected = rasterize(&quad, &camera.view_proj(), 256, 256);
+    assert!(expected.covered_pixels() > 10_000);
+    let drawn = within(Duration::from_secs(3), "rasterising", || {
+        rasterize(&repeated, &camera.view_proj(), 256, 256)
+    });
+    assert!(drawn == expected, "the repeats changed the picture");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Declared counts that the file cannot hold
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn off_counts_beyond_the_file_are_errors_without_allocating_them() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, header) in [
+        // 99 999 999 999 vertices in a 14-byte file: was reserved up front (an abort).
+        ("huge.off", "99999999999 1\n"),
+        // 2⁶³ vertices: was a "capacity overflow" panic.
+        ("two63.off", "OFF\n9223372036854775808 1 0\n"),
+        // Above u64: not a count.
+        ("two64.off", "OFF\n18446744073709551616 1 0\n"),
+        (
+            "faces.off",
+            "OFF\n3 9223372036854775807 0\n0 0 0\n1 0 0\n0 1 0\n",
+        ),
+    ] {
+        let path = write(dir.path(), name, header);
+        let error = within(Duration::from_secs(1), name, || {
+            load_mesh(&path).unwrap_err()
+        });
+        assert!(matches!(error, Error::MeshParse { .. }), "{name}: {error}");
+        one_line_naming(&error, &path);
+    }
+}
+
+/// A PLY header of `format` with the `elements` lines, and `data` after it.
+fn ply(format: &str, elements: &str, data: &[u8]) -> Vec<u8> {
+    let mut bytes = format!("ply\nformat {format} 1.0\n{elements}end_header\n").into_bytes();
+    bytes.extend_from_slice(data);
+    bytes
+}
+
+#[test]
+fn ply_headers_that_overflow_or_overstate_their_counts_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let vertex = "property float x\nproperty float y\nproperty float z\n";
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        // A count above u64: `ply-rs` unwrapped its parse (a panic).
+        (
+            "above_u64.ply",
+            ply(
+                "ascii",
+                &format!("element vertex 99999999999999999999999\n{vertex}"),
+                b"",
+            ),
+            "does not fit in 64 bits",
+        ),
+        // A version above u64: the same unwrap.
+        (
+            "version.ply",
+            b"ply\nformat ascii 99999999999999999999999.0\nend_header\n".to_vec(),
+            "version number",
+        ),
+        // No properties and 10¹² elements: read 10¹² empty elements from nothing (8 GB).
+        (
+            "no_properties.ply",
+            ply(
+                "binary_little_endian",
+                "element vertex 1000000000000\n",
+                b"",
+            ),
+            "needs at least",
+        ),
+        // 10¹² vertices declared, three given.
+        (
+            "declared.ply",
+            ply(
+                "ascii",
+                &format!("element vertex 1000000000000\n{vertex}"),
+                b"0 0 0\n1 0 0\n0 1 0\n",
+            ),
+            "needs at least",
+        ),
+        // An empty file: `ply-rs` printed three lines of debug dump.
+        ("empty.ply", Vec::new(), "not a PLY file"),
+        // A malformed property line: `ply-rs`'s message, its first line only.
+        (
+            "property.ply",
+            ply("ascii", "element vertex 1\nproperty float\n", b"0\n"),
+            "Line 4",
+        ),
+    ];
+    for (name, bytes, expected) in cases {
+        let path = write(dir.path(), name, bytes);
+        let error = within(Duration::from_secs(1), name, || {
+            load_mesh(&path).unwrap_err()
+        });
+        let shown = one_line_naming(&error, &path);
+        assert!(shown.contains(expected), "{name}: {shown}");
+        assert!(
+            !shown.contains("ParseError"),
+            "{name}: a debug dump: {shown}"
+        );
+    }
+}
+
+#[test]
+fn a_valid_binary_ply_still_loads() {
+    let mut data = Vec::new();
+    for p in [[0f32, 0., 0.], [1., 0., 0.], [0., 1., 0.]] {
+        for c in p {
+            data.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    data.push(3);
+    for i in [0i32, 1, 2] {
+        data.extend_from_slice(&i.to_le_bytes());
+    }
+    let bytes = ply(
+        "binary_little_endian",
+        "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+         element face 1\nproperty list uchar int vertex_indices\n",
+        &data,
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "tri.ply", bytes);
+    let mesh = load_mesh(&path).unwrap();
+    assert_eq!((mesh.positions.len(), mesh.faces.len()), (3, 1));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Material libraries that never end
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn a_material_library_that_is_a_device_is_refused_not_read() {
+    if !Path::new("/dev/zero").exists() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "device.obj",
+        "mtllib /dev/zero\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n",
+    );
+    let error = within(Duration::from_secs(2), "loading", || {
+        load_obj(&path).unwrap_err()
+    });
+    let shown = one_line_naming(&error, &path);
+    assert!(shown.contains("/dev/zero: not a regular file"), "{shown}");
+    // A missing library is still no texture, not an error.
+    let path = write(
+        dir.path(),
+        "missing.obj",
+        "mtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    );
+    assert!(load_obj(&path).unwrap().texture.is_none());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Gridwarp: a degenerate rest frame
+// ---------------------------------------------------------------------------------------------
+
+/// A 2×2-quad grid over UV [0, 1]², vertex 1 moved onto vertex 0 when `collapse` (the edge
+/// along u of face 0 then has zero length: X_u = 0 there).
+fn grid_mesh(collapse: bool) -> TriMesh {
+    let mut positions = Vec::new();
+    let mut uvs = Vec::new();
+    for j in 0..3 {
+        for i in 0..3 {
+            let (u, v) = (i as f64 / 2.0, j as f64 / 2.0);
+            positions.push(Point3::new(u, v, 0.0));
+            uvs.push(Point2::new(u, v));
+        }
+    }
+    if collapse {
+        positions[1] = positions[0];
+    }
+    let id = |i: u32, j: u32| j * 3 + i;
+    let mut faces = Vec::new();
+    for j in 0..2 {
+        for i in 0..2 {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            faces.push([a, b, c]);
+            faces.push([a, c, d]);
+        }
+    }
+    TriMesh::with_shared_indices("rest.obj", positions, uvs, faces)
+}
+
+#[test]
+fn coincident_rest_vertices_are_an_error_naming_the_face_not_a_nan() {
+    // Before: O_s = 0 under the collapsed face, and the rigid-stretch mean and max were NaN
+    // (`null` in --json) with exit 0.
+    let roi = Roi::new(0.0, 1.0, 0.0, 1.0).unwrap();
+    let fine = frames_fields(&grid_mesh(false), &[grid_mesh(false)], &roi, (8, 8)).unwrap();
+    assert!(fine.o_s.values.iter().all(|v| v.is_finite() && *v > 0.0));
+    let rest = grid_mesh(true);
+    let error = frames_fields(&rest, &[grid_mesh(false)], &roi, (8, 8)).unwrap_err();
+    let shown = error.to_string();
+    assert!(!shown.contains('\n'), "{shown}");
+    assert!(
+        matches!(error, Error::DegenerateFace { ref mesh, .. } if mesh == "rest.obj"),
+        "{shown}"
+    );
+    assert!(shown.contains("rest frame"), "{shown}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Images whose header declares more pixels than anyone should allocate
+// ---------------------------------------------------------------------------------------------
+
+/// CRC-32 (IEEE) of `bytes`, for a hand-made PNG chunk.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in bytes {
+        crc ^= b as u32;
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0xEDB8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
+}
+
+#[test]
+fn a_png_declaring_100000_by_100000_pixels_is_refused_from_its_header() {
+    let mut ihdr = Vec::new();
+    ihdr.extend_from_slice(&100_000u32.to_be_bytes());
+    ihdr.extend_from_slice(&100_000u32.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 6, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    // A few bytes of (empty-block) zlib data: the header is all there is to this image.
+    for (kind, data) in [
+        (b"IHDR", ihdr.as_slice()),
+        (b"IDAT", &[0x78, 0x01, 0x01, 0x00, 0x00, 0xff, 0xff][..]),
+        (b"IEND", &[][..]),
+    ] {
+        png.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        let chunk = [&kind[..], data].concat();
+        png.extend_from_slice(&chunk);
+        png.extend_from_slice(&crc32(&chunk).to_be_bytes());
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "huge.png", png);
+    let error = within(Duration::from_secs(1), "decoding", || {
+        load_gray_f32(&path).unwrap_err()
+    });
+    let shown = one_line_naming(&error, &path);
+    assert!(shown.contains("100000x100000"), "{shown}");
+    assert!(shown.contains("REPARAM_MAX_IMAGE_PIXELS"), "{shown}");
+}
+
+#[test]
+fn an_exr_data_window_with_ymin_above_ymax_is_refused_before_allocation() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("window.exr");
+    save_exr_rg(&path, 4, 4, &[[0.5, 0.5]; 16]).unwrap();
+    assert_eq!(load_gray_f32(&path).unwrap().width, 4);
+    // dataWindow (box2i): xmin ymin xmax ymax. ymin = 10⁹ above ymax = 3: the crate swaps them
+    // into a window of 10⁹ rows and reserved it (8 GB and more) before failing.
+    let mut bytes = fs::read(&path).unwrap();
+    let key = b"dataWindow\0box2i\0";
+    let at = bytes
+        .windows(key.len())
+        .position(|w| w == key)
+        .expect("a dataWindow attribute")
+        + key.len()
+        + 4;
+    bytes[at + 4..at + 8].copy_from_slice(&1_000_000_000i32.to_le_bytes());
+    fs::write(&path, &bytes).unwrap();
+    let error = within(Duration::from_secs(1), "decoding", || {
+        load_gray_f32(&path).unwrap_err()
+    });
+    let shown = one_line_naming(&error, &path);
+    assert!(shown.contains("data window"), "{shown}");
+}
+
+#[test]
+fn an_exr_that_makes_the_exr_crate_assert_is_an_error_naming_the_file() {
+    // Found by tests/fuzz_parsers.rs: exr 1.74 panics ("line should have been filtered") on
+    // this mutated 8x8 EXR instead of returning an error; contained at the loader boundary.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/hostile/exr_line_not_filtered.exr");
+    let error = load_gray_f32(&path).unwrap_err();
+    let shown = one_line_naming(&error, &path);
+    assert!(shown.contains("malformed block data"), "{shown}");
+}
