@@ -106,6 +106,10 @@ fn vectors_with_gpu_candidates(
             let heights = reparam::unwarp::procedural("cones", 16).unwrap();
             reparam::vectors::unwarp::vectors(Some(gpu), &heights, &Default::default()).unwrap()
         }
+        "maps" => {
+            let (built, points) = reparam::vectors::canonical_maps().unwrap();
+            reparam::vectors::maps::vectors(Some(gpu), &built, &points).unwrap()
+        }
         "skinsimp" => {
             let kernels = reparam::skinsimp::gpu::SkinsimpKernels::new(gpu.clone()).unwrap();
             let input = reparam::vectors::canonical_skinned().unwrap();

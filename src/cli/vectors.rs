@@ -63,6 +63,18 @@ pub enum VectorsAlgorithm {
         #[arg(long, default_value_t = 0.05)]
         scale: f64,
     },
+    /// maps_inverse: Π⁻¹ at the points of a uniform remesh.
+    Maps {
+        /// The mesh (.obj, .ply, .off or procedural:NAME). Default: the demo's torus.
+        #[arg(default_value = "procedural:torus")]
+        mesh: String,
+        /// Stop the hierarchy at this many base triangles (0: as coarse as possible).
+        #[arg(long, default_value_t = 0)]
+        base_size: usize,
+        /// The points: each base triangle quadrisected J times.
+        #[arg(long, default_value_t = 2)]
+        uniform: u32,
+    },
     /// skinsimp_lbs and skinsimp_quadrics (source, vertex).
     Skinsimp {
         /// A skinned glTF/GLB; default the built-in tube.
@@ -147,6 +159,26 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
                 .as_ref()
                 .map_or(format!("cones {size}²"), |p| p.display().to_string());
             Ok((k, name, c))
+        }
+        VectorsAlgorithm::Maps {
+            mesh,
+            base_size,
+            uniform,
+        } => {
+            let mut m = match mesh.strip_prefix("procedural:") {
+                Some(_) => super::inputs::load_mesh(mesh)?,
+                None => reparam::mesh::load_mesh(std::path::Path::new(mesh))?,
+            };
+            m.uvs.clear();
+            m.uv_faces.clear();
+            let options = reparam::maps::MapsOptions {
+                base_size: *base_size,
+                ..Default::default()
+            };
+            let built = reparam::maps::build(&m, &Default::default(), &options)?;
+            let points = reparam::maps::remesh::uniform(&built, *uniform)?.params;
+            let (k, c) = reparam::vectors::maps::vectors(gpu, &built, &points)?;
+            Ok((k, mesh.clone(), c))
         }
         VectorsAlgorithm::Skinsimp { model, poses } => {
             use reparam::skinsimp::poses::{select_poses, skinned_input};

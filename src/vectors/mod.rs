@@ -15,6 +15,7 @@
 
 pub mod bpm;
 pub mod gridwarp;
+pub mod maps;
 pub mod npy;
 pub mod skinsimp;
 pub mod unwarp;
@@ -218,7 +219,7 @@ pub fn read_manifest(dir: &Path) -> Result<Manifest> {
 }
 
 /// The algorithms with vectors, in `reference_data/vectors/<name>/`.
-pub const ALGORITHMS: [&str; 4] = ["bpm", "gridwarp", "unwarp", "skinsimp"];
+pub const ALGORITHMS: [&str; 5] = ["bpm", "gridwarp", "unwarp", "maps", "skinsimp"];
 
 /// The canonical small vectors of `algorithm` (what `reference_data/vectors/<algorithm>` holds):
 /// its input's name and the kernels, computed on the CPU alone.
@@ -227,6 +228,7 @@ pub const ALGORITHMS: [&str; 4] = ["bpm", "gridwarp", "unwarp", "skinsimp"];
 /// - gridwarp: the plane stretched by 2 on 32² fields, disc rigidity, a 5 × 5 uniform grid,
 ///   4 × 4 samples per cell;
 /// - unwarp: the cones height map at 16², s = 0.05, periodic;
+/// - maps: the 12 × 6 torus (144 triangles) to its coarsest base, Π⁻¹ at the uniform:1 points;
 /// - skinsimp: the skinned tube of 6 segments and 6 rings, 2 uniform poses per clip.
 pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
     match algorithm {
@@ -247,6 +249,11 @@ pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
             let (k, _) = unwarp::vectors(None, &heights, &Default::default())?;
             Ok(("cones 16², s = 0.05".into(), k))
         }
+        "maps" => {
+            let (built, points) = canonical_maps()?;
+            let (k, _) = maps::vectors(None, &built, &points)?;
+            Ok(("torus 12 × 6, uniform:1 points".into(), k))
+        }
         "skinsimp" => {
             let (k, _) = skinsimp::vectors(&canonical_skinned()?, None)?;
             Ok(("skinned tube 6 × 6, 2 poses per clip".into(), k))
@@ -256,6 +263,16 @@ pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
             ALGORITHMS.join(", ")
         ))),
     }
+}
+
+/// The hierarchy and base points of the canonical maps vectors.
+pub fn canonical_maps() -> Result<(crate::maps::Maps, Vec<crate::maps::BasePoint>)> {
+    let mut torus = crate::mesh::procedural::torus(12, 6, 1.0, 0.35);
+    torus.uvs.clear();
+    torus.uv_faces.clear();
+    let built = crate::maps::build(&torus, &Default::default(), &Default::default())?;
+    let points = crate::maps::remesh::uniform(&built, 1)?.params;
+    Ok((built, points))
 }
 
 /// The skinned input of the canonical skinsimp vectors.
