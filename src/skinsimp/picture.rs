@@ -474,7 +474,7 @@ impl PlotAxes {
     pub fn caption(&self) -> String {
         format!(
             "x: vertex count, log scale from {} to {}; y: mean RMS distance, log scale from {} \
-             (bottom; RMS 0 and RMS below 10⁻⁶ of the largest are drawn there) to {} (top)",
+             (bottom) to {} (top); RMS 0 and RMS below 10⁻⁶ of the largest are not drawn",
             sig(self.x_min, 3),
             sig(self.x_max, 3),
             sig(self.y_min, 3),
@@ -548,7 +548,7 @@ pub fn error_plot(
 /// colour (grey for an unknown method), axes with tick labels, a grid and a legend naming the
 /// methods. The x range is the vertex counts' ±10 % (log); the y range the enclosing whole
 /// decades of the RMS values above [`ZERO_RELATIVE`] of the largest; smaller ones (the
-/// unsimplified level, rounding only) are left out of the lines and drawn on the bottom edge.
+/// unsimplified level, rounding only) are not drawn (the table lists them).
 /// Errors: no point, a size below 120 × 90 or above 4096, non-finite values.
 pub fn draw_error_plot(
     series: &[ErrorSeries],
@@ -606,12 +606,10 @@ pub fn draw_error_plot(
             points: s
                 .points
                 .iter()
-                .map(|p| {
-                    (
-                        p.vertices as f64,
-                        if p.rms_mean > zero { p.rms_mean } else { y_min },
-                    )
-                })
+                // RMS 0 (the unsimplified level: rounding only) has no place on a log axis: not
+                // drawn; the table and the JSON list it.
+                .filter(|p| p.rms_mean > zero)
+                .map(|p| (p.vertices as f64, p.rms_mean))
                 .collect(),
             colour: method_colour(s.method),
             style: crate::plot::Style::Measured,
