@@ -115,11 +115,7 @@ fn summary(mut values: Vec<f64>) -> (f64, f64, f64) {
     }
     values.sort_by(f64::total_cmp);
     let mean = values.iter().sum::<f64>() / values.len() as f64;
-    (
-        mean,
-        quantile(&values, 0.95),
-        *values.last().expect("not empty"),
-    )
+    (mean, quantile(&values, 0.95), quantile(&values, 1.0))
 }
 
 /// [`DistortionStats`] of the images `images[t]` of the input triangles (`None`: no image),
