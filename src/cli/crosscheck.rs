@@ -465,12 +465,7 @@ pub fn default_maps_input() -> MapsInput {
 fn maps_rows(gpu: &reparam_gpu::Gpu, input: &MapsInput) -> Result<Vec<reparam::crosscheck::Row>> {
     use reparam::maps::{build, detect_features, load_features, FeatureOptions, MapsOptions};
     let spec = input.mesh.as_deref().unwrap_or("procedural:torus");
-    let mut mesh = match spec.strip_prefix("procedural:") {
-        Some(_) => super::inputs::load_mesh(spec)?,
-        None => reparam::mesh::load_mesh(std::path::Path::new(spec))?,
-    };
-    mesh.uvs.clear();
-    mesh.uv_faces.clear();
+    let mesh = super::maps::load(spec)?;
     let features = match input.features.as_deref() {
         None => Default::default(),
         Some("auto") => detect_features(&mesh, &FeatureOptions::default()),

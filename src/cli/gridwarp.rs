@@ -596,15 +596,7 @@ pub fn warp_inputs(args: &GridwarpArgs) -> Result<Vec<WarpInput>> {
             frames: fields.frames,
         }]);
     }
-    let rois: Vec<Roi> = if args.roi.is_empty() {
-        vec![Roi::full()]
-    } else {
-        args.roi
-            .iter()
-            .map(|s| parse_roi(s))
-            .collect::<Result<_>>()?
-    };
-    check_disjoint(&rois)?;
+    let rois = parse_rois(args)?;
     let (rest_mesh, frame_meshes, stem, texture) = load_frames(args)?;
     let size = (args.size, args.size);
     let mut inputs = Vec::new();
@@ -625,9 +617,8 @@ pub fn warp_inputs(args: &GridwarpArgs) -> Result<Vec<WarpInput>> {
     Ok(inputs)
 }
 
-/// gridwarp on real meshes: fields rasterised over each ROI in texture space, each ROI solved
-/// independently frame by frame; pictures of the most stretched frame.
-fn solve_meshes(args: &GridwarpArgs) -> Result<GridwarpResult> {
+/// The ROIs of `--roi` (default: the whole texture), checked to be disjoint.
+fn parse_rois(args: &GridwarpArgs) -> Result<Vec<Roi>> {
     let rois: Vec<Roi> = if args.roi.is_empty() {
         vec![Roi::full()]
     } else {
@@ -637,6 +628,13 @@ fn solve_meshes(args: &GridwarpArgs) -> Result<GridwarpResult> {
             .collect::<Result<_>>()?
     };
     check_disjoint(&rois)?;
+    Ok(rois)
+}
+
+/// gridwarp on real meshes: fields rasterised over each ROI in texture space, each ROI solved
+/// independently frame by frame; pictures of the most stretched frame.
+fn solve_meshes(args: &GridwarpArgs) -> Result<GridwarpResult> {
+    let rois = parse_rois(args)?;
     let (rest_mesh, frame_meshes, stem, texture) = load_frames(args)?;
     let size = (args.size, args.size);
     let mut results = Vec::new();

@@ -184,7 +184,7 @@ fn hard_model(name: &str) -> Option<TriMesh> {
 }
 
 /// Load the mesh named on the command line.
-fn load(spec: &str) -> Result<TriMesh> {
+pub(super) fn load(spec: &str) -> Result<TriMesh> {
     match spec.strip_prefix("procedural:") {
         Some(name) => hard_model(name)
             .or_else(|| builtin_mesh(name))

@@ -165,12 +165,7 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
             base_size,
             uniform,
         } => {
-            let mut m = match mesh.strip_prefix("procedural:") {
-                Some(_) => super::inputs::load_mesh(mesh)?,
-                None => reparam::mesh::load_mesh(std::path::Path::new(mesh))?,
-            };
-            m.uvs.clear();
-            m.uv_faces.clear();
+            let m = super::maps::load(mesh)?;
             let options = reparam::maps::MapsOptions {
                 base_size: *base_size,
                 ..Default::default()

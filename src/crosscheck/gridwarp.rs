@@ -20,8 +20,6 @@
 //!   |Δ(Jᵀr)_u| ≤ (12 + 10 + 1 + 2KL) ε (|J|ᵀ(|r| + m))_u; with KL = 16 both are ≤ 64 ε
 //!   ([`normal_equations_factor`]).
 
-use std::time::Instant;
-
 use nalgebra::{DMatrix, DVector};
 use reparam_gpu::Gpu;
 
@@ -203,6 +201,27 @@ pub fn evaluation_point(
         })
 }
 
+/// The inputs rounded to f32 ([`round_inputs`]) and the point x of [`evaluation_point`] (lines
+/// moved by up to 0.013): what both sides of one kernel evaluation receive. A typed error naming
+/// `input` when no point keeps the samples off the texel boundaries.
+pub fn prepared_evaluation(
+    input: &str,
+    rest: &RestFields,
+    rest_grid: &Grid,
+    deformed: &DeformedFields,
+    kl: (usize, usize),
+) -> Result<(RoundedInputs, Vec<f64>)> {
+    let rounded = round_inputs(rest, rest_grid, deformed)?;
+    let size = (rounded.deformed.d_s.width, rounded.deformed.d_s.height);
+    let x = evaluation_point(&rounded.rest_grid, kl, size, 0.013).ok_or_else(|| {
+        Error::InvalidArgument(format!(
+            "{input}: no evaluation point keeps every sample 1e-3 texel away from a texel \
+             boundary; try another --samples or --size"
+        ))
+    })?;
+    Ok((rounded, x))
+}
+
 /// One evaluation of the kernel against the reference: per-cell energies, F, JᵀJ and Jᵀr of
 /// frame `deformed` at a point near `rest_grid` ([`evaluation_point`]), with K×L samples.
 pub fn kernel_rows(
@@ -213,18 +232,14 @@ pub fn kernel_rows(
     deformed: &DeformedFields,
     (k, l): (usize, usize),
 ) -> Result<Vec<Row>> {
-    let RoundedInputs {
-        rest,
-        rest_grid,
-        deformed,
-    } = round_inputs(rest, rest_grid, deformed)?;
-    let size = (deformed.d_s.width, deformed.d_s.height);
-    let x = evaluation_point(&rest_grid, (k, l), size, 0.013).ok_or_else(|| {
-        Error::InvalidArgument(format!(
-            "{input}: no evaluation point keeps every sample 1e-3 texel away from a texel \
-             boundary; try another --samples or --size"
-        ))
-    })?;
+    let (
+        RoundedInputs {
+            rest,
+            rest_grid,
+            deformed,
+        },
+        x,
+    ) = prepared_evaluation(input, rest, rest_grid, deformed, (k, l))?;
     let mut cpu = AaEnergy::new(&rest, &rest_grid, &deformed, k, l);
     let mut gpu_energy = GpuAaEnergy::new(gpu, &rest, &rest_grid, &deformed, k, l)?;
     let (reference, cpu_ms) = time_cpu(|| cpu.normal_equations(&x));
@@ -364,9 +379,8 @@ pub fn solve_rows(
     frames: &[DeformedFields],
     options: &SolveOptions,
 ) -> Result<Vec<Row>> {
-    let start = Instant::now();
-    let cpu = solve_sequence(rest, rest_grid, frames, options)?;
-    let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
+    let (cpu, cpu_ms) = time_cpu(|| solve_sequence(rest, rest_grid, frames, options));
+    let cpu = cpu?;
     let (gpu_solutions, gpu_times) = time_gpu(gpu, || {
         solve_sequence_gpu(gpu, rest, rest_grid, frames, options)
     })?;

@@ -4,10 +4,9 @@
 
 use super::{Array, KernelData, Metric, VectorsAndCandidates};
 use crate::crosscheck::gridwarp::{
-    energy_bound, evaluation_point, gradient_bound, jtj_bound, magnitudes, round_inputs,
-    RoundedInputs,
+    energy_bound, gradient_bound, jtj_bound, magnitudes, prepared_evaluation, RoundedInputs,
 };
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::gridwarp::energy::{AaEnergy, DeformedFields, RestFields};
 use crate::gridwarp::gpu::{aa_input, assemble, set_lines, GpuAaEnergy};
 use crate::gridwarp::Grid;
@@ -22,15 +21,14 @@ pub fn vectors(
     deformed: &DeformedFields,
     (k, l): (usize, usize),
 ) -> Result<VectorsAndCandidates> {
-    let RoundedInputs {
-        rest,
-        rest_grid,
-        deformed,
-    } = round_inputs(rest, rest_grid, deformed)?;
-    let size = (deformed.d_s.width, deformed.d_s.height);
-    let x = evaluation_point(&rest_grid, (k, l), size, 0.013).ok_or_else(|| {
-        Error::InvalidArgument("no evaluation point 1e-3 texel away from texel boundaries".into())
-    })?;
+    let (
+        RoundedInputs {
+            rest,
+            rest_grid,
+            deformed,
+        },
+        x,
+    ) = prepared_evaluation("gridwarp vectors", rest, rest_grid, deformed, (k, l))?;
     let mut cpu = AaEnergy::new(&rest, &rest_grid, &deformed, k, l);
     let reference = cpu.normal_equations(&x);
     let mg = magnitudes(&mut cpu, &rest, &rest_grid, (k, l), &x);
