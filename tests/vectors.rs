@@ -85,7 +85,7 @@ fn vectors_with_gpu_candidates(
         "bpm" => {
             let mesh = reparam::mesh::procedural::flat_star(12);
             (
-                reparam::vectors::bpm::eval_vectors(&mesh).unwrap(),
+                reparam::vectors::bpm::vectors(&mesh).unwrap(),
                 reparam::vectors::bpm::gpu_candidates(gpu, &mesh).unwrap(),
             )
         }
@@ -93,12 +93,16 @@ fn vectors_with_gpu_candidates(
             use reparam::gridwarp::scene::{disc_rigidity, plane_stretch};
             let scene = plane_stretch(32, 1, 2.0, disc_rigidity(32, &[(0.6, 0.5, 0.2)], 0.1));
             let grid = reparam::gridwarp::Grid::uniform(5, 5);
-            reparam::vectors::gridwarp::vectors(
+            let options = reparam::gridwarp::SolveOptions {
+                samples: (4, 4),
+                ..Default::default()
+            };
+            reparam::vectors::gridwarp::all_vectors(
                 Some(gpu),
                 &scene.rest,
                 &grid,
-                &scene.frames[0],
-                (4, 4),
+                &scene.frames,
+                &options,
             )
             .unwrap()
         }
@@ -107,8 +111,8 @@ fn vectors_with_gpu_candidates(
             reparam::vectors::unwarp::vectors(Some(gpu), &heights, &Default::default()).unwrap()
         }
         "maps" => {
-            let (built, points) = reparam::vectors::canonical_maps().unwrap();
-            reparam::vectors::maps::vectors(Some(gpu), &built, &points).unwrap()
+            let (built, remesh) = reparam::vectors::canonical_maps().unwrap();
+            reparam::vectors::maps::all_vectors(Some(gpu), &built, &remesh).unwrap()
         }
         "skinsimp" => {
             let kernels = reparam::skinsimp::gpu::SkinsimpKernels::new(gpu.clone()).unwrap();
@@ -154,7 +158,7 @@ fn a_candidate_off_by_twice_its_bound_at_one_element_fails_naming_it() {
         .to_f64();
     let scale = match &k.metric {
         Metric::NormOfLastAxis { scale, .. } => *scale,
-        Metric::Absolute { .. } => 1.0,
+        other => panic!("bpm_eval's metric is a vector norm, not {other:?}"),
     };
     // The exact reference passes.
     let exact = dir.path().join("exact.npy");
@@ -273,4 +277,86 @@ fn the_cli_verifies_exits_1_on_failure_and_2_on_a_wrong_shape_dtype_or_file() {
     assert_eq!(code, 2);
     assert!(stderr.contains("/nonexistent/out.npy"), "{stderr}");
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
+}
+
+#[test]
+fn a_whole_run_figure_off_by_twice_its_bound_fails_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, kernels) = canonical("unwarp").unwrap();
+    let manifest = write_vectors(dir.path(), "test", "cones", &kernels).unwrap();
+    let k = manifest
+        .kernels
+        .iter()
+        .find(|k| k.name == "unwarp_run")
+        .expect("the whole-run vectors");
+    assert!(matches!(k.metric, Metric::Relative { .. }));
+    let expected = Array::load(&dir.path().join(&k.expected.file)).unwrap();
+    let bound = Array::load(&dir.path().join(&k.bound.file))
+        .unwrap()
+        .to_f64();
+    // The energy after sweep 4 (row 3), relatively 2 × its bound above the reference.
+    let mut values = expected.to_f64();
+    values[3] *= 1.0 + 2.0 * bound[3];
+    let off = dir.path().join("off.npy");
+    Array::f64(&expected.shape, values).save(&off).unwrap();
+    let r = verify(dir.path(), &off, Some("unwarp_run")).unwrap();
+    assert!(!r.pass);
+    assert_eq!(r.errors.over_tolerance, 1);
+    assert_eq!(r.worst[0].index, vec![3]);
+    assert!((r.worst[0].error / r.worst[0].bound - 2.0).abs() < 1e-6);
+}
+
+/// A precompute candidate is per face (faces × 45): the expected array's shape (samples × 2)
+/// is refused with the shape it needs.
+#[test]
+fn a_precompute_candidate_of_the_samples_shape_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, kernels) = canonical("bpm").unwrap();
+    let manifest = write_vectors(dir.path(), "test", "star", &kernels).unwrap();
+    let k = manifest
+        .kernels
+        .iter()
+        .find(|k| k.name == "bpm_precompute")
+        .unwrap();
+    let wrong = dir.path().join("wrong.npy");
+    Array::load(&dir.path().join(&k.expected.file))
+        .unwrap()
+        .save(&wrong)
+        .unwrap();
+    let e = verify(dir.path(), &wrong, Some("bpm_precompute"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("[12, 45]"), "{e}");
+}
+
+/// The worked example's failing candidate: the seed's determinant fit in f32, as per-triangle
+/// data, on the speckle stress mesh (UVs far from the origin compared with the triangles), fails
+/// bpm_precompute; reparam's own local fit passes on the same vectors.
+#[test]
+fn the_seeds_determinant_fit_fails_bpm_precompute_on_the_speckle_mesh() {
+    let Some(gpu) = gpu_or_skip() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = reparam::mesh::procedural::tiny_far_uv(8);
+    let kernels = reparam::vectors::bpm::vectors(&mesh).unwrap();
+    write_vectors(dir.path(), "test", "tiny_far_uv", &kernels).unwrap();
+    let own = reparam::vectors::bpm::gpu_candidates(&gpu, &mesh).unwrap();
+    let (_, local) = own.iter().find(|(n, _)| n == "bpm_precompute").unwrap();
+    let path = dir.path().join("local.npy");
+    local.save(&path).unwrap();
+    assert!(
+        verify(dir.path(), &path, Some("bpm_precompute"))
+            .unwrap()
+            .pass
+    );
+    let seed = reparam::vectors::bpm::determinant_fit_maps_candidate(&gpu, &mesh).unwrap();
+    let path = dir.path().join("determinant.npy");
+    seed.save(&path).unwrap();
+    let r = verify(dir.path(), &path, Some("bpm_precompute")).unwrap();
+    assert!(!r.pass);
+    assert!(r.errors.over_tolerance > 0);
+    // The worst sample is named with its face.
+    assert!(r.worst[0]
+        .inputs
+        .iter()
+        .any(|(n, _)| n.ends_with("face.npy")));
 }

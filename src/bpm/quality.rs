@@ -36,13 +36,20 @@ pub struct QcStats {
 /// σ_max = |α| + |β|, σ_min = ||α| − |β||, det = |α|² − |β|² (< 0: folded). Returns
 /// (σ_max/σ_min, folded).
 pub fn quasi_conformal(z: [C; 3], w: [C; 3]) -> (f64, bool) {
+    let (alpha, beta, _) = affine_coefficients(z, w);
+    let (a, b) = (c_abs(alpha), c_abs(beta));
+    ((a + b) / (a - b).abs(), b > a)
+}
+
+/// α, β of the affine map w = αz + βz̄ + c taking triangle `z` to triangle `w`, and det = dz₁ z̄₂ −
+/// dz₂ z̄₁ (4i × the signed area of z): α = (dw₁ z̄₂ − dw₂ z̄₁)/det, β = (dz₁ dw₂ − dz₂ dw₁)/det.
+pub fn affine_coefficients(z: [C; 3], w: [C; 3]) -> (C, C, C) {
     let (dz1, dz2) = (z[1] - z[0], z[2] - z[0]);
     let (dw1, dw2) = (w[1] - w[0], w[2] - w[0]);
     let det = dz1 * dz2.conj() - dz2 * dz1.conj();
     let alpha = (dw1 * dz2.conj() - dw2 * dz1.conj()) / det;
     let beta = (dz1 * dw2 - dz2 * dw1) / det;
-    let (a, b) = (c_abs(alpha), c_abs(beta));
-    ((a + b) / (a - b).abs(), b > a)
+    (alpha, beta, det)
 }
 
 /// Barycentric coordinates of the regular grid with `n = 2^subdiv` segments per edge: vertex
@@ -80,10 +87,33 @@ fn sub_triangles(n: usize) -> Vec<[(usize, usize); 3]> {
 
 /// Run the QC protocol with `subdiv` 1→4 subdivisions per face (n = 4 gives 256 sub-triangles).
 pub fn qc_protocol(bpm: &Bpm, interp: Interp, subdiv: u32) -> QcStats {
+    let per_face: Vec<Vec<(f64, f64, bool)>> = sub_triangle_images(bpm, interp, subdiv)
+        .into_iter()
+        .map(|face| {
+            face.into_iter()
+                .map(|(z, w)| {
+                    let (qc, folded) = quasi_conformal(z, w);
+                    let area = 0.5 * super::precompute::signed_area2(z[0], z[1], z[2]).abs();
+                    (qc, area, folded)
+                })
+                .collect()
+        })
+        .collect();
+    let skipped_faces = bpm.maps.iter().filter(|t| t.fallback_linear).count();
+    summarise(
+        per_face.into_iter().flatten().collect(),
+        interp,
+        subdiv,
+        skipped_faces,
+    )
+}
+
+/// Every sub-triangle of the protocol as (layout z, image w), face by face in order (none for
+/// a degenerate face): the grid of `2^subdiv` segments per edge, each grid vertex evaluated once.
+pub fn sub_triangle_images(bpm: &Bpm, interp: Interp, subdiv: u32) -> Vec<Vec<([C; 3], [C; 3])>> {
     let n = 1usize << subdiv;
     let subs = sub_triangles(n);
-    // (qc, area, folded) for every sub-triangle, face by face in order: thread-count independent.
-    let per_face: Vec<Vec<(f64, f64, bool)>> = (0..bpm.maps.len())
+    (0..bpm.maps.len())
         .into_par_iter()
         .map(|f| {
             let t = &bpm.maps[f];
@@ -104,20 +134,40 @@ pub fn qc_protocol(bpm: &Bpm, interp: Interp, subdiv: u32) -> QcStats {
             subs.iter()
                 .map(|tri| {
                     let [(z0, w0), (z1, w1), (z2, w2)] = tri.map(point);
-                    let (qc, folded) = quasi_conformal([z0, z1, z2], [w0, w1, w2]);
-                    let area = 0.5 * super::precompute::signed_area2(z0, z1, z2).abs();
-                    (qc, area, folded)
+                    ([z0, z1, z2], [w0, w1, w2])
                 })
                 .collect()
         })
-        .collect();
-    let skipped_faces = bpm.maps.iter().filter(|t| t.fallback_linear).count();
-    summarise(
-        per_face.into_iter().flatten().collect(),
-        interp,
-        subdiv,
-        skipped_faces,
-    )
+        .collect()
+}
+
+/// How far the QC figures can move when every image corner moves by at most δ (UV units), as
+/// (relative bound of every QC figure, sub-triangles that can flip between folded and not).
+///
+/// For the affine map w = αz + βz̄ + c of a sub-triangle ([`quasi_conformal`]), α = (dw₁ z̄₂ −
+/// dw₂ z̄₁)/det and β = (dz₁ dw₂ − dz₂ dw₁)/det with each dw moved by ≤ 2δ, so |Δα| + |Δβ| ≤
+/// ε_A = 4δ(|dz₁| + |dz₂|)/|det|, and σ_max, σ_min = |α| ± |β| move by ≤ ε_A. Then QC =
+/// σ_max/σ_min moves by ≤ ε_A/σ_max + ε_A/σ_min ≤ 2ε_A/σ_min relatively (first order). Every
+/// QC moving by ≤ ρ = max 2ε_A/σ_min relatively, so do the area-weighted mean and every
+/// area-weighted quantile (the areas are the layout's, unchanged). A sub-triangle can change
+/// sides of det = 0 only where σ_min ≤ ε_A.
+pub fn qc_sensitivity(bpm: &Bpm, interp: Interp, subdiv: u32, delta: f64) -> (f64, usize) {
+    let (mut rho, mut near_fold) = (0.0f64, 0usize);
+    for (z, w) in sub_triangle_images(bpm, interp, subdiv)
+        .into_iter()
+        .flatten()
+    {
+        let (alpha, beta, det) = affine_coefficients(z, w);
+        let (dz1, dz2) = (z[1] - z[0], z[2] - z[0]);
+        let sigma_min = (c_abs(alpha) - c_abs(beta)).abs();
+        let eps_a = 4.0 * delta * (c_abs(dz1) + c_abs(dz2)) / c_abs(det);
+        if sigma_min <= eps_a {
+            near_fold += 1;
+        } else {
+            rho = rho.max(2.0 * eps_a / sigma_min);
+        }
+    }
+    (rho, near_fold)
 }
 
 fn summarise(mut v: Vec<(f64, f64, bool)>, interp: Interp, subdiv: u32, skipped: usize) -> QcStats {

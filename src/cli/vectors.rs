@@ -94,7 +94,7 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
             if m.uvs.is_empty() {
                 return Err(Error::MissingUvs { mesh: m.name });
             }
-            let kernels = reparam::vectors::bpm::eval_vectors(&m)?;
+            let kernels = reparam::vectors::bpm::vectors(&m)?;
             let candidates = match gpu {
                 Some(g) => {
                     let mut c = reparam::vectors::bpm::gpu_candidates(g, &m)?;
@@ -102,6 +102,11 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
                     c.push((
                         "bpm_eval.determinant_fit".into(),
                         reparam::vectors::bpm::determinant_fit_candidate(g, &m)?,
+                    ));
+                    // The same fit's per-triangle data, to verify with --kernel bpm_precompute.
+                    c.push((
+                        "bpm_precompute.determinant_fit".into(),
+                        reparam::vectors::bpm::determinant_fit_maps_candidate(g, &m)?,
                     ));
                     c
                 }
@@ -132,16 +137,12 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
                 .into_iter()
                 .next()
                 .ok_or_else(|| Error::InvalidArgument("no ROI".into()))?;
-            let last = input
-                .frames
-                .last()
-                .ok_or_else(|| Error::InvalidArgument("no frame".into()))?;
-            let (k, c) = reparam::vectors::gridwarp::vectors(
+            let (k, c) = reparam::vectors::gridwarp::all_vectors(
                 gpu,
                 &input.rest,
                 &input.rest_grid,
-                last,
-                (*samples, *samples),
+                &input.frames,
+                &super::gridwarp::solve_options(&args),
             )?;
             Ok((k, input.name, c))
         }
@@ -171,8 +172,8 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
                 ..Default::default()
             };
             let built = reparam::maps::build(&m, &Default::default(), &options)?;
-            let points = reparam::maps::remesh::uniform(&built, *uniform)?.params;
-            let (k, c) = reparam::vectors::maps::vectors(gpu, &built, &points)?;
+            let remesh = reparam::maps::remesh::uniform(&built, *uniform)?;
+            let (k, c) = reparam::vectors::maps::all_vectors(gpu, &built, &remesh)?;
             Ok((k, mesh.clone(), c))
         }
         VectorsAlgorithm::Skinsimp { model, poses } => {

@@ -368,6 +368,64 @@ pub fn solve_bounds(
     Some((e_tol, x_tol))
 }
 
+/// The lattice of the rigid-stretch figures ([`crate::gridwarp::merit::rigid_stretch`]) in the
+/// whole-run comparisons: the CLI's own.
+pub const STRETCH_LATTICE: usize = 256;
+
+/// The largest slope of a bilinear field, per texture width: the largest difference of two
+/// neighbouring texels times the resolution.
+fn field_slope(f: &Field) -> f64 {
+    let (w, h) = (f.width, f.height);
+    let mut g = 0.0f64;
+    for y in 0..h {
+        for x in 0..w {
+            let v = f.values[y * w + x];
+            if x + 1 < w {
+                g = g.max((f.values[y * w + x + 1] - v).abs() * w as f64);
+            }
+            if y + 1 < h {
+                g = g.max((f.values[(y + 1) * w + x] - v).abs() * h as f64);
+            }
+        }
+    }
+    g
+}
+
+/// How far the rigid-stretch figures (mean and max) can move when every line of `warped` moves
+/// by at most δ (texture widths). A point's stretch is v = |‖D(p)‖ a / ‖O‖ − 1| with a = Δwarped
+/// / Δrest its cell's slope and p its warped position: a moves by ≤ 2δ/h_min (h_min the smallest
+/// rest cell) and p by ≤ δ, so ‖D(p)‖ by ≤ G δ (G the fields' largest slope, [`field_slope`]);
+/// hence |Δv| ≤ (D_max · 2δ/h_min + (a_max + 2δ/h_min) G δ) / O_min, which bounds both the
+/// R-weighted mean and the max. `None` where some ‖O‖ ≤ 0.
+pub fn stretch_bound(
+    rest: &RestFields,
+    deformed: &DeformedFields,
+    rest_grid: &Grid,
+    warped: &Grid,
+    delta: f64,
+) -> Option<f64> {
+    let widths = |g: &[f64]| g.windows(2).map(|w| w[1] - w[0]).collect::<Vec<f64>>();
+    let (rs, rt) = (widths(&rest_grid.s), widths(&rest_grid.t));
+    let (ws, wt) = (widths(&warped.s), widths(&warped.t));
+    let h_min = rs.iter().chain(&rt).copied().fold(f64::INFINITY, f64::min);
+    let a_max = ws
+        .iter()
+        .zip(&rs)
+        .chain(wt.iter().zip(&rt))
+        .map(|(w, r)| (w / r).abs())
+        .fold(0.0, f64::max);
+    let max_of = |f: &Field| f.values.iter().map(|v| v.abs()).fold(0.0, f64::max);
+    let min_of = |f: &Field| f.values.iter().copied().fold(f64::INFINITY, f64::min);
+    let o_min = min_of(&rest.o_s).min(min_of(&rest.o_t));
+    if !(o_min > 0.0) || !(h_min > 0.0) {
+        return None;
+    }
+    let d_max = max_of(&deformed.d_s).max(max_of(&deformed.d_t));
+    let g = field_slope(&deformed.d_s).max(field_slope(&deformed.d_t));
+    let da = 2.0 * delta / h_min;
+    Some((d_max * da + (a_max + da) * g * delta) / o_min)
+}
+
 /// Whole sequences solved with the GPU objective and with the CPU one: per frame, the
 /// GPU-solved lines' f64 energy against the CPU minimum, and the lines, against
 /// [`solve_bounds`].

@@ -97,6 +97,12 @@ pub fn run_energy_bound(energy: &[f64], p: usize) -> f64 {
     2.0 * ETA * before / energy[p]
 }
 
+/// The pass index at the end of every full sweep of `phases` passes, among `passes` recorded
+/// energies (index 0: the start): phases, 2·phases, … (the figures a whole run is compared on).
+pub fn sweep_ends(passes: usize, phases: usize) -> impl Iterator<Item = usize> {
+    (phases.max(1)..passes).step_by(phases.max(1))
+}
+
 /// A triangle's area ratio a/A moves by ≤ 2|Δo| (texels) relatively when a corner moves by
 /// |Δo| (edges are ≈ 1 texel); the CV of the ratios, a normalised RMS, then moves by
 /// ≤ 2·rms|Δo|·(1 + CV).
@@ -216,7 +222,7 @@ pub fn run_rows(
     let (ec, eg) = (&cpu.fine().energy_per_pass, &gpu_run.fine().energy_per_pass);
     let totals: Vec<f64> = ec.iter().map(|e| e.total()).collect();
     let (mut errors, mut bounds) = (vec![], vec![]);
-    for p in (phases..ec.len().min(eg.len())).step_by(phases) {
+    for p in sweep_ends(ec.len().min(eg.len()), phases) {
         errors.push((eg[p].total() - ec[p].total()).abs() / ec[p].total());
         bounds.push(run_energy_bound(&totals, p));
     }

@@ -4,12 +4,14 @@
 
 use super::{Array, KernelData, Metric, VectorsAndCandidates};
 use crate::crosscheck::gridwarp::{
-    energy_bound, gradient_bound, jtj_bound, magnitudes, prepared_evaluation, RoundedInputs,
+    energy_bound, gradient_bound, jtj_bound, magnitudes, prepared_evaluation, solve_bounds,
+    stretch_bound, RoundedInputs, STRETCH_LATTICE,
 };
 use crate::error::Result;
 use crate::gridwarp::energy::{AaEnergy, DeformedFields, RestFields};
-use crate::gridwarp::gpu::{aa_input, assemble, set_lines, GpuAaEnergy};
-use crate::gridwarp::Grid;
+use crate::gridwarp::gpu::{aa_input, assemble, set_lines, solve_sequence_gpu, GpuAaEnergy};
+use crate::gridwarp::merit::rigid_stretch;
+use crate::gridwarp::{solve_sequence, Grid, SolveOptions};
 use crate::lm::Residuals;
 
 /// The four kernels' vectors (`gridwarp_aa.cell_energy`, `.energy`, `.jtj`, `.jtr`) and, with a
@@ -188,5 +190,170 @@ pub fn vectors(
             ),
         ];
     }
+    Ok((kernels, candidates))
+}
+
+/// A field as an f64 array (rows × columns, row 0 at t = 0).
+fn field_f64(f: &crate::gridwarp::Field) -> Array {
+    Array::f64(&[f.height, f.width], f.values.clone())
+}
+
+/// The whole run's vectors: the rest and deformed fields and the rest grid as the solve
+/// receives them, and per frame the final energy F of the LM solve (seed §5.1, §7) and the
+/// rigid-stretch figures (mean, max; [`crate::gridwarp::merit`]) of its lines. With a GPU, the
+/// candidate is the sequence solved with reparam's own `gridwarp_aa_cell` objective (its f64
+/// energy and stretch at the GPU-solved lines). Frames whose JᵀJ is singular at the CPU minimum
+/// have no bound and are left out (the description counts them).
+pub fn run_vectors(
+    gpu: Option<&reparam_gpu::Gpu>,
+    rest: &RestFields,
+    rest_grid: &Grid,
+    frames: &[DeformedFields],
+    options: &SolveOptions,
+) -> Result<VectorsAndCandidates> {
+    let kl = options.samples_per_cell();
+    let cpu = solve_sequence(rest, rest_grid, frames, options)?;
+    let figures = |j: usize, grid: &Grid, energy: f64| {
+        let s = rigid_stretch(rest, &frames[j], rest_grid, grid, STRETCH_LATTICE);
+        [energy, s.mean, s.max]
+    };
+    let (mut expected, mut bounds, mut kept) = (vec![], vec![], vec![]);
+    for (j, c) in cpu.iter().enumerate() {
+        let mut reference = AaEnergy::new(rest, rest_grid, &frames[j], kl.0, kl.1);
+        let Some((e_tol, x_tol)) =
+            solve_bounds(&mut reference, rest, rest_grid, kl, &c.lm.x, c.lm.energy)
+        else {
+            continue;
+        };
+        let f = figures(j, &c.grid, c.lm.energy);
+        let Some(sb) = stretch_bound(rest, &frames[j], rest_grid, &c.grid, x_tol) else {
+            continue;
+        };
+        expected.extend(f);
+        // The metric is relative: each absolute bound over its figure.
+        let rel = |b: f64, v: f64| if v == 0.0 { b } else { b / v.abs() };
+        bounds.extend([rel(e_tol, f[0]), rel(sb, f[1]), rel(sb, f[2])]);
+        kept.push(j);
+    }
+    let n = kept.len();
+    let mut inputs = vec![
+        (
+            "o_s".into(),
+            "f64, rows × columns (row 0 at t = 0): ‖O_s‖ of the rest frame".into(),
+            field_f64(&rest.o_s),
+        ),
+        (
+            "o_t".into(),
+            "f64: ‖O_t‖ of the rest frame".into(),
+            field_f64(&rest.o_t),
+        ),
+        (
+            "rigidity".into(),
+            "f64: the rigidity R ∈ [0, 1]".into(),
+            field_f64(&rest.rigidity),
+        ),
+        (
+            "rest_grid".into(),
+            "f64: the rest lines s_0 … s_m, then t_0 … t_n (texture widths; first and last fixed)"
+                .into(),
+            Array::f64(
+                &[rest_grid.s.len() + rest_grid.t.len()],
+                rest_grid.s.iter().chain(&rest_grid.t).copied().collect(),
+            ),
+        ),
+        (
+            "params".into(),
+            "f64: K, L (samples per cell), the number of s lines, looping (1) or not (0)".into(),
+            Array::f64(
+                &[4],
+                vec![
+                    kl.0 as f64,
+                    kl.1 as f64,
+                    rest_grid.s.len() as f64,
+                    f64::from(u8::from(options.looping)),
+                ],
+            ),
+        ),
+        (
+            "frames".into(),
+            "u32: the frames compared (0-based); each has inputs d_s.<j>, d_t.<j>".into(),
+            Array::u32(&[n], kept.iter().map(|&j| j as u32).collect()),
+        ),
+    ];
+    for &j in &kept {
+        inputs.push((
+            format!("d_s.{j}"),
+            format!("f64: ‖D_s‖ of frame {j}"),
+            field_f64(&frames[j].d_s),
+        ));
+        inputs.push((
+            format!("d_t.{j}"),
+            format!("f64: ‖D_t‖ of frame {j}"),
+            field_f64(&frames[j].d_t),
+        ));
+    }
+    let kernel = KernelData {
+        name: "gridwarp_run".into(),
+        description: format!(
+            "a whole sequence: per frame the LM solve's final F = Σ (r^s)² + (r^t)² (seed §5.1, \
+             §7, each frame started from the previous one's lines) and the rigid stretch of its \
+             lines (mean, max on a {STRETCH_LATTICE}² lattice); {} of {} frames (the others: JᵀJ \
+             singular at the minimum, no bound)",
+            n,
+            frames.len()
+        ),
+        inputs,
+        expected: (
+            "per compared frame, f64: F, rigid-stretch mean, rigid-stretch max".into(),
+            Array::f64(&[n, 3], expected),
+        ),
+        bound: ("per figure, relative".into(), Array::f64(&[n, 3], bounds)),
+        metric: Metric::Relative {
+            unit: "relative".into(),
+        },
+        bound_formula: "F: (2e + ½ bᵀ|A⁻¹|b + 1e-12 F) / F (crosscheck::gridwarp::solve_bounds); \
+            stretch: stretch_bound at the lines' bound ‖|A⁻¹| b‖∞ + √(4e / λ_min(A)), over the \
+            figure"
+            .into(),
+        derivation: "an f32 objective stops where its evaluations (error ≤ e, gradient error ≤ b) \
+            no longer see a decrease: F's excess is ≤ 2e + ½ bᵀ|A⁻¹|b and the lines move by \
+            ≤ ‖|A⁻¹|b‖∞ + √(4e/λ_min); the stretch then moves by ≤ (D_max 2δ/h_min + (a_max + \
+            2δ/h_min) G δ)/O_min (crosscheck::gridwarp::stretch_bound)"
+            .into(),
+        per_element: vec![],
+    };
+    let mut candidates = Vec::new();
+    if let Some(gpu) = gpu {
+        let solved = solve_sequence_gpu(gpu, rest, rest_grid, frames, options)?;
+        let got: Vec<f64> = kept
+            .iter()
+            .flat_map(|&j| {
+                let mut reference = AaEnergy::new(rest, rest_grid, &frames[j], kl.0, kl.1);
+                let energy = reference.energy(&solved[j].lm.x);
+                figures(j, &solved[j].grid, energy)
+            })
+            .collect();
+        candidates.push(("gridwarp_run".to_string(), Array::f64(&[n, 3], got)));
+    }
+    Ok((vec![kernel], candidates))
+}
+
+/// Every gridwarp vector: the kernels at the last frame ([`vectors`]) and the whole run
+/// ([`run_vectors`]).
+pub fn all_vectors(
+    gpu: Option<&reparam_gpu::Gpu>,
+    rest: &RestFields,
+    rest_grid: &Grid,
+    frames: &[DeformedFields],
+    options: &SolveOptions,
+) -> Result<VectorsAndCandidates> {
+    let last = frames.last().ok_or_else(|| {
+        crate::error::Error::InvalidArgument("gridwarp vectors: no deformed frame".into())
+    })?;
+    let (mut kernels, mut candidates) =
+        vectors(gpu, rest, rest_grid, last, options.samples_per_cell())?;
+    let (run, run_candidates) = run_vectors(gpu, rest, rest_grid, frames, options)?;
+    kernels.extend(run);
+    candidates.extend(run_candidates);
     Ok((kernels, candidates))
 }

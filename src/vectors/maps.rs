@@ -114,3 +114,156 @@ pub fn vectors(
     }
     Ok((vec![kernel], candidates))
 }
+
+/// The two-sided Hausdorff distance (BVH, [`crate::maps::quality::remesh_quality`]) between the
+/// surface with `faces` on `points` and the input, both in the normalised frame (diagonal 1).
+fn hausdorff_normalised(
+    norm: &crate::maps::gpu::Normalised,
+    maps: &Maps,
+    points: &[nalgebra::Point3<f64>],
+    faces: &[[u32; 3]],
+) -> f64 {
+    crate::maps::quality::remesh_quality(points, faces, &norm.cpu, &maps.input_faces, 1.0)
+        .hausdorff_relative
+}
+
+/// The whole-algorithm vectors of MAPS: the base domain's counts (levels, base vertices, base
+/// faces) and the two-sided Hausdorff distance between the `remesh` (its vertices Π⁻¹ of its
+/// base points, MAPS §4) and the input, as a fraction of the bounding-box diagonal. With a GPU,
+/// the candidate is the same hierarchy with the remesh's vertices from reparam's own
+/// `maps_inverse` kernel.
+pub fn run_vectors(
+    gpu: Option<&reparam_gpu::Gpu>,
+    maps: &Maps,
+    remesh: &crate::maps::remesh::Remesh,
+) -> Result<VectorsAndCandidates> {
+    let norm = normalise(&maps.positions)?;
+    let cpu_points: Vec<_> = remesh
+        .mesh
+        .positions
+        .iter()
+        .map(|p| norm.apply(p))
+        .collect();
+    let faces = &remesh.mesh.faces;
+    let counts = [
+        maps.level_count() as f64,
+        maps.base_mesh().positions.len() as f64,
+        maps.base_faces.len() as f64,
+    ];
+    let h = hausdorff_normalised(&norm, maps, &cpu_points, faces);
+    let expected = vec![counts[0], counts[1], counts[2], h];
+    let h_bound = if h > 0.0 {
+        INVERSE_POSITION_MAX / h
+    } else {
+        INVERSE_POSITION_MAX
+    };
+    let kernel = KernelData {
+        name: "maps_run".into(),
+        description: "the MAPS hierarchy (§3) to its base domain and a remesh of it (§4): the \
+            hierarchy's levels, the base domain's vertices and faces, and the two-sided \
+            Hausdorff distance between the remesh and the input"
+            .into(),
+        inputs: vec![
+            (
+                "positions".into(),
+                "per input vertex (0-based), f64: x, y, z in the normalised frame (centred on \
+                 the bounding box, divided by its diagonal; values of f32)"
+                    .into(),
+                Array::f64(
+                    &[norm.cpu.len(), 3],
+                    norm.cpu.iter().flat_map(|p| [p.x, p.y, p.z]).collect(),
+                ),
+            ),
+            (
+                "faces".into(),
+                "per input face, u32: three vertices (0-based, counter-clockwise)".into(),
+                Array::u32(
+                    &[maps.input_faces.len(), 3],
+                    maps.input_faces.iter().flatten().copied().collect(),
+                ),
+            ),
+            (
+                "remesh_faces".into(),
+                "per remesh face, u32: three remesh vertices, each the Π⁻¹ of the base point of \
+                 the same row of `remesh_points`"
+                    .into(),
+                Array::u32(&[faces.len(), 3], faces.iter().flatten().copied().collect()),
+            ),
+            (
+                "remesh_points".into(),
+                "per remesh vertex, f64: base face (0-based), barycentrics of its corners 0, 1, 2"
+                    .into(),
+                Array::f64(
+                    &[remesh.params.len(), 4],
+                    remesh
+                        .params
+                        .iter()
+                        .flat_map(|p| {
+                            let b = p.bary;
+                            [p.face as f64, b[0], b[1], b[2]]
+                        })
+                        .collect(),
+                ),
+            ),
+        ],
+        expected: (
+            "f64: levels of the hierarchy, base vertices, base faces, two-sided Hausdorff \
+             distance of the remesh (fraction of the diagonal)"
+                .into(),
+            Array::f64(&[4], expected),
+        ),
+        bound: (
+            "per figure, relative".into(),
+            Array::f64(&[4], vec![0.0, 0.0, 0.0, h_bound]),
+        ),
+        metric: Metric::Relative {
+            unit: "relative".into(),
+        },
+        bound_formula: "counts: exact; Hausdorff: 1e-5 / H (INVERSE_POSITION_MAX over the \
+            figure)"
+            .into(),
+        derivation: "the counts are integers decided by the priority queue and the stopping \
+            rule: an implementation of the same removals (priority λ·a/max a + (1−λ)·κ/max κ, \
+            ties to the lower vertex index, the same degree limit) reproduces them exactly. \
+            Moving every remesh vertex by ≤ d moves every point of the remesh by ≤ d (a convex \
+            combination), so the Hausdorff distance moves by ≤ d both ways; Π⁻¹ is within \
+            d = 1e-5 of the diagonal (maps_inverse's bound)"
+            .into(),
+        per_element: vec![],
+    };
+    let mut candidates = Vec::new();
+    if let Some(gpu) = gpu {
+        let tables = inverse_tables(maps, &norm);
+        let out = inverse_gpu(gpu, &tables, &remesh.params)?;
+        let points: Vec<_> = out
+            .iter()
+            .map(|r| {
+                nalgebra::Point3::new(
+                    r.position[0] as f64,
+                    r.position[1] as f64,
+                    r.position[2] as f64,
+                )
+            })
+            .collect();
+        let h_gpu = hausdorff_normalised(&norm, maps, &points, faces);
+        candidates.push((
+            "maps_run".to_string(),
+            Array::f64(&[4], vec![counts[0], counts[1], counts[2], h_gpu]),
+        ));
+    }
+    Ok((vec![kernel], candidates))
+}
+
+/// Every maps vector: Π⁻¹ at the remesh's base points ([`vectors`]) and the whole run
+/// ([`run_vectors`]).
+pub fn all_vectors(
+    gpu: Option<&reparam_gpu::Gpu>,
+    maps: &Maps,
+    remesh: &crate::maps::remesh::Remesh,
+) -> Result<VectorsAndCandidates> {
+    let (mut kernels, mut candidates) = vectors(gpu, maps, &remesh.params)?;
+    let (run, run_candidates) = run_vectors(gpu, maps, remesh)?;
+    kernels.extend(run);
+    candidates.extend(run_candidates);
+    Ok((kernels, candidates))
+}

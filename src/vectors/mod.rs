@@ -38,20 +38,56 @@ pub enum Metric {
     NormOfLastAxis { scale: f64, unit: String },
     /// An element is one value: error = |candidate − expected|.
     Absolute { unit: String },
+    /// An element is one figure of a whole run (an energy, a distance): error =
+    /// |candidate − expected| / |expected| (|candidate| where expected is 0).
+    Relative { unit: String },
+    /// The candidate is a precompute's output, one row per face: the 44 values of the
+    /// `bpm_eval` kernel's `maps` input, then its flags as a number (shape (faces, 45)). Each
+    /// element is a sample (the kernel's `face` and `bary` inputs): error = scale · |f(z) −
+    /// expected| with f evaluated in f64 from the candidate's row by the reference's
+    /// evaluation ([`crate::bpm::eval::eval_bpm`], seed 004 steps 6–9), so that only the
+    /// precompute is judged, whatever scale or sign its Möbius matrices carry.
+    BpmMapsAtSamples {
+        scale: f64,
+        unit: String,
+        faces: usize,
+    },
 }
 
 impl Metric {
     /// The unit the errors and bounds are in.
     pub fn unit(&self) -> &str {
         match self {
-            Metric::NormOfLastAxis { unit, .. } | Metric::Absolute { unit } => unit,
+            Metric::NormOfLastAxis { unit, .. }
+            | Metric::Absolute { unit }
+            | Metric::Relative { unit }
+            | Metric::BpmMapsAtSamples { unit, .. } => unit,
+        }
+    }
+
+    /// The shape a candidate must have, given the expected one.
+    pub fn candidate_shape(&self, expected: &[usize]) -> Vec<usize> {
+        match self {
+            Metric::BpmMapsAtSamples { faces, .. } => vec![*faces, bpm::MAPS_ROW],
+            _ => expected.to_vec(),
+        }
+    }
+
+    /// The shape of the elements (one error and one bound each), given the expected shape.
+    pub fn element_shape(&self, expected: &[usize]) -> Vec<usize> {
+        match self {
+            Metric::NormOfLastAxis { .. } | Metric::BpmMapsAtSamples { .. } => {
+                expected[..expected.len().saturating_sub(1)].to_vec()
+            }
+            Metric::Absolute { .. } | Metric::Relative { .. } => expected.to_vec(),
         }
     }
 
     /// The element errors of `candidate` against `expected` (same length; flat C order with
-    /// `last` values along the last axis).
-    pub fn errors(&self, expected: &[f64], candidate: &[f64], last: usize) -> Vec<f64> {
-        match self {
+    /// `last` values along the last axis); `None` for [`Metric::BpmMapsAtSamples`], whose errors
+    /// need the samples ([`bpm::errors_at_samples`]).
+    pub fn errors(&self, expected: &[f64], candidate: &[f64], last: usize) -> Option<Vec<f64>> {
+        Some(match self {
             Metric::NormOfLastAxis { scale, .. } => expected
                 .chunks(last.max(1))
                 .zip(candidate.chunks(last.max(1)))
@@ -69,7 +105,23 @@ impl Metric {
                 .zip(candidate)
                 .map(|(a, b)| (a - b).abs())
                 .collect(),
-        }
+            Metric::Relative { .. } => expected
+                .iter()
+                .zip(candidate)
+                .map(|(a, b)| relative_difference(*b, *a))
+                .collect(),
+            Metric::BpmMapsAtSamples { .. } => return None,
+        })
+    }
+}
+
+/// |candidate − expected| / |expected|, or |candidate| where expected is 0.
+pub fn relative_difference(candidate: f64, expected: f64) -> f64 {
+    let d = (candidate - expected).abs();
+    if expected == 0.0 {
+        d
+    } else {
+        d / expected.abs()
     }
 }
 
@@ -234,14 +286,18 @@ pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
     match algorithm {
         "bpm" => {
             let mesh = crate::mesh::procedural::flat_star(12);
-            Ok(("procedural:star".into(), bpm::eval_vectors(&mesh)?))
+            Ok(("procedural:star".into(), bpm::vectors(&mesh)?))
         }
         "gridwarp" => {
             use crate::gridwarp::scene::{disc_rigidity, plane_stretch};
             let rigidity = disc_rigidity(32, &[(0.6, 0.5, 0.2)], 0.1);
             let scene = plane_stretch(32, 1, 2.0, rigidity);
             let grid = crate::gridwarp::Grid::uniform(5, 5);
-            let (k, _) = gridwarp::vectors(None, &scene.rest, &grid, &scene.frames[0], (4, 4))?;
+            let options = crate::gridwarp::SolveOptions {
+                samples: (4, 4),
+                ..Default::default()
+            };
+            let (k, _) = gridwarp::all_vectors(None, &scene.rest, &grid, &scene.frames, &options)?;
             Ok(("plane stretch 32², 5 × 5 lines, 4 × 4 samples".into(), k))
         }
         "unwarp" => {
@@ -250,8 +306,8 @@ pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
             Ok(("cones 16², s = 0.05".into(), k))
         }
         "maps" => {
-            let (built, points) = canonical_maps()?;
-            let (k, _) = maps::vectors(None, &built, &points)?;
+            let (built, remesh) = canonical_maps()?;
+            let (k, _) = maps::all_vectors(None, &built, &remesh)?;
             Ok(("torus 12 × 6, uniform:1 points".into(), k))
         }
         "skinsimp" => {
@@ -265,14 +321,14 @@ pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
     }
 }
 
-/// The hierarchy and base points of the canonical maps vectors.
-pub fn canonical_maps() -> Result<(crate::maps::Maps, Vec<crate::maps::BasePoint>)> {
+/// The hierarchy and the uniform:1 remesh of the canonical maps vectors.
+pub fn canonical_maps() -> Result<(crate::maps::Maps, crate::maps::remesh::Remesh)> {
     let mut torus = crate::mesh::procedural::torus(12, 6, 1.0, 0.35);
     torus.uvs.clear();
     torus.uv_faces.clear();
     let built = crate::maps::build(&torus, &Default::default(), &Default::default())?;
-    let points = crate::maps::remesh::uniform(&built, 1)?.params;
-    Ok((built, points))
+    let remesh = crate::maps::remesh::uniform(&built, 1)?;
+    Ok((built, remesh))
 }
 
 /// The skinned input of the canonical skinsimp vectors.

@@ -1,15 +1,115 @@
 //! unwarp vectors: one pass of the `unwarp_pass` kernel (phase 0) from a state after two
 //! reference sweeps, against the f64 per-texel descent [`descend_texel`] (seed 001), with the
-//! per-texel bound [`step_bound`].
+//! per-texel bound [`step_bound`]; and a whole run: the total energy after each sweep, with
+//! the relative bound [`run_energy_bound`].
 
 use super::{Array, KernelData, Metric, VectorsAndCandidates};
-use crate::crosscheck::unwarp::{rounded_state, step_bound, TEXTURE_SIZE};
+use crate::crosscheck::unwarp::{
+    rounded_state, run_energy_bound, step_bound, sweep_ends, TEXTURE_SIZE,
+};
 use crate::error::Result;
 use crate::unwarp::gpu::grid_for;
 use crate::unwarp::pass::descend_texel;
 use crate::unwarp::{HeightMap, UnwarpOptions};
 
-/// The pass's vectors and, with a GPU, reparam's own kernel's output as the candidate.
+/// The whole run's vectors: the height map and options as the run receives them, and the total
+/// energy E = E_triangles + E_pins (seed 001 §2) after each sweep of the finest level, each
+/// with the relative bound [`run_energy_bound`]. With a GPU, the candidate is the run with
+/// reparam's own `unwarp_pass` kernel (energies in f64 from its f32 offsets).
+pub fn run_vectors(
+    gpu: Option<&reparam_gpu::Gpu>,
+    heights: &HeightMap,
+    options: &UnwarpOptions,
+) -> Result<VectorsAndCandidates> {
+    let cpu = crate::unwarp::solve(heights, options, |_| {})?;
+    let phases = crate::unwarp::pass::sweep_phases(&cpu.problem.mesh).len();
+    let totals: Vec<f64> = cpu
+        .fine()
+        .energy_per_pass
+        .iter()
+        .map(|e| e.total())
+        .collect();
+    let ends: Vec<usize> = sweep_ends(totals.len(), phases).collect();
+    let expected: Vec<f64> = ends.iter().map(|&p| totals[p]).collect();
+    let bounds: Vec<f64> = ends.iter().map(|&p| run_energy_bound(&totals, p)).collect();
+    let n = ends.len();
+    let periodic = matches!(options.border, crate::unwarp::Border::Periodic);
+    let mut inputs = vec![
+        (
+            "heights".into(),
+            "f64, rows × columns: the height map h ∈ [0, 1] (row 0 = the top row of the image)"
+                .into(),
+            Array::f64(&[heights.height, heights.width], heights.values.clone()),
+        ),
+        (
+            "params".into(),
+            "f64: s (node z = s·h, texture widths), θ, periodic (1) or fixed (0) border, sweeps \
+             on the finest level, h_fix, Δ (pinning band), levels, sweeps per coarser level, \
+             coarse-move scales (0 = the paper's texel passes only); no stopping tolerance"
+                .into(),
+            Array::f64(
+                &[9],
+                vec![
+                    options.scale,
+                    options.theta,
+                    if periodic { 1.0 } else { 0.0 },
+                    options.sweeps as f64,
+                    options.fixation.h_fix,
+                    options.fixation.delta,
+                    options.levels as f64,
+                    options.coarse_sweeps as f64,
+                    options.coarse_moves as f64,
+                ],
+            ),
+        ),
+    ];
+    if let Some(mask) = &options.fixation.mask {
+        inputs.push((
+            "pin_mask".into(),
+            "f32, rows × columns: the painted pin mask (1 = pinned)".into(),
+            Array::f32(&[mask.height, mask.width], mask.pixels.clone()),
+        ));
+    }
+    let kernel = KernelData {
+        name: "unwarp_run".into(),
+        description: format!(
+            "a whole run: E = Σ_T E_T + Σ pins after each of the {n} sweeps ({phases} Jacobi \
+             passes each, from offset 0) on the finest level (seed 001 §2–3)"
+        ),
+        inputs,
+        expected: (
+            "per sweep (1-based sweep k at row k − 1), f64: the total energy after it".into(),
+            Array::f64(&[n], expected),
+        ),
+        bound: ("per sweep, relative".into(), Array::f64(&[n], bounds)),
+        metric: Metric::Relative {
+            unit: "relative to the f64 energy".into(),
+        },
+        bound_formula: "2η Σ_{q<p} E_q / E_p, η = 30 ε, over the passes q before the sweep's \
+            end p (crosscheck::unwarp::run_energy_bound)"
+            .into(),
+        derivation: "each f32 pass can leave each texel at most 2ηF above or below where the \
+            f64 pass from the same state leaves it (the search's resolution), so pass q adds \
+            ≤ 2η E_q; later passes descend from both states alike and do not amplify it (first \
+            order): |ΔE_p| ≤ 2η Σ_{q<p} E_q"
+            .into(),
+        per_element: vec![],
+    };
+    let mut candidates = Vec::new();
+    if let Some(gpu) = gpu {
+        let mut backend = crate::unwarp::gpu::GpuPass::new(gpu.clone());
+        let run = crate::unwarp::solve_with(&mut backend, heights, options, |_| {})?;
+        let e = &run.fine().energy_per_pass;
+        let got: Vec<f64> = ends
+            .iter()
+            .map(|&p| e.get(p).map_or(f64::NAN, |e| e.total()))
+            .collect();
+        candidates.push(("unwarp_run".to_string(), Array::f64(&[n], got)));
+    }
+    Ok((vec![kernel], candidates))
+}
+
+/// The pass's vectors ([`run_vectors`] after them) and, with a GPU, reparam's own kernel's output as the candidate.
 pub fn vectors(
     gpu: Option<&reparam_gpu::Gpu>,
     heights: &HeightMap,
@@ -107,5 +207,7 @@ pub fn vectors(
             Array::f32(&[n, 2], results.iter().flat_map(|r| r.offset).collect()),
         ));
     }
-    Ok((vec![kernel], candidates))
+    let (run, run_candidates) = run_vectors(gpu, heights, options)?;
+    candidates.extend(run_candidates);
+    Ok((std::iter::once(kernel).chain(run).collect(), candidates))
 }

@@ -109,26 +109,25 @@ pub fn verify(dir: &Path, candidate: &Path, kernel: Option<&str>) -> Result<Veri
             ),
         });
     }
-    if cand.shape != expected.shape {
+    let wanted = k.metric.candidate_shape(&expected.shape);
+    if cand.shape != wanted {
         return Err(Error::Vectors {
             file,
             reason: format!(
                 "shape {:?}; kernel {} expects {:?} ({})",
-                cand.shape, k.name, expected.shape, k.expected.meaning
+                cand.shape,
+                k.name,
+                wanted,
+                candidate_meaning(k)
             ),
         });
     }
-    let last = match k.metric {
-        Metric::NormOfLastAxis { .. } => *expected.shape.last().unwrap_or(&1),
-        Metric::Absolute { .. } => 1,
+    let element_shape = k.metric.element_shape(&expected.shape);
+    let last = expected.len() / element_shape.iter().product::<usize>().max(1);
+    let errors = match k.metric.errors(&expected.to_f64(), &cand.to_f64(), last) {
+        Some(e) => e,
+        None => super::bpm::errors_at_samples(dir, k, &expected.to_f64(), &cand.to_f64())?,
     };
-    let element_shape: Vec<usize> = match k.metric {
-        Metric::NormOfLastAxis { .. } => {
-            expected.shape[..expected.shape.len().saturating_sub(1)].to_vec()
-        }
-        Metric::Absolute { .. } => expected.shape.clone(),
-    };
-    let errors = k.metric.errors(&expected.to_f64(), &cand.to_f64(), last);
     if errors.len() != bound.len() {
         return Err(Error::Vectors {
             file: dir.join(&k.bound.file).display().to_string(),
@@ -194,6 +193,15 @@ pub fn verify(dir: &Path, candidate: &Path, kernel: Option<&str>) -> Result<Veri
         bound_max,
         worst,
     })
+}
+
+/// What a candidate's array holds: the expected array's meaning, or for a precompute the
+/// per-face rows.
+fn candidate_meaning(k: &KernelVectors) -> String {
+    match k.metric {
+        Metric::BpmMapsAtSamples { .. } => super::bpm::CANDIDATE_MAPS_MEANING.to_string(),
+        _ => k.expected.meaning.clone(),
+    }
 }
 
 /// The multi-index of flat position `n` in C order.
