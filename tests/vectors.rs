@@ -116,8 +116,8 @@ fn vectors_with_gpu_candidates(
         }
         "skinsimp" => {
             let kernels = reparam::skinsimp::gpu::SkinsimpKernels::new(gpu.clone()).unwrap();
-            let input = reparam::vectors::canonical_skinned().unwrap();
-            reparam::vectors::skinsimp::vectors(&input, Some(&kernels)).unwrap()
+            let (model, sets) = reparam::vectors::canonical_skinned().unwrap();
+            reparam::vectors::skinsimp::all_vectors(&model, &sets, Some(&kernels)).unwrap()
         }
         _ => unreachable!(),
     };

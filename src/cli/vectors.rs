@@ -177,18 +177,17 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
             Ok((k, mesh.clone(), c))
         }
         VectorsAlgorithm::Skinsimp { model, poses } => {
-            use reparam::skinsimp::poses::{select_poses, skinned_input};
+            use reparam::skinsimp::poses::select_poses;
             let m = match model {
                 Some(p) => reparam::mesh::load_gltf(p)?,
                 None => reparam::skinsimp::tube::skinned_tube(12, 12),
             };
             let sets = select_poses(&m, &super::skinsimp::parse_poses(poses)?)?;
-            let input = skinned_input(&m, &sets.training)?;
             let kernels = match gpu {
                 Some(g) => Some(reparam::skinsimp::gpu::SkinsimpKernels::new(g.clone())?),
                 None => None,
             };
-            let (k, c) = reparam::vectors::skinsimp::vectors(&input, kernels.as_ref())?;
+            let (k, c) = reparam::vectors::skinsimp::all_vectors(&m, &sets, kernels.as_ref())?;
             let name = model
                 .as_ref()
                 .map_or(m.mesh.name.clone(), |p| p.display().to_string());

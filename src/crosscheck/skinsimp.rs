@@ -33,16 +33,21 @@ pub const U32: f64 = f32::EPSILON as f64 / 2.0;
 /// inputs is exact to 1e-16), times 1 + 1e-6 for the second-order terms. In the order of
 /// `data.posed_ref` (vertex-major, then pose), three coordinates each.
 pub fn lbs_bound(data: &CrossCheckData) -> Result<Vec<f64>> {
-    let Deformation::Skinned { influences, joints } = &data.input.deformation else {
+    lbs_bound_of(&data.input)
+}
+
+/// [`lbs_bound`] of any skinned `input`: per vertex i (outer), pose j and coordinate r.
+pub fn lbs_bound_of(input: &Input) -> Result<Vec<f64>> {
+    let Deformation::Skinned { influences, joints } = &input.deformation else {
         return Err(Error::InvalidArgument(
             "skinning bounds need a skinned input".into(),
         ));
     };
     let p = joints.len();
-    let mut bounds = Vec::with_capacity(data.posed_ref.len() * 3);
-    for x in 0..data.posed_ref.len() {
+    let mut bounds = Vec::with_capacity(input.mesh.positions.len() * p * 3);
+    for x in 0..input.mesh.positions.len() * p {
         let (i, j) = (x / p, x % p);
-        let h = data.input.mesh.positions[i].to_homogeneous();
+        let h = input.mesh.positions[i].to_homogeneous();
         let list = &influences[i];
         let k = list.len() as f64;
         for row in 0..3 {

@@ -311,7 +311,8 @@ pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
             Ok(("torus 12 × 6, uniform:1 points".into(), k))
         }
         "skinsimp" => {
-            let (k, _) = skinsimp::vectors(&canonical_skinned()?, None)?;
+            let (model, sets) = canonical_skinned()?;
+            let (k, _) = skinsimp::all_vectors(&model, &sets, None)?;
             Ok(("skinned tube 6 × 6, 2 poses per clip".into(), k))
         }
         other => Err(Error::InvalidArgument(format!(
@@ -331,12 +332,12 @@ pub fn canonical_maps() -> Result<(crate::maps::Maps, crate::maps::remesh::Remes
     Ok((built, remesh))
 }
 
-/// The skinned input of the canonical skinsimp vectors.
-pub fn canonical_skinned() -> Result<crate::skinsimp::Input> {
-    use crate::skinsimp::poses::{select_poses, skinned_input, PoseSelection};
+/// The skinned model of the canonical skinsimp vectors and its poses.
+pub fn canonical_skinned() -> Result<(crate::mesh::SkinnedMesh, crate::skinsimp::poses::PoseSets)> {
+    use crate::skinsimp::poses::{select_poses, PoseSelection};
     let model = crate::skinsimp::tube::skinned_tube(6, 6);
     let sets = select_poses(&model, &PoseSelection::Uniform(2))?;
-    skinned_input(&model, &sets.training)
+    Ok((model, sets))
 }
 
 /// Write the canonical vectors of every algorithm under `dir/<algorithm>/`.

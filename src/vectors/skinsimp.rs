@@ -3,7 +3,7 @@
 //! from the inputs the kernels receive, with the bounds of [`crate::crosscheck::skinsimp`].
 
 use super::{Array, KernelData, Metric, VectorsAndCandidates};
-use crate::crosscheck::skinsimp::{lbs_bound, quadric_checks};
+use crate::crosscheck::skinsimp::{lbs_bound, lbs_bound_of, quadric_checks};
 use crate::error::Result;
 use crate::skinsimp::gpu::{
     crosscheck, lbs_input, normalise, plane_quadrics_f64, quadric_input, round_input, skin_f64,
@@ -242,4 +242,216 @@ pub fn vectors(input: &Input, kernels: Option<&SkinsimpKernels>) -> Result<Vecto
         ]
     };
     Ok((vec![lbs_kernel, plane_kernel, vertex_kernel], candidates))
+}
+
+/// Per vertex the largest displacement ‖Δp‖ ≤ √3 max_r (bound of coordinate r) that f32
+/// skinning allows ([`lbs_bound_of`]), pose by pose: `[pose][vertex]`.
+fn displacement_bounds(input: &Input) -> Result<Vec<Vec<f64>>> {
+    let b = lbs_bound_of(input)?;
+    let (v, p) = (input.mesh.positions.len(), input.pose_count());
+    Ok((0..p)
+        .map(|j| {
+            (0..v)
+                .map(|i| {
+                    let x = 3 * (i * p + j);
+                    3f64.sqrt() * b[x].max(b[x + 1]).max(b[x + 2])
+                })
+                .collect()
+        })
+        .collect())
+}
+
+/// The largest relative change of a face's area when every corner moves by at most `e[v]`:
+/// the edge vectors move by ≤ e_a + e_b, so |Δ(e₁ × e₂)| ≤ Δ₁|e₂| + |e₁|Δ₂ + Δ₁Δ₂.
+fn area_change(p: &[nalgebra::Point3<f64>], faces: &[[u32; 3]], e: &[f64]) -> f64 {
+    faces
+        .iter()
+        .map(|f| {
+            let [a, b, c] = f.map(|v| v as usize);
+            let (e1, e2) = (p[b] - p[a], p[c] - p[a]);
+            let (d1, d2) = (e[a] + e[b], e[a] + e[c]);
+            let cross = e1.cross(&e2).norm();
+            let change = d1 * e2.norm() + e1.norm() * d2 + d1 * d2;
+            if cross > 0.0 {
+                change / cross
+            } else {
+                f64::INFINITY
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
+/// A level of the hierarchy as a skinned input in the given poses' joint matrices.
+fn level_input(level: &crate::skinsimp::Level, joints: &[Vec<nalgebra::Matrix4<f64>>]) -> Input {
+    Input {
+        mesh: level.mesh.clone(),
+        deformation: crate::skinsimp::Deformation::Skinned {
+            influences: level.weights.iter().map(|w| w.pairs().collect()).collect(),
+            joints: joints.to_vec(),
+        },
+    }
+}
+
+/// The original and the level posed in each pose of `held_out` (`[pose][vertex]`), skinned by
+/// `skin` (the f64 reference, or reparam's own kernel).
+type Posed = Vec<Vec<nalgebra::Point3<f64>>>;
+
+fn per_pose(flat: &[nalgebra::Point3<f64>], poses: usize) -> Posed {
+    (0..poses)
+        .map(|j| flat.iter().skip(j).step_by(poses.max(1)).copied().collect())
+        .collect()
+}
+
+/// The whole-algorithm vectors of skinsimp: the model (rest mesh, weights), the training and
+/// held-out poses' joint matrices, and per held-out pose the RMS and (sampled) Hausdorff
+/// distance ([`crate::skinsimp::distance::surface_error`], notes "Tests" 8) between the model
+/// and its simplification to half its vertices (default options), both linear-blend skinned.
+/// With a GPU, the candidate is the same level with both meshes skinned by reparam's own
+/// `skinsimp_lbs` kernel.
+pub fn run_vectors(
+    model: &crate::mesh::SkinnedMesh,
+    sets: &crate::skinsimp::poses::PoseSets,
+    kernels: Option<&SkinsimpKernels>,
+) -> Result<VectorsAndCandidates> {
+    use crate::skinsimp::distance::surface_error;
+    use crate::skinsimp::poses::skinned_input;
+    let training = skinned_input(model, &sets.training)?;
+    let held = skinned_input(model, &sets.held_out)?;
+    let options = Options::default();
+    let hierarchy = crate::skinsimp::simplify(&training, &options)?;
+    let target = model.mesh.positions.len() / 2;
+    let level = hierarchy.level(hierarchy.collapses_for(target));
+    let crate::skinsimp::Deformation::Skinned { joints, .. } = &held.deformation else {
+        return Ok((Vec::new(), Vec::new()));
+    };
+    let simplified = level_input(&level, joints);
+    let poses = held.pose_count();
+    let figures = |a: &Posed, b: &Posed| -> Vec<f64> {
+        (0..poses)
+            .flat_map(|j| {
+                let e = surface_error(&a[j], &held.mesh.faces, &b[j], &simplified.mesh.faces);
+                [e.rms, e.hausdorff]
+            })
+            .collect()
+    };
+    let (orig, simp) = (
+        per_pose(&skin_f64(&held)?, poses),
+        per_pose(&skin_f64(&simplified)?, poses),
+    );
+    let expected = figures(&orig, &simp);
+    let (eo, es) = (
+        displacement_bounds(&held)?,
+        displacement_bounds(&simplified)?,
+    );
+    let mut bounds = Vec::with_capacity(2 * poses);
+    for j in 0..poses {
+        let e = eo[j].iter().fold(0.0, |m: f64, x| m.max(*x))
+            + es[j].iter().fold(0.0, |m: f64, x| m.max(*x));
+        let omega = area_change(&orig[j], &held.mesh.faces, &eo[j]).max(area_change(
+            &simp[j],
+            &simplified.mesh.faces,
+            &es[j],
+        ));
+        let (rms, h) = (expected[2 * j], expected[2 * j + 1]);
+        let rms_bound = e + rms * omega / (1.0 - omega).max(f64::MIN_POSITIVE);
+        let rel = |b: f64, v: f64| if v > 0.0 { b / v } else { b };
+        bounds.extend([rel(rms_bound, rms), rel(e, h)]);
+    }
+    let matrices = |j: &[Vec<nalgebra::Matrix4<f64>>]| -> Array {
+        let jc = j.first().map_or(0, |m| m.len());
+        Array::f64(
+            &[j.len(), jc, 4, 4],
+            j.iter()
+                .flatten()
+                .flat_map(|m| (0..4).flat_map(move |r| (0..4).map(move |c| m[(r, c)])))
+                .collect(),
+        )
+    };
+    let crate::skinsimp::Deformation::Skinned {
+        influences,
+        joints: train_joints,
+    } = &training.deformation
+    else {
+        return Ok((Vec::new(), Vec::new()));
+    };
+    let v = model.mesh.positions.len();
+    let mut inf_joints = Vec::with_capacity(4 * v);
+    let mut inf_weights = Vec::with_capacity(4 * v);
+    for list in influences {
+        for k in 0..4 {
+            let (j, w) = list.get(k).copied().unwrap_or((0, 0.0));
+            inf_joints.push(j);
+            inf_weights.push(w);
+        }
+    }
+    let kernel = KernelData {
+        name: "skinsimp_run".into(),
+        description: format!(
+            "a whole simplification: the model simplified on its training poses to {target} \
+             vertices (default options: {} cost, boundary weight {}), then per held-out pose \
+             the RMS and sampled Hausdorff distance between the model and the level, both \
+             linear-blend skinned (notes \"Tests\" 8: 10 samples per face both ways)",
+            options.method.name(),
+            options.boundary_weight
+        ),
+        inputs: vec![
+            ("positions".into(), "per vertex (0-based), f64: the rest x, y, z".into(), Array::f64(&[v, 3], points(&model.mesh.positions))),
+            (
+                "faces".into(),
+                "per face, u32: three vertices (0-based, counter-clockwise)".into(),
+                Array::u32(&[model.mesh.faces.len(), 3], model.mesh.faces.iter().flatten().copied().collect()),
+            ),
+            ("influence_joints".into(), "per vertex, u32: up to 4 joints (0-based; unused slots 0 with weight 0)".into(), Array::u32(&[v, 4], inf_joints)),
+            ("influence_weights".into(), "per vertex, f64: the weights of those joints (sum 1)".into(), Array::f64(&[v, 4], inf_weights)),
+            ("training_joints".into(), "per training pose and joint, f64: the 4×4 skinning matrix (joint world × inverse bind), row-major".into(), matrices(train_joints)),
+            ("held_out_joints".into(), "per held-out pose and joint, f64: the same".into(), matrices(joints)),
+            ("target".into(), "u32: the level's vertex count".into(), Array::u32(&[1], vec![target as u32])),
+        ],
+        expected: (
+            "per held-out pose, f64: RMS, Hausdorff (model units)".into(),
+            Array::f64(&[poses, 2], expected),
+        ),
+        bound: ("per figure, relative".into(), Array::f64(&[poses, 2], bounds)),
+        metric: Metric::Relative { unit: "relative".into() },
+        bound_formula: "Hausdorff: (e_A + e_B)/H; RMS: (e_A + e_B + RMS·ω/(1 − ω))/RMS, e the \
+            largest skinning displacement √3·lbs_bound of each mesh in the pose, ω the largest \
+            relative change of a face's area"
+            .into(),
+        derivation: "the same level skinned in f32: every vertex moves by ≤ e (lbs_bound), every \
+            sample (a convex combination) by ≤ e_A, the other surface by ≤ e_B, so every \
+            distance and the max by ≤ e_A + e_B; the area weights change by ≤ ω relatively, \
+            which moves a weighted RMS by ≤ RMS·ω/(1 − ω). A candidate that simplifies on its \
+            own must make the same collapses (same costs, ties to the lower edge)"
+            .into(),
+        per_element: vec![],
+    };
+    let mut candidates = Vec::new();
+    if let Some(k) = kernels {
+        let (go, gs) = (
+            per_pose(&k.skin(&held)?, poses),
+            per_pose(&k.skin(&simplified)?, poses),
+        );
+        candidates.push((
+            "skinsimp_run".to_string(),
+            Array::f64(&[poses, 2], figures(&go, &gs)),
+        ));
+    }
+    Ok((vec![kernel], candidates))
+}
+
+/// Every skinsimp vector: the kernels on the training poses ([`vectors`]) and the whole run
+/// ([`run_vectors`]; only with held-out poses).
+pub fn all_vectors(
+    model: &crate::mesh::SkinnedMesh,
+    sets: &crate::skinsimp::poses::PoseSets,
+    kernels: Option<&SkinsimpKernels>,
+) -> Result<VectorsAndCandidates> {
+    let input = crate::skinsimp::poses::skinned_input(model, &sets.training)?;
+    let (mut k, mut c) = vectors(&input, kernels)?;
+    if !sets.held_out.is_empty() {
+        let (run, run_candidates) = run_vectors(model, sets, kernels)?;
+        k.extend(run);
+        c.extend(run_candidates);
+    }
+    Ok((k, c))
 }
