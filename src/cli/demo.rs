@@ -604,6 +604,8 @@ fn maps_demo(out: &Path, report: &mut Report) -> Result<()> {
         lambda: 0.5,
         max_degree: 12,
         priority_quantile: 1.0,
+        shuffle_seed: None,
+        priority_error: false,
         best_triangulation: false,
         no_retry_rejected: false,
         features: None,

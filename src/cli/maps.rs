@@ -37,6 +37,14 @@ pub struct MapsArgs {
     /// instead of their maximum (1: the paper's maximum).
     #[arg(long, default_value_t = 1.0)]
     pub priority_quantile: f64,
+    /// Beyond the paper: visit each level's candidates in a pseudo-random order from this seed
+    /// instead of the priority (the order public ports use).
+    #[arg(long)]
+    pub shuffle_seed: Option<u64>,
+    /// Beyond the paper: the priority's second term is the collapse error (how far the input
+    /// points a removal re-stores lie from its ring's plane) instead of the curvature.
+    #[arg(long)]
+    pub priority_error: bool,
     /// Vertices of higher degree are not removed.
     #[arg(long, default_value_t = 12)]
     pub max_degree: usize,
@@ -276,6 +284,8 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         base_size: args.base_size,
         max_degree: args.max_degree,
         priority_quantile: args.priority_quantile,
+        shuffle_seed: args.shuffle_seed,
+        priority_error: args.priority_error,
         best_triangulation: args.best_triangulation,
         retry_rejected: !args.no_retry_rejected,
         ..MapsOptions::default()

@@ -26,7 +26,7 @@ use rayon::prelude::*;
 
 use super::features::{vertex_role, Features, VertexRole};
 use super::flatten::{flatten_ring, RingShape};
-use super::priority::{curvature, priorities_quantile, ring_area, star_normal};
+use super::priority::{curvature, priorities_quantile, ring_area, shuffle_key, star_normal};
 use super::quality::smallest_angle_deg;
 use super::retriangulate::{
     best_triangulation, cdt_triangulation, fan_triangulation, locate, orient2d,
@@ -676,7 +676,13 @@ pub(crate) fn decimate<'a>(
         level.candidates = candidates.iter().map(|c| c.vertex).collect();
         let area: Vec<f64> = candidates.iter().map(|c| c.area).collect();
         let kappa: Vec<f64> = candidates.iter().map(|c| c.kappa).collect();
-        let w = priorities_quantile(options.lambda, &area, &kappa, options.priority_quantile);
+        let w = match options.shuffle_seed {
+            None => priorities_quantile(options.lambda, &area, &kappa, options.priority_quantile),
+            Some(seed) => candidates
+                .iter()
+                .map(|c| shuffle_key(seed, levels.len(), c.vertex))
+                .collect(),
+        };
         let selected = independent_set(work, &candidates, &w);
         level.selected = selected.iter().map(|&c| candidates[c].vertex).collect();
         let mut slots: Vec<Option<Candidate>> = candidates.into_iter().map(Some).collect();
@@ -802,7 +808,12 @@ fn candidates(work: &Work, options: &MapsOptions) -> Vec<Candidate> {
                 .collect();
             let centre = work.positions[v as usize];
             let area = ring_area(work.positions, &star);
-            let kappa = curvature(&centre, &pts, &star_normal(work.positions, &star));
+            let normal = star_normal(work.positions, &star);
+            let kappa = if options.priority_error {
+                collapse_error(work, v, &ring, &pts, &normal)
+            } else {
+                curvature(&centre, &pts, &normal)
+            };
             Some(Candidate {
                 vertex: v,
                 ring,
@@ -812,6 +823,32 @@ fn candidates(work: &Work, options: &MapsOptions) -> Vec<Candidate> {
             })
         })
         .collect()
+}
+
+/// Beyond the paper ([`MapsOptions::priority_error`]): how far the input points that removing
+/// `v` would re-store lie from the plane of its ring: max |n · (p − c)| over `v` and the input
+/// vertices stored in its star's faces, n the unit star normal and c the ring's centroid. A
+/// vertex whose removal flattens a tip or a fin (every point it carries far from that plane)
+/// goes late, whatever its curvature at the current level.
+fn collapse_error(
+    work: &Work,
+    v: u32,
+    ring: &Ring,
+    pts: &[Point3<f64>],
+    normal: &Vector3<f64>,
+) -> f64 {
+    let len = normal.norm();
+    if len.is_nan() || len <= 0.0 || pts.is_empty() {
+        return 0.0;
+    }
+    let n = normal / len;
+    let c = pts.iter().fold(Vector3::zeros(), |s, p| s + p.coords) / pts.len() as f64;
+    let height = |p: &Point3<f64>| n.dot(&(p.coords - c)).abs();
+    ring.faces
+        .iter()
+        .flat_map(|&f| work.face_points[f as usize].iter())
+        .map(|&p| height(&work.positions[p as usize]))
+        .fold(height(&work.positions[v as usize]), f64::max)
 }
 
 /// Greedy maximal independent set (seed 3/5): visit the candidates in increasing (w, vertex)

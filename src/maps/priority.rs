@@ -117,3 +117,17 @@ pub fn priorities_quantile(lambda: f64, area: &[f64], kappa: &[f64], q: f64) -> 
         })
         .collect()
 }
+
+/// Beyond the paper (issue #23, [`crate::maps::MapsOptions::shuffle_seed`]): a pseudo-random
+/// visiting key in [0, 1) for `vertex` at `level` (SplitMix64 of seed, level and vertex), the
+/// order the public ports use instead of w(λ, i). Deterministic: the same seed gives the same
+/// hierarchy on any number of threads.
+pub fn shuffle_key(seed: u64, level: usize, vertex: u32) -> f64 {
+    let mut z = seed
+        .wrapping_add((level as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15))
+        .wrapping_add(u64::from(vertex).wrapping_mul(0xD1B5_4A32_D192_ED03));
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64
+}
