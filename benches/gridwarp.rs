@@ -33,12 +33,12 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use reparam::gridwarp::energy_naa::{
-    solve_naa_frame, solve_naa_frame_with_rest_samples, DeformedJacobian, NaaEnergy, NaaModel,
-    NaaRestSamples, VertexGrid,
+    DeformedJacobian, NaaEnergy, NaaModel, NaaRestSamples, VertexGrid,
 };
 use reparam::gridwarp::scene::{analytic_scene, disc_rigidity, partials_of, plane_stretch};
 use reparam::gridwarp::{
-    solve_frame, solve_frame_with_rest_samples, AaEnergy, Grid, RestSamples, SolveOptions,
+    solve_frame, solve_frame_with_rest_samples, solve_naa_frame, solve_naa_frame_with_rest_samples,
+    AaEnergy, Grid, RestSamples, SolveOptions,
 };
 use reparam::lm::{LmReport, Residuals};
 

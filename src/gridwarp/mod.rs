@@ -30,6 +30,7 @@ pub mod field;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod grid;
+mod lanes;
 pub mod merit;
 pub mod picture;
 pub mod rasterize;
@@ -40,14 +41,11 @@ pub mod solve;
 mod texel_reads;
 
 pub use energy::{AaEnergy, DeformedFields, LaneCode, RestFields, RestSamples};
-pub use energy_naa::{
-    solve_naa_frame, solve_naa_frame_with_rest_samples, DeformedJacobian, NaaEnergy,
-    NaaFrameSolution, NaaModel, NaaRestSamples, VertexGrid,
-};
+pub use energy_naa::{DeformedJacobian, NaaEnergy, NaaModel, NaaRestSamples, VertexGrid};
 pub use field::Field;
 pub use grid::{grid_from_rigidity, Grid};
 pub use remap::{AtlasRemap, Remap, RemapOptions, Warped};
 pub use solve::{
-    solve_frame, solve_frame_with_rest_samples, solve_naa_sequence, solve_sequence, FrameSolution,
-    SolveOptions,
+    solve_frame, solve_frame_with_rest_samples, solve_naa_frame, solve_naa_frame_with_rest_samples,
+    solve_naa_sequence, solve_sequence, FrameSolution, NaaFrameSolution, SolveOptions,
 };
