@@ -12,9 +12,12 @@
 //! ([`line_derivatives`]). The fast twin is [`crate::gridwarp::AaEnergy`]; the GPU twin is
 //! `gpu/shaders/gridwarp_aa.wgsl` (the same names).
 
+use std::borrow::Cow;
+
 use nalgebra::DMatrix;
 
-use super::{add_residual, rest_cell, rest_samples, RestCell};
+use super::{add_residual, check_sample_count, rest_cell, rest_samples, RestCell};
+use crate::error::Result;
 use crate::gridwarp::energy::{DeformedFields, RestFields, RestSample};
 use crate::gridwarp::field::{Field, Sample};
 use crate::gridwarp::grid::Grid;
@@ -45,11 +48,12 @@ pub fn stretch(field: &Field, p: [f64; 2]) -> Sample {
     field.bilinear(p[0], p[1])
 }
 
-/// One residual (seed §5.1 eq. 3–4; notes "Residual layout"): r = σ (c a − o), with
-/// c a − o rounded once (a fused multiply-add: r is exactly 0 where the deformed stretch
-/// matches the rest one, as for the identity deformation).
-pub fn residual(sigma: f64, c: f64, slope: f64, o: f64) -> f64 {
-    sigma * c.mul_add(slope, -o)
+/// One residual (seed §5.1 eq. 3–4; notes "Residual layout"): r = σ (c a − o), a = a_i or b_j
+/// the cell's slope along the residual's axis ([`slope`]), c a − o rounded once (a fused
+/// multiply-add: r is exactly 0 where the deformed stretch matches the rest one, as for the
+/// identity deformation).
+pub fn residual(sigma: f64, c: f64, a: f64, o: f64) -> f64 {
+    sigma * c.mul_add(a, -o)
 }
 
 /// The derivatives of one residual r = σ (c a − o) with respect to the four lines of its
@@ -71,14 +75,14 @@ pub fn line_derivatives(
     sigma: f64,
     c: f64,
     (dc_along, dc_across): (f64, f64),
-    slope: f64,
+    a: f64,
     inv_h: f64,
     (along, across): (f64, f64),
 ) -> [f64; 4] {
-    let sigma_slope = sigma * slope;
-    let u = sigma_slope * dc_along;
+    let sigma_a = sigma * a;
+    let u = sigma_a * dc_along;
     let v = (sigma * inv_h) * c;
-    let w = sigma_slope * dc_across;
+    let w = sigma_a * dc_across;
     [
         u.mul_add(1.0 - along, -v),
         u.mul_add(along, v),
@@ -95,8 +99,8 @@ pub struct PlainAaEnergy<'a> {
     deformed: &'a DeformedFields,
     /// K×L midpoint samples per cell.
     per_cell: (usize, usize),
-    /// Cell by cell, K·L each ([`super::rest_samples`]).
-    samples: Vec<RestSample>,
+    /// Cell by cell, K·L each ([`super::rest_samples`]): built for this energy or shared.
+    samples: Cow<'a, [RestSample]>,
     /// The lines of the last evaluation (a buffer kept between evaluations).
     grid: Grid,
 }
@@ -115,9 +119,29 @@ impl<'a> PlainAaEnergy<'a> {
             rest_grid: rest_grid.clone(),
             deformed,
             per_cell: (k, l),
-            samples: rest_samples(rest, rest_grid, k, l),
+            samples: Cow::Owned(rest_samples(rest, rest_grid, k, l)),
             grid: rest_grid.clone(),
         }
+    }
+
+    /// The energy of `deformed` over rest samples built beforehand ([`super::rest_samples`] of
+    /// `rest_grid` with K×L = `per_cell`, once per sequence: the paper's preprocessing).
+    ///
+    /// Errors: `samples` does not hold K·L samples for every cell of `rest_grid`.
+    pub fn from_rest_samples(
+        rest_grid: &Grid,
+        per_cell: (usize, usize),
+        samples: &'a [RestSample],
+        deformed: &'a DeformedFields,
+    ) -> Result<Self> {
+        check_sample_count(rest_grid, per_cell, samples)?;
+        Ok(PlainAaEnergy {
+            rest_grid: rest_grid.clone(),
+            deformed,
+            per_cell,
+            samples: Cow::Borrowed(samples),
+            grid: rest_grid.clone(),
+        })
     }
 
     /// The rest grid.

@@ -40,6 +40,7 @@ pub mod naa;
 
 use super::energy::{RestFields, RestSample};
 use super::grid::Grid;
+use crate::error::{Error, Result};
 use crate::lm::NormalEquations;
 
 pub use aa::PlainAaEnergy;
@@ -140,4 +141,20 @@ pub fn add_residual(normal: &mut NormalEquations, unknowns: &[Option<usize>], r:
             }
         }
     }
+}
+
+/// Ok if `samples` holds K·L samples (`per_cell`) for every cell of `rest_grid`.
+fn check_sample_count(
+    rest_grid: &Grid,
+    (k, l): (usize, usize),
+    samples: &[RestSample],
+) -> Result<()> {
+    let cells = (rest_grid.s.len() - 1) * (rest_grid.t.len() - 1);
+    if k == 0 || l == 0 || samples.len() != cells * k * l {
+        return Err(Error::InvalidArgument(format!(
+            "gridwarp plain: {} rest samples for {cells} cells of {k}×{l} samples",
+            samples.len()
+        )));
+    }
+    Ok(())
 }

@@ -17,9 +17,12 @@
 //! folded cell (a corner determinant ≤ 0, [`VertexGrid::is_valid`]) has energy +∞. The fast
 //! twin is [`crate::gridwarp::NaaEnergy`].
 
+use std::borrow::Cow;
+
 use nalgebra::DMatrix;
 
-use super::{add_residual, rest_cell, rest_samples, RestCell};
+use super::{add_residual, check_sample_count, rest_cell, rest_samples, RestCell};
+use crate::error::Result;
 use crate::gridwarp::energy::{RestFields, RestSample};
 use crate::gridwarp::energy_naa::{DeformedJacobian, NaaModel, VectorField, VertexGrid};
 use crate::gridwarp::grid::Grid;
@@ -259,7 +262,8 @@ pub struct PlainNaaEnergy<'a> {
     rest_vertices: VertexGrid,
     deformed: &'a DeformedJacobian,
     per_cell: (usize, usize),
-    samples: Vec<RestSample>,
+    /// Cell by cell, K·L each ([`super::rest_samples`]): built for this energy or shared.
+    samples: Cow<'a, [RestSample]>,
     model: NaaModel,
     /// S = Σ r∇²r at the point of the last normal equations ([`NaaModel::Adaptive`] only).
     pending_curvature: Option<(Vec<f64>, DMatrix<f64>)>,
@@ -281,10 +285,32 @@ impl<'a> PlainNaaEnergy<'a> {
             rest_vertices: VertexGrid::from_grid(rest_grid),
             deformed,
             per_cell: (k, l),
-            samples: rest_samples(rest, rest_grid, k, l),
+            samples: Cow::Owned(rest_samples(rest, rest_grid, k, l)),
             model: NaaModel::GaussNewton,
             pending_curvature: None,
         }
+    }
+
+    /// The energy of `deformed` over rest samples built beforehand ([`super::rest_samples`] of
+    /// `rest_grid` with K×L = `per_cell`, once per sequence: the paper's preprocessing).
+    ///
+    /// Errors: `samples` does not hold K·L samples for every cell of `rest_grid`.
+    pub fn from_rest_samples(
+        rest_grid: &Grid,
+        per_cell: (usize, usize),
+        samples: &'a [RestSample],
+        deformed: &'a DeformedJacobian,
+    ) -> Result<Self> {
+        check_sample_count(rest_grid, per_cell, samples)?;
+        Ok(PlainNaaEnergy {
+            rest_grid: rest_grid.clone(),
+            rest_vertices: VertexGrid::from_grid(rest_grid),
+            deformed,
+            per_cell,
+            samples: Cow::Borrowed(samples),
+            model: NaaModel::GaussNewton,
+            pending_curvature: None,
+        })
     }
 
     /// Use `model` as LM's model Hessian ([`NaaModel`]).
