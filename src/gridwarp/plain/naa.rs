@@ -224,16 +224,15 @@ pub fn residual_curvature(
         let d_k = &jacobian[k].value;
         std::array::from_fn(|n| dphi[c] * d_k[n] + phi[c] * g[k][n])
     };
-    for a in 0..8 {
-        for b in a..8 {
-            let ((c, k), (c2, l)) = ((a / 2, a % 2), (b / 2, b % 2));
-            let (q_a, q_b) = (q_of(a), q_of(b));
-            let projected = dot(q_a, q_b) - dot(u, q_a) * dot(u, q_b);
-            let second = dphi[c] * phi[c2] * dot(u, *jacobian[k].along(l))
-                + phi[c] * dphi[c2] * dot(u, *jacobian[l].along(k));
-            out[a][b] = sigma_r * (projected / length + second);
-            out[b][a] = out[a][b];
-        }
+    let upper_triangle = (0..8).flat_map(|a| (a..8).map(move |b| (a, b)));
+    for (a, b) in upper_triangle {
+        let ((c, k), (c2, l)) = ((a / 2, a % 2), (b / 2, b % 2));
+        let (q_a, q_b) = (q_of(a), q_of(b));
+        let projected = dot(q_a, q_b) - dot(u, q_a) * dot(u, q_b);
+        let second = dphi[c] * phi[c2] * dot(u, *jacobian[k].along(l))
+            + phi[c] * dphi[c2] * dot(u, *jacobian[l].along(k));
+        out[a][b] = sigma_r * (projected / length + second);
+        out[b][a] = out[a][b];
     }
     out
 }
