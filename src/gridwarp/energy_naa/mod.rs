@@ -1,5 +1,8 @@
 //! The non-axis-aligned (NAA) distortion energy (seed §8; notes "Formulation: NAA", "Analytic
-//! Jacobian: NAA", "Bounds"), mirroring the axis-aligned [`super::energy::AaEnergy`].
+//! Jacobian: NAA", "Bounds"), mirroring the axis-aligned [`super::energy::AaEnergy`]. The
+//! formula reads plainly, sample by sample, in [`super::plain::naa`]; this module is its fast
+//! implementation (lane arrays, interleaved J_D, tiled sums, moments for S), tested against it
+//! in `tests/gridwarp_plain.rs`.
 //!
 //! # Unknowns
 //! The grid vertices P_ab ∈ R², a = 0..M−1 along s, b = 0..N−1 along t. By default (the paper's
