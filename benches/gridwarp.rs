@@ -16,6 +16,12 @@
 //! - Non-axis-aligned again with the second-order model JᵀJ + Σ r∇²r (`NaaModel::Newton`,
 //!   `gridwarp_naa_frame_newton`) and with the per-iteration choice between the two models
 //!   (`NaaModel::Adaptive`, `gridwarp_naa_frame_adaptive`), 8×8 samples.
+//! - The plain path (`gridwarp::plain`, the formula sample by sample, no lanes, no SIMD, one
+//!   thread) beside the fast one, at 8×8 samples, on the same frames and rest samples built
+//!   beforehand likewise: `gridwarp_aa_frame_plain` (14, 24, 38 unknowns) and
+//!   `gridwarp_naa_frame_plain` (Gauss–Newton, 48, 192, 288; Newton, 48): what the clarity
+//!   costs. The solves reach the same minima with the same iteration counts
+//!   (`tests/gridwarp_plain.rs`), so the ratio of the rows is the ratio of the evaluations.
 //! - Each at 8×8 midpoint samples per cell (the default) and 4×4. The paper does not give its
 //!   sample count; the printed line gives the final energy re-evaluated with 8×8 samples so the
 //!   two can be compared at equal quality.
@@ -30,15 +36,18 @@
 //! Run: `cargo bench --bench gridwarp`.
 
 use std::hint::black_box;
+use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use reparam::gridwarp::energy_naa::{
-    solve_naa_frame, solve_naa_frame_with_rest_samples, DeformedJacobian, NaaEnergy, NaaModel,
-    NaaRestSamples, VertexGrid,
+    DeformedJacobian, NaaEnergy, NaaModel, NaaRestSamples, VertexGrid,
 };
+use reparam::gridwarp::plain::{rest_samples, PlainAaEnergy, PlainNaaEnergy};
 use reparam::gridwarp::scene::{analytic_scene, disc_rigidity, partials_of, plane_stretch};
+use reparam::gridwarp::solve::{minimize_frame, minimize_naa_frame};
 use reparam::gridwarp::{
-    solve_frame, solve_frame_with_rest_samples, AaEnergy, Grid, RestSamples, SolveOptions,
+    solve_frame, solve_frame_with_rest_samples, solve_naa_frame, solve_naa_frame_with_rest_samples,
+    AaEnergy, Grid, RestSamples, SolveOptions,
 };
 use reparam::lm::{LmReport, Residuals};
 
@@ -95,6 +104,36 @@ fn bench_aa(c: &mut Criterion) {
             );
             group.bench_function(name, |b| b.iter(|| black_box(solve().unwrap())));
         }
+    }
+    group.finish();
+    // The same solves on the plain path (8×8 samples).
+    let mut group = c.benchmark_group("gridwarp_aa_frame_plain");
+    group.sample_size(10);
+    for (m, n) in SIZES {
+        let grid = Grid::uniform(m, n);
+        let options = options(8);
+        let samples = rest_samples(&scene.rest, &grid, 8, 8);
+        let solve = || {
+            let energy = PlainAaEnergy::from_rest_samples(&grid, (8, 8), &samples, frame)?;
+            minimize_frame(
+                energy,
+                &grid,
+                &grid,
+                &grid,
+                (0, 1),
+                &options,
+                Instant::now(),
+            )
+        };
+        let once = solve().unwrap();
+        let name = format!("{}_unknowns_8x8_samples", grid.unknowns());
+        print_once(
+            &format!("aa plain {name}"),
+            &once.lm,
+            once.rest_energy,
+            once.lm.energy,
+        );
+        group.bench_function(name, |b| b.iter(|| black_box(solve().unwrap())));
     }
     group.finish();
     // The once-per-sequence precomputation the rows above leave out.
@@ -222,6 +261,52 @@ fn bench_naa(c: &mut Criterion) {
                 );
                 group.bench_function(name, |b| b.iter(|| black_box(solve().unwrap())));
             }
+        }
+        group.finish();
+    }
+    // The same solves on the plain path (8×8 samples): Gauss–Newton at every size, Newton at 48.
+    let runs = [
+        (
+            "gridwarp_naa_frame_plain",
+            NaaModel::GaussNewton,
+            NAA_SIZES.len(),
+        ),
+        ("gridwarp_naa_frame_newton_plain", NaaModel::Newton, 1),
+    ];
+    for (group_name, model, sizes) in runs {
+        let mut group = c.benchmark_group(group_name);
+        group.sample_size(10);
+        for &(m, n) in &NAA_SIZES[..sizes] {
+            let grid = Grid::uniform(m, n);
+            let vertices = VertexGrid::from_grid(&grid);
+            let options = SolveOptions {
+                naa_model: model,
+                ..options(8)
+            };
+            let samples = rest_samples(&fields.rest, &grid, 8, 8);
+            let solve = || {
+                let energy = PlainNaaEnergy::from_rest_samples(&grid, (8, 8), &samples, &deformed)?
+                    .with_model(model);
+                let start = Instant::now();
+                minimize_naa_frame(
+                    energy,
+                    &vertices,
+                    &vertices,
+                    &vertices,
+                    (0, 1),
+                    &options,
+                    start,
+                )
+            };
+            let once = solve().unwrap();
+            let name = format!("{}_unknowns_8x8_samples", once.lm.x.len());
+            print_once(
+                &format!("naa plain {model:?} {name}"),
+                &once.lm,
+                once.rest_energy,
+                once.lm.energy,
+            );
+            group.bench_function(name, |b| b.iter(|| black_box(solve().unwrap())));
         }
         group.finish();
     }

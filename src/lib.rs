@@ -7,7 +7,7 @@
 //! | module | algorithm | source | entry points |
 //! |---|---|---|---|
 //! | [`bpm`] | Blended Piecewise Möbius Maps (Rorberg, Vaxman, Ben-Chen 2023) | seed 004 | [`bpm::precompute()`], [`bpm::Bpm::eval`], [`bpm::qc_protocol`] |
-//! | [`gridwarp`] | content-aware texture grid warp (Koniaris et al. 2013) | seed 000 | [`gridwarp::solve_sequence`], [`gridwarp::energy_naa::solve_naa_frame`] |
+//! | [`gridwarp`] | content-aware texture grid warp (Koniaris et al. 2013) | seed 000 | [`gridwarp::solve_sequence`], [`gridwarp::solve_naa_frame`] |
 //! | [`unwarp`] | distortion-free displacement mapping by per-texel descent (Zirr & Ritschel 2019) | seed 001 | [`unwarp::solve()`], [`unwarp::pass::pass`] |
 //! | [`skinsimp`] | quadric simplification of skinned meshes with optimised weights (Landreneau & Schaefer 2009) | seed 003 | [`skinsimp::simplify()`], [`skinsimp::Hierarchy::level`], [`skinsimp::evaluate::compare`] |
 //! | [`maps`] | MAPS multiresolution parameterisation and remeshing (Lee et al. 1998) | seed 002 | [`maps::build`], [`maps::Param::inverse`], [`maps::remesh::uniform`], [`maps::remesh::adaptive`] |

@@ -1,29 +1,38 @@
 // gridwarp_aa_cell: one invocation per grid cell, the cell's share of the axis-aligned energy
 // and of its normal equations. Prepended by the host: dispatch.wgsl.
 //
-// Twin of the f64 reference src/gridwarp/energy.rs (`AaEnergy::for_each_residual`) and
-// src/gridwarp/field.rs (`Field::bilinear`, here `field_bilinear`), name for name and in the
-// same order of operations per sample (bilinear as two lerps, the factored derivatives of
-// `Chunk::residuals_and_derivatives`, fma where the reference uses `mul_add`). Differences of
-// place, not of formula: the reference finds a sample's texel position (`Axis`, here `axis`)
-// once per column and once per row of samples, since an axis-aligned grid's samples share them,
-// where the kernel recomputes it per sample; it multiplies by a stored 1/h_i, 1/k_j where the
-// kernel divides; and it sums 8 samples side by side (per-lane partial sums, upper triangle of
-// JᵀJ) where the kernel sums one sample after another (all 16 entries).
+// Twin of the plain f64 path src/gridwarp/plain/aa.rs (`PlainAaEnergy`, the formula sample by
+// sample) and src/gridwarp/field.rs (`Field::bilinear`, here `field_bilinear`), name for name:
+// `rest_cell`, `slope`, `warped_point`, `stretch`, `residual`, `line_derivatives` and
+// `add_residual` are the plain path's functions, in the same order of operations per sample
+// (bilinear as two lerps, fma where the plain path uses `mul_add`). The plain path's residuals
+// are those of the fast path src/gridwarp/energy.rs bit for bit (tests/gridwarp_plain.rs).
 //
-// One invocation per cell, looping over the cell's K×L samples in the reference's order
+// Where the kernel differs from the plain path, for the GPU's sake and not in the formula:
+// - the plain path finds a sample's rest quantities (σ, o_s, o_t) once (`rest_samples`); the
+//   host computes them the same way and uploads them (`samples`);
+// - the plain path multiplies by 1/h_i, 1/k_j (`inv_h`, computed once per cell) where the
+//   kernel divides by h_i, k_j (`line_derivatives`: σ/h, one division instead of a stored
+//   reciprocal);
+// - the plain path adds a residual's terms to F, Jᵀr and JᵀJ by a product and an addition
+//   (`add_residual`); the kernel by fused multiply-adds, and it sums one cell per invocation
+//   (all 16 entries of the cell's block) where the plain path adds straight into the whole
+//   matrix: the host adds the cells' blocks in cell order, in f64.
+//
+// One invocation per cell, looping over the cell's K×L samples in the plain path's order
 // (a outer, b inner): the simplest correct choice. It needs no workgroup memory or barriers,
 // its f32 sums have a fixed order (results do not depend on the adapter's scheduling), and a
 // cell's ≤ 2·K·L residuals are few. The cross-cell reduction is done by the host in f64, in cell
 // order (deterministic; see gpu/src/gridwarp/aa.rs).
 //
-// Per sample (α, β, σ, o_s, o_t) of cell (i, j) with rest widths h = h_i, kj = k_j, at the
-// current lines s, t:
-//   a = (s_{i+1} − s_i)/h, b = (t_{j+1} − t_j)/kj,
-//   p = (s_i + α(s_{i+1} − s_i), t_j + β(t_{j+1} − t_j)), c_s, c_t = D_s, D_t bilinear at p,
-//   r^s = σ(c_s a − o_s), r^t = σ(c_t b − o_t),
+// Per sample (α, β, σ, o_s, o_t) of cell (i, j) with rest widths h = h_i, k = k_j, at the
+// current lines s, t (src/gridwarp/plain/aa.rs, module docs):
+//   a = (s_{i+1} − s_i)/h, b = (t_{j+1} − t_j)/k                          (`slope`)
+//   p = (s_i + α(s_{i+1} − s_i), t_j + β(t_{j+1} − t_j))                   (`warped_point`)
+//   c_s, c_t = ‖D_s‖, ‖D_t‖ bilinear at p                                  (`stretch`)
+//   r^s = σ(c_s a − o_s), r^t = σ(c_t b − o_t)                              (`residual`)
 // and their partial derivatives with respect to the cell's four lines, in slot order
-// (s_i, s_{i+1}, t_j, t_{j+1}).
+// (s_i, s_{i+1}, t_j, t_{j+1}) (`line_derivatives`).
 
 // Rest-pose data of one sample (20 bytes; `RestSample` in gpu/src/gridwarp/aa.rs).
 struct RestSample {
@@ -131,8 +140,69 @@ fn field_bilinear(offset: u32, width: u32, height: u32, s: f32, t: f32) -> Field
     );
 }
 
-// Add residual r with partial derivatives d (slot order) to the cell's sums.
-fn accumulate(out: ptr<function, CellContribution>, r: f32, d: array<f32, 4>) {
+// `rest_cell`: the rest size h_i × k_j of cell (i, j) (`geometry` holds h after the lines,
+// then k).
+struct RestCell {
+    h: f32,
+    k: f32,
+}
+
+fn rest_cell(i: u32, j: u32) -> RestCell {
+    let m = params.columns + 1u;
+    let n = params.rows + 1u;
+    return RestCell(geometry[m + n + i], geometry[m + n + params.columns + j]);
+}
+
+// `slope`: a_i = (s_{i+1} − s_i)/h_i of the lines `near` = s_i, `far` = s_{i+1} (b_j likewise).
+fn slope(near: f32, far: f32, rest_width: f32) -> f32 {
+    return (far - near) / rest_width;
+}
+
+// `warped_point`: p = (s_i + α (s_{i+1} − s_i), t_j + β (t_{j+1} − t_j)).
+fn warped_point(s0: f32, s1: f32, t0: f32, t1: f32, alpha: f32, beta: f32) -> vec2<f32> {
+    return vec2<f32>(s0 + alpha * (s1 - s0), t0 + beta * (t1 - t0));
+}
+
+// `stretch`: c = ‖D_·‖ at p with its gradient, the field `fields[offset ..]` (width × height)
+// sampled bilinearly.
+fn stretch(offset: u32, width: u32, height: u32, p: vec2<f32>) -> FieldSample {
+    return field_bilinear(offset, width, height, p.x, p.y);
+}
+
+// `residual`: r = σ (c a − o), c a − o rounded once (a = a_i or b_j, the cell's slope).
+fn residual(sigma: f32, c: f32, a: f32, o: f32) -> f32 {
+    return sigma * fma(c, a, -o);
+}
+
+// `line_derivatives`: the derivatives of r = σ (c a − o) with respect to the near and far
+// lines along the residual's axis and across it, [near along, far along, near across, far
+// across], from u = σ a ∂c/∂along, v = σ c/h, w = σ a ∂c/∂across (the kernel divides by h
+// where the plain path multiplies by 1/h: header).
+fn line_derivatives(
+    sigma: f32,
+    c: f32,
+    dc_along: f32,
+    dc_across: f32,
+    a: f32,
+    rest_width: f32,
+    along: f32,
+    across: f32,
+) -> array<f32, 4> {
+    let sigma_a = sigma * a;
+    let u = sigma_a * dc_along;
+    let v = (sigma / rest_width) * c;
+    let w = sigma_a * dc_across;
+    return array<f32, 4>(
+        fma(u, 1.0 - along, -v),
+        fma(u, along, v),
+        w * (1.0 - across),
+        w * across,
+    );
+}
+
+// `add_residual`: F += r², Jᵀr += d r, JᵀJ += d dᵀ over the cell's four slots (fused
+// multiply-adds: header).
+fn add_residual(out: ptr<function, CellContribution>, r: f32, d: array<f32, 4>) {
     (*out).energy = fma(r, r, (*out).energy);
     for (var u = 0u; u < 4u; u++) {
         (*out).jtr[u] = fma(d[u], r, (*out).jtr[u]);
@@ -144,68 +214,50 @@ fn accumulate(out: ptr<function, CellContribution>, r: f32, d: array<f32, 4>) {
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn gridwarp_aa_cell(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) workgroups: vec3<u32>) {
-    let cell = linear_index(gid, workgroups);
-    if cell >= params.cells {
+    let index = linear_index(gid, workgroups);
+    if index >= params.cells {
         return;
     }
-    // Cell (i, j) = cell column i, row j, at i·rows + j (the reference's sample layout).
-    let i = cell / params.rows;
-    let j = cell % params.rows;
+    // Cell (i, j) = cell column i, row j, at i·rows + j (the plain path's cell order).
+    let i = index / params.rows;
+    let j = index % params.rows;
     let m = params.columns + 1u;
-    let n = params.rows + 1u;
     let s0 = geometry[i];
     let s1 = geometry[i + 1u];
     let t0 = geometry[m + j];
     let t1 = geometry[m + j + 1u];
-    let h = geometry[m + n + i];
-    let kj = geometry[m + n + params.columns + j];
-    let a = (s1 - s0) / h;
-    let b = (t1 - t0) / kj;
+    let cell = rest_cell(i, j);
+    let a = slope(s0, s1, cell.h);
+    let b = slope(t0, t1, cell.k);
 
     var out: CellContribution;
+    // `cell_unknowns`: the unknowns of the slots (s_i, s_{i+1}, t_j, t_{j+1}).
     out.unknowns = array<i32, 4>(
         unknown_index[i],
         unknown_index[i + 1u],
         unknown_index[m + j],
         unknown_index[m + j + 1u],
     );
-    let first = cell * params.per_cell;
-    for (var q = 0u; q < params.per_cell; q++) {
-        let p = samples[first + q];
-        if p.sigma == 0.0 {
+    let first = index * params.per_cell;
+    for (var n = 0u; n < params.per_cell; n++) {
+        let sample = samples[first + n];
+        if sample.sigma == 0.0 {
             continue;
         }
-        let f = s0 + p.alpha * (s1 - s0);
-        let gt = t0 + p.beta * (t1 - t0);
-        let cs = field_bilinear(0u, params.ds_width, params.ds_height, f, gt);
-        let ct = field_bilinear(params.dt_offset, params.dt_width, params.dt_height, f, gt);
-        let al = p.alpha;
-        let be = p.beta;
-        let sg = p.sigma;
-        // `residuals_and_derivatives`: σ a, σ b, then σ a ∂c_s/∂s, σ c_s/h, σ a ∂c_s/∂t and
-        // the same for c_t.
-        let sa = sg * a;
-        let sb = sg * b;
-        let us = sa * cs.ds;
-        let vs = (sg / h) * cs.value;
-        let ws = sa * cs.dt;
-        let ut = sb * ct.dt;
-        let vt = (sg / kj) * ct.value;
-        let wt = sb * ct.ds;
-        // r^s = σ (c_s a − o_s) and its four partial derivatives.
-        accumulate(&out, sg * fma(cs.value, a, -p.o_s), array<f32, 4>(
-            fma(us, 1.0 - al, -vs),
-            fma(us, al, vs),
-            ws * (1.0 - be),
-            ws * be,
-        ));
-        // r^t = σ (c_t b − o_t), symmetric (the reference lists t_j, t_{j+1} first).
-        accumulate(&out, sg * fma(ct.value, b, -p.o_t), array<f32, 4>(
-            wt * (1.0 - al),
-            wt * al,
-            fma(ut, 1.0 - be, -vt),
-            fma(ut, be, vt),
-        ));
+        let alpha = sample.alpha;
+        let beta = sample.beta;
+        let sigma = sample.sigma;
+        let p = warped_point(s0, s1, t0, t1, alpha, beta);
+        let c_s = stretch(0u, params.ds_width, params.ds_height, p);
+        let c_t = stretch(params.dt_offset, params.dt_width, params.dt_height, p);
+        let r_s = residual(sigma, c_s.value, a, sample.o_s);
+        let r_t = residual(sigma, c_t.value, b, sample.o_t);
+        // r^s stretches along s: its lines along are s_i, s_{i+1} (slots 0, 1).
+        let d_s = line_derivatives(sigma, c_s.value, c_s.ds, c_s.dt, a, cell.h, alpha, beta);
+        // r^t stretches along t: its lines along are t_j, t_{j+1} (slots 2, 3).
+        let d_t = line_derivatives(sigma, c_t.value, c_t.dt, c_t.ds, b, cell.k, beta, alpha);
+        add_residual(&out, r_s, d_s);
+        add_residual(&out, r_t, array<f32, 4>(d_t[2], d_t[3], d_t[0], d_t[1]));
     }
-    cells[cell] = out;
+    cells[index] = out;
 }

@@ -61,8 +61,8 @@ fn one_cell_constant_fields_by_hand() {
     assert_eq!(c.unknowns, [NO_UNKNOWN; 4]);
 }
 
-/// f64 twin of the kernel for the test below (same formulas as the reference's
-/// `AaEnergy::for_each_residual` and `Field::bilinear`).
+/// f64 twin of the kernel for the test below (same formulas as the reference's plain path
+/// `PlainAaEnergy` and `Field::bilinear`).
 fn bilinear(f: &FieldF32, s: f64, t: f64) -> (f64, f64, f64) {
     let axis = |s: f64, n: u32| {
         let u = s * n as f64 - 0.5;

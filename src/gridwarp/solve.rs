@@ -7,11 +7,10 @@ use std::time::Instant;
 use super::bounds::{frame_bounds, BoundOptions};
 use super::energy::{AaEnergy, DeformedFields, RestFields, RestSamples};
 use super::energy_naa::{
-    solve_naa_frame_with_rest_samples, DeformedJacobian, NaaFrameSolution, NaaModel,
-    NaaRestSamples, VertexGrid,
+    naa_frame_bounds, DeformedJacobian, NaaEnergy, NaaModel, NaaRestSamples, VertexGrid,
 };
 use super::grid::Grid;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::lm::{minimize, Bounds, LmOptions, LmReport, Residuals, Speculative};
 
 /// Options of a gridwarp solve. Defaults: 8×8 midpoint samples per cell, the practical LM
@@ -213,13 +212,13 @@ pub fn solve_sequence(
 /// Solve a whole non-axis-aligned sequence frame by frame (seed §5.3 with §8's vertices), as
 /// [`solve_sequence`] does for the lines: frame j starts from frame j − 1's vertices (frame 0
 /// from `start`, normally [`VertexGrid::from_grid`] of the rest grid), its bounds are
-/// [`super::energy_naa::naa_frame_bounds`] around them — foldover boxes, the smoothness bound o
+/// [`naa_frame_bounds`] around them — foldover boxes, the smoothness bound o
 /// and, with `looping`, the looping box around frame 0's solution — and every frame is solved by
-/// [`super::energy_naa::solve_naa_frame`], on rest samples built once before the first frame
+/// [`solve_naa_frame`], on rest samples built once before the first frame
 /// ([`NaaRestSamples`]; the first frame's `seconds` does not include them). The border mode
 /// (fixed or sliding) is `start`'s.
 ///
-/// Errors: those of [`super::energy_naa::solve_naa_frame`] (`start` of the wrong shape or
+/// Errors: those of [`solve_naa_frame`] (`start` of the wrong shape or
 /// folded).
 pub fn solve_naa_sequence(
     rest: &RestFields,
@@ -239,4 +238,121 @@ pub fn solve_naa_sequence(
             solve_naa_frame_with_rest_samples(&samples, &frames[j], previous, first, frame, options)
         },
     )
+}
+
+/// One NAA frame's result.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct NaaFrameSolution {
+    pub vertices: VertexGrid,
+    pub lm: LmReport,
+    /// Energy of the rest vertices on this frame, for comparison.
+    pub rest_energy: f64,
+    pub seconds: f64,
+}
+
+/// Solve one NAA frame: minimise the energy of `deformed` over the interior vertices, starting
+/// from and bounded around `previous` (and `first`, for looping frame `frame` of `frames`), as
+/// [`solve_frame`] does for the AA lines. The border mode is `previous`'s
+/// ([`VertexGrid::sliding_border`]).
+///
+/// Errors: `previous` or `first` does not match the rest grid's shape, or `previous` folds.
+pub fn solve_naa_frame(
+    rest: &RestFields,
+    rest_grid: &Grid,
+    deformed: &DeformedJacobian,
+    previous: &VertexGrid,
+    first: &VertexGrid,
+    frame: (usize, usize),
+    options: &SolveOptions,
+) -> Result<NaaFrameSolution> {
+    let start = Instant::now();
+    let (k, l) = options.samples_per_cell();
+    let samples = NaaRestSamples::new(rest, rest_grid, k, l);
+    solve_naa_frame_from(start, &samples, deformed, previous, first, frame, options)
+}
+
+/// [`solve_naa_frame`] on rest samples built beforehand ([`NaaRestSamples::new`], once per
+/// sequence: they depend on the rest fields, the rest grid and K×L only, the paper's
+/// preprocessing). The samples' K×L is used (`options.samples` is not read); `seconds` is
+/// the frame's own cost, without the samples' precomputation.
+pub fn solve_naa_frame_with_rest_samples(
+    samples: &NaaRestSamples,
+    deformed: &DeformedJacobian,
+    previous: &VertexGrid,
+    first: &VertexGrid,
+    frame: (usize, usize),
+    options: &SolveOptions,
+) -> Result<NaaFrameSolution> {
+    let start = Instant::now();
+    solve_naa_frame_from(start, samples, deformed, previous, first, frame, options)
+}
+
+/// The solve of [`solve_naa_frame`] given its rest samples; `seconds` counts from `start`.
+fn solve_naa_frame_from(
+    start: Instant,
+    samples: &NaaRestSamples,
+    deformed: &DeformedJacobian,
+    previous: &VertexGrid,
+    first: &VertexGrid,
+    frame: (usize, usize),
+    options: &SolveOptions,
+) -> Result<NaaFrameSolution> {
+    let energy = NaaEnergy::from_rest_samples(samples, deformed)
+        .with_sliding_border(previous.sliding_border)
+        .with_model(options.naa_model);
+    let rest_vertices = energy.rest_vertices().clone();
+    minimize_naa_frame(
+        energy,
+        &rest_vertices,
+        previous,
+        first,
+        frame,
+        options,
+        start,
+    )
+}
+
+/// The solve of one NAA frame given its energy (the fast [`NaaEnergy`] or the plain
+/// [`super::plain::PlainNaaEnergy`] alike), as [`minimize_frame`] for the lines: bounds
+/// [`naa_frame_bounds`] around `previous` (seed §5.2), the rest vertices' energy for the
+/// report, LM from `previous` (seed §5.3); `seconds` counts from `start`. `rest_vertices`
+/// are the energy's (their border mode is `previous`'s).
+///
+/// Errors: `previous` or `first` does not match the rest vertices' shape or border mode.
+pub fn minimize_naa_frame(
+    mut energy: impl Residuals + Send,
+    rest_vertices: &VertexGrid,
+    previous: &VertexGrid,
+    first: &VertexGrid,
+    (frame, frames): (usize, usize),
+    options: &SolveOptions,
+    start: Instant,
+) -> Result<NaaFrameSolution> {
+    let (m, n) = (rest_vertices.m, rest_vertices.n);
+    for (name, g) in [("previous", previous), ("first", first)] {
+        if (g.m, g.n, g.points.len()) != (m, n, m * n)
+            || g.sliding_border != rest_vertices.sliding_border
+        {
+            return Err(Error::InvalidArgument(format!(
+                "gridwarp naa: {name} vertex grid is {}×{} (sliding border {}) for a {m}×{n} \
+                 rest grid (sliding border {})",
+                g.m, g.n, g.sliding_border, rest_vertices.sliding_border
+            )));
+        }
+    }
+    let bound_options = options.bound_options(frame, frames);
+    let bounds = naa_frame_bounds(previous, first, &bound_options);
+    let (report, rest_energy) = minimize_and_rest_energy(
+        &mut energy,
+        &previous.to_unknowns(),
+        &rest_vertices.to_unknowns(),
+        &bounds,
+        &options.lm,
+    )?;
+    Ok(NaaFrameSolution {
+        vertices: rest_vertices.with_unknowns(&report.x),
+        lm: report,
+        rest_energy,
+        seconds: start.elapsed().as_secs_f64(),
+    })
 }

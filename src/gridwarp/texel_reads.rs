@@ -18,8 +18,8 @@
 //! When ‖D_t‖ has ‖D_s‖'s resolution the lanes' texel positions are the same on both, and
 //! [`TexelReads::quads_of_both`] finds the indices (or the window loads' addresses) once.
 
-use super::energy::LANES;
 use super::field::Field;
+use super::lanes::LANES;
 
 /// The four texels of every lane, [f₀₀, f₁₀, f₀₁, f₁₁].
 pub(super) type Quads = [[f64; LANES]; 4];

@@ -6,8 +6,9 @@
 //!
 //! This is the GPU half of the paper's hybrid solver (seed §7): the objective and its normal
 //! equations are evaluated on the GPU, one cell per invocation, and read back; Levenberg–Marquardt
-//! stays on the CPU. The reference's twin is `AaEnergy::for_each_residual`
-//! (`src/gridwarp/energy.rs`) with `Field::bilinear` (`src/gridwarp/field.rs`).
+//! stays on the CPU. The reference's twin, name for name, is the plain path `PlainAaEnergy`
+//! (`src/gridwarp/plain/aa.rs`) with `Field::bilinear` (`src/gridwarp/field.rs`); its residuals
+//! are the fast `AaEnergy`'s (`src/gridwarp/energy.rs`) bit for bit.
 
 pub mod aa;
 

@@ -58,7 +58,7 @@
 //! were left scalar by the compiler: the loop over the two axes stayed a loop.)
 
 use super::{lanes, SampleLanes, VectorSample, LANES};
-use crate::gridwarp::energy::{lane_total, UPPER_8};
+use crate::gridwarp::lanes::{lane_total, UPPER_8};
 
 /// One value per lane.
 type Lanes = [f64; LANES];

@@ -1,5 +1,8 @@
 //! The non-axis-aligned (NAA) distortion energy (seed §8; notes "Formulation: NAA", "Analytic
-//! Jacobian: NAA", "Bounds"), mirroring the axis-aligned [`super::energy::AaEnergy`].
+//! Jacobian: NAA", "Bounds"), mirroring the axis-aligned [`super::energy::AaEnergy`]. The
+//! formula reads plainly, sample by sample, in [`super::plain::naa`]; this module is its fast
+//! implementation (lane arrays, interleaved J_D, tiled sums, moments for S), tested against it
+//! in `tests/gridwarp_plain.rs`.
 //!
 //! # Unknowns
 //! The grid vertices P_ab ∈ R², a = 0..M−1 along s, b = 0..N−1 along t. By default (the paper's
@@ -38,7 +41,7 @@
 //! parallel, and the blocks scattered in cell order (deterministic for any number of threads).
 //! Inside a cell, samples are processed 8 at a time (one per lane); each of the 1 + 8 + 36
 //! entries is summed per lane over the cell's samples (F and Jᵀr per axis too; JᵀJ in tiles
-//! of 4×4 slots), then added in a fixed order (`super::energy::cell_block_of`), so the sums
+//! of 4×4 slots), then added in a fixed order (`super::lanes::cell_block_of`), so the sums
 //! depend on the sample layout only.
 //!
 //! # Model Hessian
@@ -58,20 +61,17 @@ pub mod curvature;
 use curvature::{CellMoments, LaneJacobian};
 
 use std::borrow::Cow;
-use std::time::Instant;
 
 use nalgebra::DMatrix;
 
 use super::bounds::{foldover, loop_distance, merge, BoundOptions, Interval};
-use super::energy::{
-    axes_total, cell_block_of, cell_gradient_of, for_each_task, lanes, rest_samples, LaneResiduals,
-    RestFields, RestSample, LANES,
-};
+use super::energy::{rest_samples, RestFields, RestSample};
 use super::field::{bilinear_formula, Axis, Field, Sample};
 use super::grid::Grid;
-use super::solve::{minimize_and_rest_energy, SolveOptions};
-use crate::error::{Error, Result};
-use crate::lm::{Bounds, LmReport, LocalNormalEquations, NormalEquations, Residuals};
+use super::lanes::{
+    axes_total, cell_block_of, cell_gradient_of, for_each_task, lanes, LaneResiduals, LANES,
+};
+use crate::lm::{Bounds, LocalNormalEquations, NormalEquations, Residuals};
 
 /// A 3-vector field over the unit square: one scalar [`Field`] per component.
 #[derive(Clone, Debug, PartialEq)]
@@ -627,7 +627,7 @@ impl<'a> NaaEnergy<'a> {
     /// Σ r² over cell `cell`'s residuals: per-lane, per-axis sums over the cell's chunks (the
     /// padding adding exactly 0), then per lane r^s² + r^t² and the lanes in lane order
     /// ([`axes_total`]); the same sums, bit for bit, as the energy of
-    /// [`NaaEnergy::cell_block_with`] ([`super::energy::chunk_sum`]).
+    /// [`NaaEnergy::cell_block_with`] ([`super::lanes::chunk_sum`]).
     #[inline(always)]
     fn cell_energy_with(&self, jac: &impl JacobianAt, g: &VertexGrid, cell: usize) -> f64 {
         let warp = self.cell_warp(g, cell);
@@ -843,7 +843,7 @@ impl<'a> NaaEnergy<'a> {
     }
 
     /// Fill `out` (one entry per cell) by `fill(first cell, part)`, in parallel tasks of
-    /// `samples_per_task` samples ([`super::energy::for_each_task`]: the split depends on the
+    /// `samples_per_task` samples ([`super::lanes::for_each_task`]: the split depends on the
     /// problem size only).
     fn per_cell<T: Send>(
         &self,
@@ -1122,7 +1122,7 @@ struct CellBlock {
 }
 
 /// Samples per parallel task of an energy-only evaluation at most, and the fewest worth
-/// splitting ([`super::energy::for_each_task`]): tens of microseconds of work (≈ 12 ns a
+/// splitting ([`super::lanes::for_each_task`]): tens of microseconds of work (≈ 12 ns a
 /// sample here). With 8×8 samples the 48-unknown problem (35 cells, 2,240 samples) is split
 /// in two. Results do not depend on it.
 const ENERGY_SAMPLES_PER_TASK: usize = 2048;
@@ -1198,97 +1198,6 @@ pub fn naa_bounds(previous: &VertexGrid, smoothness: Option<f64>) -> Bounds {
             looping: None,
         },
     )
-}
-
-/// One NAA frame's result.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct NaaFrameSolution {
-    pub vertices: VertexGrid,
-    pub lm: LmReport,
-    /// Energy of the rest vertices on this frame, for comparison.
-    pub rest_energy: f64,
-    pub seconds: f64,
-}
-
-/// Solve one NAA frame: minimise the energy of `deformed` over the interior vertices, starting
-/// from and bounded around `previous` (and `first`, for looping frame `frame` of `frames`), as
-/// [`super::solve::solve_frame`] does for the AA lines. The border mode is `previous`'s
-/// ([`VertexGrid::sliding_border`]).
-///
-/// Errors: `previous` or `first` does not match the rest grid's shape, or `previous` folds.
-pub fn solve_naa_frame(
-    rest: &RestFields,
-    rest_grid: &Grid,
-    deformed: &DeformedJacobian,
-    previous: &VertexGrid,
-    first: &VertexGrid,
-    frame: (usize, usize),
-    options: &SolveOptions,
-) -> Result<NaaFrameSolution> {
-    let start = Instant::now();
-    let (k, l) = options.samples_per_cell();
-    let samples = NaaRestSamples::new(rest, rest_grid, k, l);
-    solve_naa_frame_from(start, &samples, deformed, previous, first, frame, options)
-}
-
-/// [`solve_naa_frame`] on rest samples built beforehand ([`NaaRestSamples::new`], once per
-/// sequence: they depend on the rest fields, the rest grid and K×L only, the paper's
-/// preprocessing). The samples' K×L is used (`options.samples` is not read); `seconds` is
-/// the frame's own cost, without the samples' precomputation.
-pub fn solve_naa_frame_with_rest_samples(
-    samples: &NaaRestSamples,
-    deformed: &DeformedJacobian,
-    previous: &VertexGrid,
-    first: &VertexGrid,
-    frame: (usize, usize),
-    options: &SolveOptions,
-) -> Result<NaaFrameSolution> {
-    let start = Instant::now();
-    solve_naa_frame_from(start, samples, deformed, previous, first, frame, options)
-}
-
-/// The solve of [`solve_naa_frame`] given its rest samples; `seconds` counts from `start`.
-fn solve_naa_frame_from(
-    start: Instant,
-    samples: &NaaRestSamples,
-    deformed: &DeformedJacobian,
-    previous: &VertexGrid,
-    first: &VertexGrid,
-    (frame, frames): (usize, usize),
-    options: &SolveOptions,
-) -> Result<NaaFrameSolution> {
-    let rest_grid = samples.grid();
-    let (m, n) = (rest_grid.s.len(), rest_grid.t.len());
-    for (name, g) in [("previous", previous), ("first", first)] {
-        if (g.m, g.n, g.points.len()) != (m, n, m * n)
-            || g.sliding_border != previous.sliding_border
-        {
-            return Err(Error::InvalidArgument(format!(
-                "gridwarp naa: {name} vertex grid is {}×{} (sliding border {}) for a {m}×{n} \
-                 rest grid (sliding border {})",
-                g.m, g.n, g.sliding_border, previous.sliding_border
-            )));
-        }
-    }
-    let mut energy = NaaEnergy::from_rest_samples(samples, deformed)
-        .with_sliding_border(previous.sliding_border)
-        .with_model(options.naa_model);
-    let bound_options = options.bound_options(frame, frames);
-    let bounds = naa_frame_bounds(previous, first, &bound_options);
-    let rest_x = energy.rest_vertices().to_unknowns();
-    let (report, rest_energy) = minimize_and_rest_energy(
-        &mut energy,
-        &previous.to_unknowns(),
-        &rest_x,
-        &bounds,
-        &options.lm,
-    )?;
-    Ok(NaaFrameSolution {
-        vertices: energy.rest_vertices().with_unknowns(&report.x),
-        lm: report,
-        rest_energy,
-        seconds: start.elapsed().as_secs_f64(),
-    })
 }
 
 impl VectorField {
