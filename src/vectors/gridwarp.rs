@@ -5,7 +5,7 @@
 use super::{Array, KernelData, Metric, VectorsAndCandidates};
 use crate::crosscheck::gridwarp::{
     energy_bound, gradient_bound, jtj_bound, magnitudes, prepared_evaluation, solve_bounds,
-    stretch_bound, RoundedInputs, STRETCH_LATTICE,
+    stretch_bound, RoundedInputs, EPS, RESIDUAL_FACTOR, STRETCH_LATTICE,
 };
 use crate::error::Result;
 use crate::gridwarp::energy::{AaEnergy, DeformedFields, RestFields};
@@ -136,7 +136,16 @@ pub fn vectors(
             per_element: Vec::new(),
         };
     let c = crate::crosscheck::gridwarp::normal_equations_factor(k, l);
+    let (residuals, residual_bounds) = per_sample_residuals(&rest, &rest_grid, (k, l), &mg);
+    let samples = residuals.len() / 2;
     let kernels = vec![
+        kernel(
+            "residuals",
+            "per sample (the order of `samples`), r^s, r^t (0 where σ = 0)",
+            Array::f64(&[samples, 2], residuals),
+            Array::f64(&[samples, 2], residual_bounds),
+            "10 ε m_k, m_k = |r_k + σo| + σ|o| (the terms that cancel in r_k)",
+        ),
         kernel(
             "cell_energy",
             "per cell (column i, row j), Σ r²",
@@ -166,12 +175,21 @@ pub fn vectors(
             &format!("{c} ε (|J|ᵀ(|r| + m))_u"),
         ),
     ];
+    // A residual's row in `samples` is its own first index.
+    let mut kernels = kernels;
+    kernels[0].per_element = vec!["samples".into()];
     let mut candidates = Vec::new();
     if let Some(gpu) = gpu {
         let mut energy = GpuAaEnergy::new(gpu, &rest, &rest_grid, &deformed, k, l)?;
         let cells_gpu = energy.cells(&x)?;
         let ne = assemble(&cells_gpu, n);
+        let residuals = reparam_gpu::gridwarp::aa_residuals(gpu, &input)
+            .map_err(|e| crate::error::Error::Gpu(e.to_string()))?;
         candidates = vec![
+            (
+                "gridwarp_aa.residuals".to_string(),
+                Array::f32(&[samples, 2], residuals.into_iter().flatten().collect()),
+            ),
             (
                 "gridwarp_aa.cell_energy".to_string(),
                 Array::f32(&[cells], cells_gpu.iter().map(|c| c.energy).collect()),
@@ -191,6 +209,34 @@ pub fn vectors(
         ];
     }
     Ok((kernels, candidates))
+}
+
+/// The reference's residuals r^s, r^t of every sample, in the order of the kernel's `samples`
+/// input (0 for a sample of weight σ = 0, which has none), and their bounds C_r ε m_k
+/// ([`RESIDUAL_FACTOR`], the module docs of [`crate::crosscheck::gridwarp`]).
+fn per_sample_residuals(
+    rest: &RestFields,
+    rest_grid: &Grid,
+    (k, l): (usize, usize),
+    mg: &crate::crosscheck::gridwarp::Magnitudes,
+) -> (Vec<f64>, Vec<f64>) {
+    let all = crate::gridwarp::gpu::rest_samples(rest, rest_grid, k, l);
+    let (mut r, mut b) = (
+        Vec::with_capacity(2 * all.len()),
+        Vec::with_capacity(2 * all.len()),
+    );
+    let mut next = 0;
+    for p in &all {
+        if p.sigma == 0.0 {
+            r.extend([0.0, 0.0]);
+            b.extend([0.0, 0.0]);
+        } else {
+            r.extend([mg.r[next], mg.r[next + 1]]);
+            b.extend([mg.m[next], mg.m[next + 1]].map(|m| RESIDUAL_FACTOR * EPS * m));
+            next += 2;
+        }
+    }
+    (r, b)
 }
 
 /// A field as an f64 array (rows × columns, row 0 at t = 0).

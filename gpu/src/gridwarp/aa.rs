@@ -19,6 +19,9 @@ use crate::{Gpu, GpuError};
 /// The kernel's own WGSL (after `dispatch.wgsl`).
 pub const WGSL: &str = include_str!("../../shaders/gridwarp_aa.wgsl");
 
+/// The per-sample residuals entry point (after `dispatch.wgsl` and [`WGSL`]).
+pub const RESIDUALS_WGSL: &str = include_str!("../../shaders/gridwarp_aa_residuals.wgsl");
+
 /// `unknown_index` entry of a fixed grid line (the boundary lines 0 and 1).
 pub const NO_UNKNOWN: i32 = -1;
 
@@ -266,6 +269,34 @@ impl AaBinding {
         )?;
         gpu.read_back(&self.out, self.count as usize)
     }
+}
+
+/// The residuals r^s, r^t of every sample of `input` at its lines, in sample order (cells in
+/// the order `i·(N − 1) + j`, K·L samples each; (0, 0) for a sample of weight 0): the
+/// `gridwarp_aa_residuals` entry point, the same per-sample functions as `gridwarp_aa_cell`.
+pub fn aa_residuals(gpu: &Gpu, input: &AaInput) -> Result<Vec<[f32; 2]>, GpuError> {
+    input.check()?;
+    let source = [DISPATCH_WGSL, WGSL, RESIDUALS_WGSL].join("\n");
+    let label = "gridwarp_aa_residuals";
+    let kernel = gpu.compute_kernel(label, &source, label)?;
+    let binding = AaKernel { kernel }.bind(gpu, input)?;
+    let samples = input.samples.len();
+    let count = u32::try_from(samples)
+        .map_err(|_| GpuError::TooLarge(format!("{samples} gridwarp samples")))?;
+    let out = gpu.output_storage::<[f32; 2]>(label, samples)?;
+    gpu.dispatch(
+        &binding.kernel,
+        &[
+            &binding.params,
+            &binding.samples,
+            &binding.geometry,
+            &binding.index,
+            &binding.fields,
+            &out,
+        ],
+        count,
+    )?;
+    gpu.read_back(&out, samples)
 }
 
 /// One evaluation of the per-cell energy and normal-equation blocks (compiles the kernel; use

@@ -3,6 +3,7 @@
 //! | kernel | host | WGSL | what it computes |
 //! |---|---|---|---|
 //! | `gridwarp_aa_cell` | [`aa_cells`] / [`AaKernel::run`] | `shaders/gridwarp_aa.wgsl` | per cell: energy, 4×4 JᵀJ block, 4-vector Jᵀr |
+//! | `gridwarp_aa_residuals` | [`aa_residuals`] | `shaders/gridwarp_aa_residuals.wgsl` (after `gridwarp_aa.wgsl`) | per sample: r^s, r^t (conformance vectors) |
 //!
 //! This is the GPU half of the paper's hybrid solver (seed §7): the objective and its normal
 //! equations are evaluated on the GPU, one cell per invocation, and read back; Levenberg–Marquardt
@@ -13,5 +14,6 @@
 pub mod aa;
 
 pub use aa::{
-    aa_cells, AaBinding, AaInput, AaKernel, CellContribution, FieldF32, RestSample, NO_UNKNOWN,
+    aa_cells, aa_residuals, AaBinding, AaInput, AaKernel, CellContribution, FieldF32, RestSample,
+    NO_UNKNOWN,
 };
