@@ -439,3 +439,35 @@ fn shuffled_order_and_collapse_error_priority_build_valid_hierarchies() {
     }
     assert_ne!(shuffle_key(7, 3, 5), shuffle_key(7, 4, 5));
 }
+
+/// Folds of an input: two triangles hinged on an edge count one fold when their normals make
+/// more than 90°, none when they are flat or bent less.
+#[test]
+fn input_folds_counts_edges_past_ninety_degrees() {
+    use reparam::maps::quality::input_folds;
+    // Triangles (0, 1, 2) and (1, 0, 3) share the edge 0–1 (opposite directions); vertex 3
+    // is lifted by `lift` out of the plane and folded back over the first triangle by `back`.
+    let hinge = |back: f64, lift: f64| {
+        let positions = vec![
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(1.0, 0.0, 0.0),
+            Point3::new(0.5, 1.0, 0.0),
+            Point3::new(0.5, -1.0 + back, lift),
+        ];
+        input_folds(&positions, &[[0, 1, 2], [1, 0, 3]])
+    };
+    let flat = hinge(0.0, 0.0);
+    assert_eq!(flat.edges, 0);
+    assert_eq!(flat.area_fraction, 0.0);
+    // Bent by 45°: n₁ · n₂ > 0.
+    assert_eq!(hinge(1.0 - 1.0 / 2f64.sqrt(), 1.0 / 2f64.sqrt()).edges, 0);
+    // Folded back over the first (135°): one fold, both faces on it.
+    let folded = hinge(1.0 + 1.0 / 2f64.sqrt(), 1.0 / 2f64.sqrt());
+    assert_eq!(folded.edges, 1);
+    assert!((folded.area_fraction - 1.0).abs() < 1e-15);
+    // A closed, smooth surface has none.
+    assert_eq!(
+        input_folds(&small_torus().positions, &small_torus().faces).edges,
+        0
+    );
+}

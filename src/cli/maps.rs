@@ -156,6 +156,8 @@ pub struct MapsSummary {
     pub per_level: Vec<LevelReport>,
     /// Distortion of Π per level and at the end, and the input's triangle-size spread.
     pub distortion: Distortion,
+    /// The input's own folds (edges past 90°): the wrong-facing area a remesh cannot avoid.
+    pub input_folds: reparam::maps::quality::InputFolds,
     /// Seconds spent measuring the distortion.
     pub distortion_seconds: f64,
     /// Set when a remesh is not faithful to the input: what was measured and what to try.
@@ -371,7 +373,8 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
     let t = Instant::now();
     let distortion = distortion(&maps);
     let distortion_seconds = t.elapsed().as_secs_f64();
-    let warning = unfaithful_warning(&remeshes, &distortion, maps.base_faces.len());
+    let input_folds = reparam::maps::quality::input_folds(&maps.positions, &maps.input_faces);
+    let warning = unfaithful_warning(&remeshes, &distortion, maps.base_faces.len(), &input_folds);
     if let Some(w) = &warning {
         eprintln!("{w}");
     }
@@ -408,6 +411,7 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         stop: maps.stop,
         per_level,
         distortion,
+        input_folds,
         distortion_seconds,
         warning,
         timings: maps.timings,
@@ -456,19 +460,41 @@ pub fn unfaithful_warning(
     remeshes: &[RemeshSummary],
     distortion: &Distortion,
     base_faces: usize,
+    folds: &reparam::maps::quality::InputFolds,
 ) -> Option<String> {
     let bad: Vec<&RemeshSummary> = remeshes.iter().filter(|r| !r.faithful).collect();
     let worst = bad
         .iter()
         .max_by(|a, b| a.hausdorff_relative.total_cmp(&b.hausdorff_relative))?;
     let d = &distortion.final_map;
+    let only_folds = folds.edges > 0
+        && bad.iter().all(|r| {
+            r.hausdorff_relative <= reparam::maps::quality::FAITHFUL_HAUSDORFF
+                && r.mean_distance_relative <= reparam::maps::quality::FAITHFUL_MEAN
+                && r.wrong_facing_area <= folds.area_fraction
+        });
+    if only_folds {
+        return Some(format!(
+            "warning: {} of {} remeshes have area facing the wrong way (worst {}: {}%), no more \
+             than the input's own folds: {} edges folded past 90°, {}% of its area on their \
+             faces. The distance targets hold (Hausdorff {}%, mean {}% of the diagonal).",
+            bad.len(),
+            remeshes.len(),
+            worst.kind,
+            sig(100.0 * worst.wrong_facing_area, 3),
+            folds.edges,
+            sig(100.0 * folds.area_fraction, 3),
+            sig(100.0 * worst.hausdorff_relative, 3),
+            sig(100.0 * worst.mean_distance_relative, 3),
+        ));
+    }
     Some(format!(
         "warning: {} of {} remeshes miss the faithfulness targets (Hausdorff ≤ 1.5%, mean ≤ 0.1% \
          of the diagonal, no wrong-facing area); worst {}: Hausdorff {}%, mean {}%, wrong-facing \
          area {}%. The base domain of {base_faces} faces does not represent the shape there \
          (Π: area distortion p95 {} against the input's spread {}, σmax/σmin p95 {}, {} folded \
          images). Try a larger --base-size or --features auto; the picture *_area_distortion.png \
-         shows where.",
+         shows where.{}",
         bad.len(),
         remeshes.len(),
         worst.kind,
@@ -478,7 +504,17 @@ pub fn unfaithful_warning(
         sig(d.area_p95, 3),
         sig(distortion.input_area_spread, 3),
         sig(d.conformal_p95, 3),
-        d.folded
+        d.folded,
+        if folds.edges > 0 && worst.wrong_facing_area > 0.0 {
+            format!(
+                " The input itself has {} edges folded past 90° ({}% of its area on their \
+                 faces): a remesh coarser than those folds faces them the wrong way.",
+                folds.edges,
+                sig(100.0 * folds.area_fraction, 3)
+            )
+        } else {
+            String::new()
+        }
     ))
 }
 

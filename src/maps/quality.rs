@@ -131,3 +131,63 @@ pub fn remesh_quality(
         distance_seconds,
     }
 }
+
+/// Folds of the input surface: interior edges whose two faces' normals make more than 90°
+/// (n₁ · n₂ < 0), and the share of the area of the faces along them. A scan with such folds
+/// has facets that face against their neighbours; any remesh coarser than the fold faces
+/// them the wrong way, so the wrong-facing area cannot reach 0 there.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct InputFolds {
+    /// Interior edges (two faces, opposite directions) folded past 90°.
+    pub edges: usize,
+    /// Area of the faces along those edges over the total area.
+    pub area_fraction: f64,
+}
+
+/// [`InputFolds`] of a triangle mesh, in time linear in its faces (one hash map of directed
+/// edges; edges of one face or of three or more are left out).
+pub fn input_folds(positions: &[Point3<f64>], faces: &[[u32; 3]]) -> InputFolds {
+    use std::collections::HashMap;
+    let normal = |f: &[u32; 3]| {
+        let [a, b, c] = f.map(|v| positions[v as usize]);
+        (b - a).cross(&(c - a))
+    };
+    let mut directed: HashMap<(u32, u32), Option<usize>> = HashMap::with_capacity(3 * faces.len());
+    for (i, f) in faces.iter().enumerate() {
+        for e in 0..3 {
+            let key = (f[e], f[(e + 1) % 3]);
+            // A directed edge met twice is non-manifold: left out.
+            directed
+                .entry(key)
+                .and_modify(|slot| *slot = None)
+                .or_insert(Some(i));
+        }
+    }
+    let mut on_fold = vec![false; faces.len()];
+    let mut edges = 0;
+    for (&(a, b), &slot) in &directed {
+        if a > b {
+            continue;
+        }
+        let (Some(i), Some(Some(j))) = (slot, directed.get(&(b, a)).copied()) else {
+            continue;
+        };
+        if normal(&faces[i]).dot(&normal(&faces[j])) < 0.0 {
+            edges += 1;
+            on_fold[i] = true;
+            on_fold[j] = true;
+        }
+    }
+    let area = |f: &[u32; 3]| 0.5 * normal(f).norm();
+    let total: f64 = faces.iter().map(area).sum();
+    let folded: f64 = faces
+        .iter()
+        .zip(&on_fold)
+        .filter(|(_, &on)| on)
+        .map(|(f, _)| area(f))
+        .sum();
+    InputFolds {
+        edges,
+        area_fraction: if total > 0.0 { folded / total } else { 0.0 },
+    }
+}
