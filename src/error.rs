@@ -112,6 +112,11 @@ pub enum Error {
     /// manifest or array, `reason` what is wrong and what was expected.
     #[error("{file}: {reason}")]
     Vectors { file: String, reason: String },
+    /// A figure in a command's `--json` output is NaN or infinite (serde_json would write it as
+    /// `null`): `field` is its path in the output, e.g. `results[0].training.rms_mean`. Raised
+    /// instead of printing, so a figure that cannot be computed is never a `null` with exit 0.
+    #[error("{field}: the result is not a finite number (NaN or infinity), not written")]
+    NonFiniteOutput { field: String },
 }
 
 impl Error {

@@ -499,3 +499,98 @@ fn one_huge_coordinate_does_not_make_surface_distances_quadratic() {
         start.elapsed()
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// Found by fuzzing the commands in-process (tests/fuzz_commands.rs)
+// ---------------------------------------------------------------------------------------------
+
+/// `reparam vectors bpm` into a fresh folder, in-process.
+fn bpm_vectors(dir: &Path) -> PathBuf {
+    let out = dir.join("vectors");
+    let (result, _) = reparam::cli::run_captured([
+        "reparam",
+        "vectors",
+        "bpm",
+        "--out",
+        &out.display().to_string(),
+    ]);
+    result.unwrap();
+    out
+}
+
+/// A candidate with a NaN and a 1e308 (errors whose squares overflow): `verify --json` reports
+/// it as failing with finite figures (the NaN's worst-element error is `null`, counted in
+/// `non_finite`), where it printed `null` for the RMS and the error (NaN written by serde_json).
+#[test]
+fn verify_reports_nan_and_huge_candidate_values_with_finite_figures() {
+    use reparam::vectors::npy::Array;
+    let dir = tempfile::tempdir().unwrap();
+    let vectors = bpm_vectors(dir.path());
+    let expected = Array::load(&vectors.join("bpm_eval.expected.npy")).unwrap();
+    let mut values = expected.to_f64();
+    values[0] = f64::NAN;
+    values[3] = 1e308;
+    let candidate = dir.path().join("bpm_eval.npy");
+    Array::f64(&expected.shape, values)
+        .save(&candidate)
+        .unwrap();
+    let (result, stdout) = reparam::cli::run_captured([
+        "reparam",
+        "verify",
+        &vectors.display().to_string(),
+        "--candidate",
+        &candidate.display().to_string(),
+        "--json",
+    ]);
+    assert_eq!(result.unwrap(), std::process::ExitCode::from(1));
+    let report: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
+    assert_eq!(report["pass"], false);
+    assert_eq!(report["errors"]["non_finite"], 1);
+    assert!(report["errors"]["rms"].as_f64().unwrap() > 1e300);
+    assert_eq!(report["worst"][0]["error"], serde_json::Value::Null);
+    assert!(report["worst"][1]["error"].as_f64().unwrap() > 1e307);
+}
+
+/// npyz quotes a bad header over several lines; the error is one line naming the file.
+#[test]
+fn a_npy_with_a_broken_header_is_a_one_line_error() {
+    use reparam::vectors::npy::Array;
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "bad.npy",
+        b"\x93NUMPY\x01\x00\x76\x00{'descr': '<f8', 'fortran_order': False, 'shape': (2, ), } } }                                         \n\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0",
+    );
+    let e = Array::load(&path).unwrap_err();
+    let shown = one_line_naming(&e, &path);
+    assert!(shown.contains("not a .npy file"), "{shown}");
+}
+
+/// stdout closed by its reader (`reparam … | head`): the command ends quietly (status 0, no
+/// panic message) instead of panicking in `println!` ("failed printing to stdout: Broken
+/// pipe").
+#[test]
+fn a_closed_stdout_ends_the_command_quietly() {
+    use std::process::{Command, Stdio};
+    for args in [
+        &["bpm", "qc", "procedural:star", "--subdiv", "1"][..],
+        &["bpm", "qc", "procedural:star", "--subdiv", "1", "--json"][..],
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_reparam"))
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Close the reading end before the command writes anything.
+        drop(child.stdout.take());
+        let output = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(
+            output.status.success(),
+            "{args:?}: {:?} {stderr}",
+            output.status
+        );
+    }
+}

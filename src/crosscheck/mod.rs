@@ -52,9 +52,20 @@ impl ErrorSummary {
             .iter()
             .zip(magnitudes)
             .filter(|(e, m)| e.is_finite() && **m > 0.0)
-            .map(|(e, m)| e / m)
+            // e / m overflows for a huge error over a subnormal magnitude: f64::MAX then.
+            .map(|(e, m)| (e / m).min(f64::MAX))
             .fold(0.0, f64::max);
         let rms = (finite.iter().map(|e| e * e).sum::<f64>() / finite.len().max(1) as f64).sqrt();
+        // Errors near f64::MAX (a candidate's 1e308) overflow the sum of squares: scaled by
+        // the largest error then.
+        let largest = finite.last().copied().unwrap_or(0.0);
+        let rms = if rms.is_finite() {
+            rms
+        } else {
+            largest
+                * (finite.iter().map(|e| (e / largest).powi(2)).sum::<f64>() / finite.len() as f64)
+                    .sqrt()
+        };
         ErrorSummary {
             unit: unit.to_string(),
             count: errors.len(),

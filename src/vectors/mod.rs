@@ -49,25 +49,34 @@ impl Metric {
     }
 
     /// The element errors of `candidate` against `expected` (same length; flat C order with
-    /// `last` values along the last axis).
+    /// `last` values along the last axis). NaN or ∞ where a value is; an error of finite values
+    /// too large for f64 (a candidate's 1e308) is `f64::MAX`, not ∞.
     pub fn errors(&self, expected: &[f64], candidate: &[f64], last: usize) -> Vec<f64> {
+        let saturate = |error: f64, e: &[f64], c: &[f64]| {
+            if error.is_finite() || e.iter().chain(c).any(|x| !x.is_finite()) {
+                error
+            } else {
+                f64::MAX
+            }
+        };
         match self {
             Metric::NormOfLastAxis { scale, .. } => expected
                 .chunks(last.max(1))
                 .zip(candidate.chunks(last.max(1)))
                 .map(|(e, c)| {
-                    scale
+                    let error = scale
                         * e.iter()
                             .zip(c)
                             .map(|(a, b)| (a - b) * (a - b))
                             .sum::<f64>()
-                            .sqrt()
+                            .sqrt();
+                    saturate(error, e, c)
                 })
                 .collect(),
             Metric::Absolute { .. } => expected
                 .iter()
                 .zip(candidate)
-                .map(|(a, b)| (a - b).abs())
+                .map(|(a, b)| saturate((a - b).abs(), &[*a], &[*b]))
                 .collect(),
         }
     }

@@ -139,8 +139,8 @@ impl Array {
             file: path.display().to_string(),
             reason: why,
         };
-        let npy =
-            npyz::NpyFile::new(&bytes[..]).map_err(|e| bad(format!("not a .npy file: {e}")))?;
+        let npy = npyz::NpyFile::new(&bytes[..])
+            .map_err(|e| bad(format!("not a .npy file: {}", one_line(&e.to_string()))))?;
         if npy.order() != npyz::Order::C {
             return Err(bad("Fortran order; save the array in C order".into()));
         }
@@ -167,4 +167,15 @@ impl Array {
         }
         Ok(a)
     }
+}
+
+/// `message` on one line: npyz's header errors quote the header over several lines (a caret
+/// under the bad character); its lines are joined by ` | ` with their indentation dropped.
+fn one_line(message: &str) -> String {
+    message
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && *l != "|")
+        .collect::<Vec<_>>()
+        .join(" | ")
 }
