@@ -594,3 +594,41 @@ fn a_closed_stdout_ends_the_command_quietly() {
         );
     }
 }
+
+/// `bpm qc --subdiv 8` keeps 65 536 records per face: 800 faces would be 52 M records (1.2 GB);
+/// refused before anything is allocated, naming the figure, the limit and how to raise it.
+#[test]
+fn bpm_qc_subdivision_beyond_the_memory_limit_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("grid.obj");
+    reparam::mesh::write_obj(&reparam::mesh::procedural::wavy_grid(20), &path).unwrap();
+    let path_text = path.display().to_string();
+    let (result, _) = within(Duration::from_secs(10), "bpm qc --subdiv 8", || {
+        reparam::cli::run_captured(["reparam", "bpm", "qc", &path_text, "--subdiv", "8"])
+    });
+    let e = result.unwrap_err();
+    assert!(matches!(
+        e,
+        Error::TooManySubTriangles {
+            faces: 800,
+            subdiv: 8,
+            needed: 52_428_800,
+            limit: 33_554_432,
+            ..
+        }
+    ));
+    let shown = one_line_naming(&e, &path);
+    assert!(shown.contains("REPARAM_MAX_QC_SUB_TRIANGLES"), "{shown}");
+    // The variable sets the limit (here lower than 800 · 4).
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_reparam"))
+        .args(["bpm", "qc", &path_text, "--subdiv", "1"])
+        .env("REPARAM_MAX_QC_SUB_TRIANGLES", "3000")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(
+        stderr.contains("3200 sub-triangles, more than the limit of 3000"),
+        "{stderr}"
+    );
+}

@@ -298,6 +298,7 @@ struct QcResult {
 
 fn qc(args: QcArgs) -> Result<()> {
     let mesh = load_mesh(&args.mesh)?;
+    crate::bpm::quality::check_qc_size(&mesh.name, mesh.faces.len(), args.subdiv)?;
     let start = Instant::now();
     let bpm = precompute(
         &mesh,
