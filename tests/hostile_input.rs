@@ -632,3 +632,47 @@ fn bpm_qc_subdivision_beyond_the_memory_limit_is_refused() {
         "{stderr}"
     );
 }
+
+/// A UV of 4 294 967 295 on the star: the f32 kernel's errors are NaN or ∞ and the row fails,
+/// with `worst_ratio` = f64::MAX in `--json` (it was ∞, written as `null`).
+#[test]
+fn crosscheck_of_a_huge_uv_fails_with_finite_figures() {
+    // Rounding for the report kept f64::MAX in range (it rounded up to 1.8e308 = ∞).
+    assert_eq!(
+        reparam::crosscheck::round_significant(f64::MAX, 2),
+        f64::MAX
+    );
+    if reparam_gpu::gpu_or_skip().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from(
+        "v 0 0 0\nv 1.28 0.163 0\nv 0.682 0.813 0\nv -0.448 1.004 0\nv -0.822 -0.197 0\n\
+         v -0.364 -0.769 0\nv 0.249 -0.938 0\n\
+         vt 0.5 0.5\nvt 1.1 0.47\nvt 0.93 0.63\nvt 4294967295 0.72\nvt 0.1 0.5\nvt 0.22 0.36\n\
+         vt 0.47 0.3\n",
+    );
+    for k in 2..=7 {
+        let next = if k == 7 { 2 } else { k + 1 };
+        writeln!(text, "f 1/1 {k}/{k} {next}/{next}").unwrap();
+    }
+    let path = write(dir.path(), "star.obj", text);
+    let (result, stdout) = reparam::cli::run_captured([
+        "reparam",
+        "crosscheck",
+        "bpm",
+        "--mesh",
+        &path.display().to_string(),
+        "--plots",
+        &dir.path().display().to_string(),
+        "--json",
+    ]);
+    assert_eq!(result.unwrap(), std::process::ExitCode::from(1));
+    let report: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
+    let rows = report["adapters"][0]["rows"].as_array().unwrap();
+    assert!(
+        rows.iter()
+            .any(|r| r["worst_ratio"].as_f64() == Some(f64::MAX)),
+        "{rows:?}"
+    );
+}

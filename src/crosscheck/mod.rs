@@ -109,9 +109,15 @@ pub fn round_significant(x: f64, digits: u32) -> f64 {
     let magnitude = x.abs().log10().floor() as i32;
     let factor = 10f64.powi(digits as i32 - 1 - magnitude);
     // Format through a string so that the result is the shortest decimal with those digits.
-    format!("{:.*e}", (digits - 1) as usize, x)
+    let rounded = format!("{:.*e}", (digits - 1) as usize, x)
         .parse()
-        .unwrap_or((x * factor).round() / factor)
+        .unwrap_or((x * factor).round() / factor);
+    // Near f64::MAX rounding up leaves the range (1.8e308): keep x then.
+    if rounded.is_finite() {
+        rounded
+    } else {
+        x
+    }
 }
 
 /// f64 → f32 → f64: the value the GPU sees.
