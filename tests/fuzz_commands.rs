@@ -121,27 +121,33 @@ fn run_command(args: &[&str], case: &Path, out: &Path, json: bool) -> Result<Ver
 }
 
 /// Fuzz one command line on `seeds`.
-fn fuzz_command(target: &str, ext: &str, seeds: &[Vec<u8>], args: &[&str], json: bool) {
+fn fuzz_command(
+    target: &str,
+    ext: &str,
+    seeds: &[Vec<u8>],
+    args: &[&str],
+    json: bool,
+) -> fuzz::Tally {
     let out = tmp_dir(&format!("fuzz-out/{target}"));
     fuzz::fuzz(target, ext, seeds, CI_CASES, BOUNDS, |case| {
         run_command(args, case, &out, json)
-    });
+    })
 }
 
 #[test]
 fn fuzz_bpm_qc() {
-    fuzz_command(
+    fuzz::assert_clean(&[fuzz_command(
         "bpm-qc",
         "obj",
         &uv_meshes(),
         &["bpm", "qc", "{case}", "--subdiv", "1", "--json"],
         true,
-    );
+    )]);
 }
 
 #[test]
 fn fuzz_bpm_render() {
-    fuzz_command(
+    fuzz::assert_clean(&[fuzz_command(
         "bpm-render",
         "obj",
         &uv_meshes(),
@@ -156,7 +162,7 @@ fn fuzz_bpm_render() {
             "--json",
         ],
         true,
-    );
+    )]);
 }
 
 #[test]
@@ -172,15 +178,16 @@ fn fuzz_maps() {
         "--json",
     ];
     let obj: Vec<Vec<u8>> = meshes.iter().map(obj_bytes).collect();
-    fuzz_command("maps", "obj", &obj, &args, true);
+    let obj = fuzz_command("maps", "obj", &obj, &args, true);
     let off: Vec<Vec<u8>> = meshes.iter().map(off_bytes).collect();
-    fuzz_command("maps-off", "off", &off, &args, true);
+    let off = fuzz_command("maps-off", "off", &off, &args, true);
+    fuzz::assert_clean(&[obj, off]);
 }
 
 #[test]
 fn fuzz_skinsimp() {
     let glb = glb_bytes(&skinned_tube(6, 2)).unwrap();
-    fuzz_command(
+    fuzz::assert_clean(&[fuzz_command(
         "skinsimp",
         "glb",
         &[glb],
@@ -194,7 +201,7 @@ fn fuzz_skinsimp() {
             "--json",
         ],
         true,
-    );
+    )]);
 }
 
 #[test]
@@ -208,7 +215,7 @@ fn fuzz_gridwarp() {
     let frame1 = dir.join("frame1.obj");
     write_obj(&moved, &frame1).unwrap();
     let frame1 = frame1.display().to_string();
-    fuzz_command(
+    fuzz::assert_clean(&[fuzz_command(
         "gridwarp",
         "obj",
         &[obj_bytes(&rest), obj_bytes(&moved)],
@@ -226,7 +233,7 @@ fn fuzz_gridwarp() {
             "--json",
         ],
         true,
-    );
+    )]);
 }
 
 #[test]
@@ -255,7 +262,7 @@ fn fuzz_unwarp() {
             .collect(),
     };
     reparam::texture::save_png(&image, &path).unwrap();
-    fuzz_command(
+    fuzz::assert_clean(&[fuzz_command(
         "unwarp",
         "png",
         &[std::fs::read(&path).unwrap()],
@@ -263,7 +270,7 @@ fn fuzz_unwarp() {
             "unwarp", "{case}", "--sweeps", "2", "--out", "{out}", "--json",
         ],
         true,
-    );
+    )]);
 }
 
 /// Conformance vectors of bpm_eval on the star, written once.
@@ -282,7 +289,7 @@ fn bpm_vectors() -> PathBuf {
 
 #[test]
 fn fuzz_vectors_and_verify() {
-    fuzz_command(
+    let t1 = fuzz_command(
         "vectors-bpm",
         "obj",
         &uv_meshes()[..1],
@@ -292,7 +299,7 @@ fn fuzz_vectors_and_verify() {
     let vectors = bpm_vectors();
     let expected = vectors.join("bpm_eval.expected.npy");
     let dir = vectors.display().to_string();
-    fuzz_command(
+    let t2 = fuzz_command(
         "verify",
         "npy",
         &[std::fs::read(&expected).unwrap()],
@@ -316,7 +323,7 @@ fn fuzz_vectors_and_verify() {
     let manifest = std::fs::read(vectors.join("manifest.json")).unwrap();
     let out = tmp_dir("fuzz-out/verify-manifest");
     let candidate = expected.display().to_string();
-    fuzz::fuzz(
+    let t3 = fuzz::fuzz(
         "verify-manifest",
         "json",
         &[manifest],
@@ -341,6 +348,7 @@ fn fuzz_vectors_and_verify() {
             )
         },
     );
+    fuzz::assert_clean(&[t1, t2, t3]);
 }
 
 #[test]
@@ -348,7 +356,7 @@ fn fuzz_crosscheck_bpm() {
     if reparam_gpu::gpu_or_skip().is_none() {
         return;
     }
-    fuzz_command(
+    fuzz::assert_clean(&[fuzz_command(
         "crosscheck-bpm",
         "obj",
         &uv_meshes()[..2],
@@ -362,7 +370,7 @@ fn fuzz_crosscheck_bpm() {
             "--json",
         ],
         true,
-    );
+    )]);
 }
 
 /// `print_json` refuses a NaN (serde_json would print `null`) with a one-line error naming the

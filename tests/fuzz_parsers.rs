@@ -45,11 +45,11 @@ fn fuzz<T>(
     seeds: &[Vec<u8>],
     load: impl Fn(&Path) -> reparam::Result<T>,
     check: impl Fn(&T) -> Result<(), String>,
-) {
+) -> fuzz::Tally {
     fuzz::fuzz(ext, ext, seeds, CI_CASES, BOUNDS, |path| match load(path) {
         Ok(value) => check(&value).map(|()| Verdict::Result),
         Err(e) => one_line_naming(&e.to_string(), path),
-    });
+    })
 }
 
 /// A loaded mesh is finite and its indices are in range.
@@ -122,7 +122,7 @@ fn fuzz_obj() {
             std::fs::read(&path).unwrap()
         })
         .collect();
-    fuzz("obj", &seeds, load_mesh, finite_mesh);
+    fuzz::assert_clean(&[fuzz("obj", &seeds, load_mesh, finite_mesh)]);
 }
 
 #[test]
@@ -131,7 +131,7 @@ fn fuzz_off() {
         .iter()
         .map(|m| off_text(m).into_bytes())
         .collect();
-    fuzz("off", &seeds, load_mesh, finite_mesh);
+    fuzz::assert_clean(&[fuzz("off", &seeds, load_mesh, finite_mesh)]);
 }
 
 #[test]
@@ -140,7 +140,7 @@ fn fuzz_ply() {
         .iter()
         .flat_map(|m| [ply_bytes(m, false), ply_bytes(m, true)])
         .collect();
-    fuzz("ply", &seeds, load_mesh, finite_mesh);
+    fuzz::assert_clean(&[fuzz("ply", &seeds, load_mesh, finite_mesh)]);
 }
 
 /// A loaded image is finite, its size matches its pixels, and it is below the pixel limit.
@@ -162,7 +162,7 @@ fn fuzz_png_and_exr() {
     let png = dir.path().join("seed.png");
     let checker = reparam::texture::checker(8, 2);
     save_png(&checker, &png).unwrap();
-    fuzz(
+    let png = fuzz(
         "png",
         &[std::fs::read(&png).unwrap()],
         load_gray_f32,
@@ -171,12 +171,13 @@ fn fuzz_png_and_exr() {
     let exr = dir.path().join("seed.exr");
     let values: Vec<[f32; 2]> = (0..64).map(|i| [i as f32 / 64.0, 0.5]).collect();
     save_exr_rg(&exr, 8, 8, &values).unwrap();
-    fuzz(
+    let exr = fuzz(
         "exr",
         &[std::fs::read(&exr).unwrap()],
         load_gray_f32,
         finite_image,
     );
+    fuzz::assert_clean(&[png, exr]);
 }
 
 /// Standard base64 (for a `.gltf` seed with its buffer in a `data:` URI).
@@ -219,6 +220,7 @@ fn gltf_text(glb: &[u8]) -> Vec<u8> {
 fn fuzz_gltf_and_glb() {
     let glb = glb_bytes(&skinned_tube(6, 2)).unwrap();
     let check = |skinned: &reparam::mesh::SkinnedMesh| finite_mesh(&skinned.mesh);
-    fuzz("gltf", &[gltf_text(&glb)], load_gltf, check);
-    fuzz("glb", &[glb], load_gltf, check);
+    let gltf = fuzz("gltf", &[gltf_text(&glb)], load_gltf, check);
+    let glb = fuzz("glb", &[glb], load_gltf, check);
+    fuzz::assert_clean(&[gltf, glb]);
 }

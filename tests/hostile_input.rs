@@ -676,3 +676,40 @@ fn crosscheck_of_a_huge_uv_fails_with_finite_figures() {
         "{rows:?}"
     );
 }
+
+/// The wavy grid with one vertex thrown to z = 1e308 (areas overflow: the input area spread
+/// was ∞, written as `null`) or to y = 9.2·10¹⁸ (an edge of the smoothed remesh off the
+/// creases with one face: `unreachable!` panicked): `maps --json` gives finite figures.
+#[test]
+fn maps_of_a_grid_with_one_vertex_thrown_far_is_finite_and_does_not_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    for (vertex, axis, value) in [(12usize, 2usize, 1e308), (22, 1, 9223372036854775807.0)] {
+        let mut mesh = reparam::mesh::procedural::wavy_grid(4);
+        mesh.positions[vertex][axis] = value;
+        let path = dir.path().join(format!("far{vertex}.obj"));
+        reparam::mesh::write_obj(&mesh, &path).unwrap();
+        let (result, stdout) = reparam::cli::run_captured([
+            "reparam",
+            "maps",
+            &path.display().to_string(),
+            "--picture-size",
+            "16",
+            "--out",
+            &dir.path().display().to_string(),
+            "--json",
+        ]);
+        match result {
+            Ok(_) => {
+                let summary: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
+                assert!(
+                    summary["distortion"]["input_area_spread"].is_f64(),
+                    "{summary}"
+                );
+            }
+            Err(e) => {
+                assert!(!matches!(e, Error::NonFiniteOutput { .. }), "{e}");
+                one_line_naming(&e, &path);
+            }
+        }
+    }
+}

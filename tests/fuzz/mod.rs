@@ -12,7 +12,7 @@
 //! naming the file, a result is finite), time ≤ `base + per_byte · bytes`, peak heap growth
 //! ≤ `mem_base + mem_per_byte · bytes` (all threads: cases run one at a time per process).
 //! A failing case is kept under `target/tmp/fuzz-failures/` and the run goes on; the test fails
-//! at the end listing them. The case being run is always on disk at
+//! once all its targets have run, listing them ([`assert_clean`]). The case being run is always on disk at
 //! `target/tmp/fuzz-current/<target>.<ext>`, so an abort (allocation beyond the 8 GiB hard cap,
 //! or the watchdog after 120 s) leaves it behind.
 //!
@@ -339,7 +339,7 @@ pub fn tmp_dir(name: &str) -> PathBuf {
 }
 
 /// Fuzz `run` on files `<target>.<ext>` mutated from `seeds` (`default_cases` unless the
-/// environment says otherwise); print the tally; fail listing every failing case.
+/// environment says otherwise); print the tally and return it (see [`assert_clean`]).
 pub fn fuzz(
     target: &str,
     ext: &str,
@@ -453,15 +453,23 @@ pub fn fuzz(
         100.0 * tally.worst_memory_ratio,
         tally.largest_input,
     );
-    if !tally.failures.is_empty() {
-        let shown: Vec<&str> = tally.failures.iter().take(20).map(|s| s.as_str()).collect();
+    tally
+}
+
+/// Fail listing the failing cases of `tallies` (at most 20), if any: called once every target
+/// of a test has run, so that one target's failure does not stop the others of a long run.
+pub fn assert_clean(tallies: &[Tally]) {
+    let failures: Vec<&str> = tallies
+        .iter()
+        .flat_map(|t| t.failures.iter().map(|s| s.as_str()))
+        .collect();
+    if !failures.is_empty() {
         panic!(
-            "{} failing case(s) of {target}:\n{}",
-            tally.failures.len(),
-            shown.join("\n")
+            "{} failing case(s):\n{}",
+            failures.len(),
+            failures[..failures.len().min(20)].join("\n")
         );
     }
-    tally
 }
 
 /// An error's message, checked to be one line naming `path`'s file name.
