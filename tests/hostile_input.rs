@@ -713,3 +713,23 @@ fn maps_of_a_grid_with_one_vertex_thrown_far_is_finite_and_does_not_panic() {
         }
     }
 }
+
+/// A .npy header whose shape multiplies past u64 (132 × 2⁶³ − 1) made npyz overflow (a panic in
+/// debug builds); a shape larger than the file is refused before npyz reads it.
+#[test]
+fn a_npy_shape_that_overflows_or_exceeds_the_file_is_refused() {
+    use reparam::vectors::npy::Array;
+    let dir = tempfile::tempdir().unwrap();
+    for shape in ["(132, 9223372036854775807, )", "(1000000, 2)"] {
+        let dict = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {shape}, }}");
+        let mut header = format!("{dict:<118}\n").into_bytes();
+        let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+        bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
+        bytes.append(&mut header);
+        bytes.extend_from_slice(&[0u8; 64]);
+        let path = write(dir.path(), "shape.npy", &bytes);
+        let e = Array::load(&path).unwrap_err();
+        let shown = one_line_naming(&e, &path);
+        assert!(shown.contains("declares more elements"), "{shown}");
+    }
+}
