@@ -112,6 +112,24 @@ pub enum Error {
     /// manifest or array, `reason` what is wrong and what was expected.
     #[error("{file}: {reason}")]
     Vectors { file: String, reason: String },
+    /// A figure in a command's `--json` output is NaN or infinite (serde_json would write it as
+    /// `null`): `field` is its path in the output, e.g. `results[0].training.rms_mean`. Raised
+    /// instead of printing, so a figure that cannot be computed is never a `null` with exit 0.
+    #[error("{field}: the result is not a finite number (NaN or infinity), not written")]
+    NonFiniteOutput { field: String },
+    /// `bpm qc --subdiv` would measure more sub-triangles (`faces · 4^subdiv`) than the limit
+    /// (`REPARAM_MAX_QC_SUB_TRIANGLES`, default 2²⁵), each kept for the quantiles.
+    #[error(
+        "{mesh}: --subdiv {subdiv} on {faces} faces measures {needed} sub-triangles, more than \
+         the limit of {limit}; lower --subdiv or raise REPARAM_MAX_QC_SUB_TRIANGLES"
+    )]
+    TooManySubTriangles {
+        mesh: String,
+        faces: usize,
+        subdiv: u32,
+        needed: u64,
+        limit: u64,
+    },
 }
 
 impl Error {

@@ -19,6 +19,10 @@
 //! [`Error`], whose variants name the element and the file.
 
 pub mod bpm;
+/// The `reparam` command line (the binary is `fn main() { reparam::cli::main() }`), in the
+/// library so that tests can run every command in-process ([`cli::run_captured`]).
+#[doc(hidden)]
+pub mod cli;
 pub mod crosscheck;
 pub mod error;
 pub mod gridwarp;

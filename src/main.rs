@@ -2,8 +2,6 @@
 //! its own subcommand for real files; `crosscheck` compares the GPU f32 kernels with the f64
 //! reference. See `reparam --help`.
 
-mod cli;
-
 fn main() -> std::process::ExitCode {
-    cli::main()
+    reparam::cli::main()
 }

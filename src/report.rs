@@ -77,3 +77,357 @@ pub fn sig(x: f64, digits: u32) -> String {
     let decimals = (digits as i32 - 1 - magnitude).max(0) as usize;
     format!("{x:.decimals$}")
 }
+
+/// The path (e.g. `results[0].training.rms_mean`) of the first NaN or infinite number in
+/// `value` as serde serialises it, or `None` when every number is finite. serde_json writes
+/// such numbers as `null`; the command line checks its `--json` output with this first
+/// ([`crate::Error::NonFiniteOutput`]).
+pub fn first_non_finite<T: serde::Serialize + ?Sized>(value: &T) -> Option<String> {
+    let mut checker = finite::Checker::default();
+    match value.serialize(&mut checker) {
+        Err(finite::Stop::NonFinite(path)) => Some(path),
+        _ => None,
+    }
+}
+
+/// A serde serializer that writes nothing and stops at the first non-finite float.
+mod finite {
+    use std::fmt::{self, Display, Write as _};
+
+    use serde::ser::{self, Serialize};
+
+    #[derive(Default)]
+    pub struct Checker {
+        path: String,
+    }
+
+    #[derive(Debug)]
+    pub enum Stop {
+        /// The path of the non-finite number.
+        NonFinite(String),
+        /// A `Serialize` impl failed on its own (not our concern here).
+        Other,
+    }
+
+    impl Display for Stop {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            match self {
+                Stop::NonFinite(path) => write!(f, "{path} is not finite"),
+                Stop::Other => f.write_str("serialisation failed"),
+            }
+        }
+    }
+
+    impl std::error::Error for Stop {}
+
+    impl ser::Error for Stop {
+        fn custom<T: Display>(_: T) -> Self {
+            Stop::Other
+        }
+    }
+
+    type R = Result<(), Stop>;
+
+    impl Checker {
+        fn float(&self, v: f64) -> R {
+            if v.is_finite() {
+                return Ok(());
+            }
+            let path = self.path.trim_start_matches('.');
+            Err(Stop::NonFinite(if path.is_empty() {
+                "the result".to_string()
+            } else {
+                path.to_string()
+            }))
+        }
+
+        fn nested<T: Serialize + ?Sized>(&mut self, segment: fmt::Arguments, v: &T) -> R {
+            let len = self.path.len();
+            let _ = self.path.write_fmt(segment);
+            let result = v.serialize(&mut *self);
+            self.path.truncate(len);
+            result
+        }
+    }
+
+    pub struct Compound<'a> {
+        checker: &'a mut Checker,
+        index: usize,
+        /// The path's length before this value (a variant name is added to it).
+        len: usize,
+    }
+
+    impl Compound<'_> {
+        fn element<T: Serialize + ?Sized>(&mut self, v: &T) -> R {
+            let i = self.index;
+            self.index += 1;
+            self.checker.nested(format_args!("[{i}]"), v)
+        }
+    }
+
+    impl<'a> ser::Serializer for &'a mut Checker {
+        type Ok = ();
+        type Error = Stop;
+        type SerializeSeq = Compound<'a>;
+        type SerializeTuple = Compound<'a>;
+        type SerializeTupleStruct = Compound<'a>;
+        type SerializeTupleVariant = Compound<'a>;
+        type SerializeMap = Compound<'a>;
+        type SerializeStruct = Compound<'a>;
+        type SerializeStructVariant = Compound<'a>;
+
+        fn serialize_bool(self, _: bool) -> R {
+            Ok(())
+        }
+        fn serialize_i8(self, _: i8) -> R {
+            Ok(())
+        }
+        fn serialize_i16(self, _: i16) -> R {
+            Ok(())
+        }
+        fn serialize_i32(self, _: i32) -> R {
+            Ok(())
+        }
+        fn serialize_i64(self, _: i64) -> R {
+            Ok(())
+        }
+        fn serialize_u8(self, _: u8) -> R {
+            Ok(())
+        }
+        fn serialize_u16(self, _: u16) -> R {
+            Ok(())
+        }
+        fn serialize_u32(self, _: u32) -> R {
+            Ok(())
+        }
+        fn serialize_u64(self, _: u64) -> R {
+            Ok(())
+        }
+        fn serialize_f32(self, v: f32) -> R {
+            self.float(v as f64)
+        }
+        fn serialize_f64(self, v: f64) -> R {
+            self.float(v)
+        }
+        fn serialize_char(self, _: char) -> R {
+            Ok(())
+        }
+        fn serialize_str(self, _: &str) -> R {
+            Ok(())
+        }
+        fn serialize_bytes(self, _: &[u8]) -> R {
+            Ok(())
+        }
+        fn serialize_none(self) -> R {
+            Ok(())
+        }
+        fn serialize_some<T: Serialize + ?Sized>(self, v: &T) -> R {
+            v.serialize(self)
+        }
+        fn serialize_unit(self) -> R {
+            Ok(())
+        }
+        fn serialize_unit_struct(self, _: &'static str) -> R {
+            Ok(())
+        }
+        fn serialize_unit_variant(self, _: &'static str, _: u32, _: &'static str) -> R {
+            Ok(())
+        }
+        fn serialize_newtype_struct<T: Serialize + ?Sized>(self, _: &'static str, v: &T) -> R {
+            v.serialize(self)
+        }
+        fn serialize_newtype_variant<T: Serialize + ?Sized>(
+            self,
+            _: &'static str,
+            _: u32,
+            variant: &'static str,
+            v: &T,
+        ) -> R {
+            self.nested(format_args!(".{variant}"), v)
+        }
+        fn serialize_seq(self, _: Option<usize>) -> Result<Compound<'a>, Stop> {
+            let len = self.path.len();
+            Ok(Compound {
+                checker: self,
+                index: 0,
+                len,
+            })
+        }
+        fn serialize_tuple(self, _: usize) -> Result<Compound<'a>, Stop> {
+            self.serialize_seq(None)
+        }
+        fn serialize_tuple_struct(self, _: &'static str, _: usize) -> Result<Compound<'a>, Stop> {
+            self.serialize_seq(None)
+        }
+        fn serialize_tuple_variant(
+            self,
+            _: &'static str,
+            _: u32,
+            variant: &'static str,
+            _: usize,
+        ) -> Result<Compound<'a>, Stop> {
+            let len = self.path.len();
+            let _ = write!(self.path, ".{variant}");
+            Ok(Compound {
+                checker: self,
+                index: 0,
+                len,
+            })
+        }
+        fn serialize_map(self, _: Option<usize>) -> Result<Compound<'a>, Stop> {
+            self.serialize_seq(None)
+        }
+        fn serialize_struct(self, _: &'static str, _: usize) -> Result<Compound<'a>, Stop> {
+            self.serialize_seq(None)
+        }
+        fn serialize_struct_variant(
+            self,
+            _: &'static str,
+            _: u32,
+            variant: &'static str,
+            _: usize,
+        ) -> Result<Compound<'a>, Stop> {
+            let len = self.path.len();
+            let _ = write!(self.path, ".{variant}");
+            Ok(Compound {
+                checker: self,
+                index: 0,
+                len,
+            })
+        }
+    }
+
+    impl ser::SerializeSeq for Compound<'_> {
+        type Ok = ();
+        type Error = Stop;
+        fn serialize_element<T: Serialize + ?Sized>(&mut self, v: &T) -> R {
+            self.element(v)
+        }
+        fn end(self) -> R {
+            self.checker.path.truncate(self.len);
+            Ok(())
+        }
+    }
+
+    impl ser::SerializeTuple for Compound<'_> {
+        type Ok = ();
+        type Error = Stop;
+        fn serialize_element<T: Serialize + ?Sized>(&mut self, v: &T) -> R {
+            self.element(v)
+        }
+        fn end(self) -> R {
+            self.checker.path.truncate(self.len);
+            Ok(())
+        }
+    }
+
+    impl ser::SerializeTupleStruct for Compound<'_> {
+        type Ok = ();
+        type Error = Stop;
+        fn serialize_field<T: Serialize + ?Sized>(&mut self, v: &T) -> R {
+            self.element(v)
+        }
+        fn end(self) -> R {
+            self.checker.path.truncate(self.len);
+            Ok(())
+        }
+    }
+
+    impl ser::SerializeTupleVariant for Compound<'_> {
+        type Ok = ();
+        type Error = Stop;
+        fn serialize_field<T: Serialize + ?Sized>(&mut self, v: &T) -> R {
+            self.element(v)
+        }
+        fn end(self) -> R {
+            self.checker.path.truncate(self.len);
+            Ok(())
+        }
+    }
+
+    impl ser::SerializeMap for Compound<'_> {
+        type Ok = ();
+        type Error = Stop;
+        fn serialize_key<T: Serialize + ?Sized>(&mut self, _: &T) -> R {
+            Ok(())
+        }
+        fn serialize_value<T: Serialize + ?Sized>(&mut self, v: &T) -> R {
+            self.element(v)
+        }
+        fn end(self) -> R {
+            self.checker.path.truncate(self.len);
+            Ok(())
+        }
+    }
+
+    impl ser::SerializeStruct for Compound<'_> {
+        type Ok = ();
+        type Error = Stop;
+        fn serialize_field<T: Serialize + ?Sized>(&mut self, key: &'static str, v: &T) -> R {
+            self.checker.nested(format_args!(".{key}"), v)
+        }
+        fn end(self) -> R {
+            self.checker.path.truncate(self.len);
+            Ok(())
+        }
+    }
+
+    impl ser::SerializeStructVariant for Compound<'_> {
+        type Ok = ();
+        type Error = Stop;
+        fn serialize_field<T: Serialize + ?Sized>(&mut self, key: &'static str, v: &T) -> R {
+            self.checker.nested(format_args!(".{key}"), v)
+        }
+        fn end(self) -> R {
+            self.checker.path.truncate(self.len);
+            Ok(())
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::first_non_finite;
+
+    #[derive(serde::Serialize)]
+    struct Inner {
+        rms: f64,
+        list: Vec<Option<f32>>,
+    }
+
+    #[derive(serde::Serialize)]
+    struct Outer {
+        name: &'static str,
+        results: Vec<Inner>,
+    }
+
+    #[test]
+    fn the_first_non_finite_number_is_found_by_its_path() {
+        let ok = Outer {
+            name: "x",
+            results: vec![Inner {
+                rms: 1.0,
+                list: vec![None, Some(2.0)],
+            }],
+        };
+        assert_eq!(first_non_finite(&ok), None);
+        let bad = Outer {
+            name: "x",
+            results: vec![
+                Inner {
+                    rms: 1.0,
+                    list: vec![],
+                },
+                Inner {
+                    rms: 0.0,
+                    list: vec![Some(1.0), Some(f32::INFINITY)],
+                },
+            ],
+        };
+        assert_eq!(
+            first_non_finite(&bad).as_deref(),
+            Some("results[1].list[1]")
+        );
+        assert_eq!(first_non_finite(&f64::NAN).as_deref(), Some("the result"));
+    }
+}

@@ -1,180 +1,43 @@
-//! Mutation fuzzing of the file parsers on stable Rust (issue #25, first slice).
+//! Mutation fuzzing of the file parsers on stable Rust (issue #25).
 //!
 //! Seeds: small files written from the procedural meshes (OBJ with an MTL, OFF, ASCII and
-//! binary PLY) and images (PNG, EXR). Each case mutates a seed's bytes or tokens (flipped,
-//! inserted and deleted bytes, duplicated and deleted tokens, numbers replaced by huge or
-//! special ones, truncation, two seeds spliced) with a seeded xorshift generator, writes it and
-//! loads it. For every case: no panic, an error is one line naming the file, a loaded mesh or
-//! image is finite, and the load takes less than a generous bound.
+//! binary PLY), images (PNG, EXR) and the skinned tube (glTF, GLB). Each case mutates a seed
+//! (see `fuzz/mod.rs`: flipped, inserted and deleted bytes, duplicated and deleted tokens,
+//! numbers replaced by huge or special ones, truncation, two seeds spliced), writes it and loads
+//! it. For every case: no panic, an error is one line naming the file, a loaded mesh or image is
+//! finite, the load takes at most 2 s + 50 µs per input byte, and the heap grows by at most
+//! 64 MiB + 4 KiB per input byte (counting allocator).
 //!
-//! `REPARAM_FUZZ_CASES` (default 200 per parser: a few seconds in a debug build) and
-//! `REPARAM_FUZZ_SEED` choose the run; a failing case is written to `target/fuzz-failures/`
-//! and named in the failure. A long run: `REPARAM_FUZZ_CASES=1000000 cargo test --release
-//! --test fuzz_parsers`.
+//! `REPARAM_FUZZ_CASES` (default 200 per parser: a few seconds in a debug build),
+//! `REPARAM_FUZZ_SECS` and `REPARAM_FUZZ_SEED` choose the run; failing cases are kept under
+//! `target/tmp/fuzz-failures/` and listed. A long run: `REPARAM_FUZZ_CASES=1000000 cargo test
+//! --release --test fuzz_parsers -- --nocapture`.
 
-use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+#[path = "fuzz/mod.rs"]
+mod fuzz;
 
+use std::path::Path;
+use std::time::Duration;
+
+use fuzz::{one_line_naming, Bounds, Verdict};
 use reparam::mesh::procedural::{cone_fan, torus};
 use reparam::mesh::{load_gltf, load_mesh, write_obj, TriMesh};
 use reparam::skinsimp::glb::glb_bytes;
 use reparam::skinsimp::tube::skinned_tube;
 use reparam::texture::{load_gray_f32, save_exr_rg, save_png, Image};
 
-/// xorshift64*: deterministic, no dependency.
-struct Rng(u64);
+#[global_allocator]
+static ALLOCATOR: fuzz::Counting = fuzz::Counting;
 
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
+/// Cases per parser in CI.
+const CI_CASES: usize = 200;
 
-/// Numbers that break naive parsers: signs, the integer type edges, overflow, specials.
-const HOSTILE_NUMBERS: &[&str] = &[
-    "0",
-    "-1",
-    "1",
-    "3",
-    "255",
-    "65536",
-    "2147483648",
-    "4294967295",
-    "4294967296",
-    "9223372036854775807",
-    "9223372036854775808",
-    "18446744073709551616",
-    "99999999999999999999999",
-    "1e308",
-    "-1e308",
-    "nan",
-    "inf",
-    "1e-320",
-];
-
-/// Byte ranges of the whitespace-separated tokens of `bytes`.
-fn tokens(bytes: &[u8]) -> Vec<(usize, usize)> {
-    let mut out = Vec::new();
-    let mut start = None;
-    for (i, b) in bytes.iter().enumerate() {
-        match (b.is_ascii_whitespace(), start) {
-            (false, None) => start = Some(i),
-            (true, Some(s)) => {
-                out.push((s, i));
-                start = None;
-            }
-            _ => {}
-        }
-    }
-    if let Some(s) = start {
-        out.push((s, bytes.len()));
-    }
-    out
-}
-
-/// Byte ranges of the maximal runs of ASCII digits of `bytes`.
-fn digit_runs(bytes: &[u8]) -> Vec<(usize, usize)> {
-    let mut out = Vec::new();
-    let mut i = 0;
-    while i < bytes.len() {
-        if bytes[i].is_ascii_digit() {
-            let start = i;
-            while i < bytes.len() && bytes[i].is_ascii_digit() {
-                i += 1;
-            }
-            out.push((start, i));
-        } else {
-            i += 1;
-        }
-    }
-    out
-}
-
-/// One to three mutations of `seed` (`other` is a second seed for splicing).
-fn mutate(rng: &mut Rng, seed: &[u8], other: &[u8]) -> Vec<u8> {
-    let mut bytes = seed.to_vec();
-    for _ in 0..1 + rng.below(3) {
-        let toks = tokens(&bytes);
-        match rng.below(9) {
-            0 if !bytes.is_empty() => {
-                let i = rng.below(bytes.len());
-                bytes[i] ^= 1 << rng.below(8);
-            }
-            1 => {
-                let i = rng.below(bytes.len() + 1);
-                bytes.insert(i, rng.next() as u8);
-            }
-            2 if !bytes.is_empty() => {
-                let i = rng.below(bytes.len());
-                let n = 1 + rng.below(16).min(bytes.len() - i - 1);
-                bytes.drain(i..i + n);
-            }
-            3 if !toks.is_empty() => {
-                // Duplicate a token many times (long runs of repeated tokens).
-                let (s, e) = toks[rng.below(toks.len())];
-                let token = [&bytes[s..e], b" "].concat();
-                let copies = 1 + rng.below(2000);
-                let run: Vec<u8> = token.repeat(copies);
-                bytes.splice(s..s, run);
-            }
-            4 if !toks.is_empty() => {
-                let (s, e) = toks[rng.below(toks.len())];
-                bytes.drain(s..e);
-            }
-            5 if !toks.is_empty() => {
-                let (s, e) = toks[rng.below(toks.len())];
-                let number = HOSTILE_NUMBERS[rng.below(HOSTILE_NUMBERS.len())];
-                bytes.splice(s..e, number.bytes());
-            }
-            6 => {
-                let n = rng.below(bytes.len() + 1);
-                bytes.truncate(n);
-            }
-            7 => {
-                // A run of digits (a count, an index, a JSON number) made hostile.
-                let runs = digit_runs(&bytes);
-                if !runs.is_empty() {
-                    let (s, e) = runs[rng.below(runs.len())];
-                    let number = HOSTILE_NUMBERS[rng.below(HOSTILE_NUMBERS.len())];
-                    bytes.splice(s..e, number.bytes());
-                }
-            }
-            _ => {
-                let cut = rng.below(bytes.len() + 1);
-                let from = rng.below(other.len() + 1);
-                bytes.truncate(cut);
-                bytes.extend_from_slice(&other[from..]);
-            }
-        }
-    }
-    bytes
-}
-
-/// The number of cases per parser and the first seed, from the environment.
-fn run_size() -> (usize, u64) {
-    let var = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<u64>().ok());
-    let cases = var("REPARAM_FUZZ_CASES").unwrap_or(200) as usize;
-    let seed = var("REPARAM_FUZZ_SEED")
-        .unwrap_or(0x9E37_79B9_7F4A_7C15)
-        .max(1);
-    (cases, seed)
-}
-
-/// Keep a failing input where a developer can find it, and return its path.
-fn keep_failure(name: &str, bytes: &[u8]) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("fuzz-failures");
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).unwrap();
-    path
-}
+const BOUNDS: Bounds = Bounds {
+    base: Duration::from_secs(2),
+    per_byte: Duration::from_micros(50),
+    mem_base: 64 << 20,
+    mem_per_byte: 4 << 10,
+};
 
 /// Fuzz `load` on files `case.<ext>` mutated from `seeds`; `check` judges a successful load.
 fn fuzz<T>(
@@ -182,40 +45,11 @@ fn fuzz<T>(
     seeds: &[Vec<u8>],
     load: impl Fn(&Path) -> reparam::Result<T>,
     check: impl Fn(&T) -> Result<(), String>,
-) {
-    let (cases, seed) = run_size();
-    let mut rng = Rng(seed ^ ext.bytes().fold(0, |h, b| h * 31 + b as u64));
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join(format!("case.{ext}"));
-    for case in 0..cases {
-        let first = &seeds[rng.below(seeds.len())];
-        let second = &seeds[rng.below(seeds.len())];
-        let bytes = mutate(&mut rng, first, second);
-        std::fs::write(&path, &bytes).unwrap();
-        let start = Instant::now();
-        let outcome = catch_unwind(AssertUnwindSafe(|| load(&path)));
-        let took = start.elapsed();
-        let problem = match &outcome {
-            Err(_) => Some("panicked".to_string()),
-            Ok(Err(e)) => {
-                let shown = e.to_string();
-                (shown.contains('\n') || !shown.contains("case."))
-                    .then(|| format!("error not one line naming the file: {shown:?}"))
-            }
-            Ok(Ok(value)) => check(value).err(),
-        };
-        let problem = problem.or_else(|| {
-            (took > Duration::from_secs(5))
-                .then(|| format!("took {took:?} for {} bytes", bytes.len()))
-        });
-        if let Some(problem) = problem {
-            let kept = keep_failure(&format!("{ext}-case{case}.{ext}"), &bytes);
-            panic!(
-                "{ext} case {case}: {problem} (input kept in {})",
-                kept.display()
-            );
-        }
-    }
+) -> fuzz::Tally {
+    fuzz::fuzz(ext, ext, seeds, CI_CASES, BOUNDS, |path| match load(path) {
+        Ok(value) => check(&value).map(|()| Verdict::Result),
+        Err(e) => one_line_naming(&e.to_string(), path),
+    })
 }
 
 /// A loaded mesh is finite and its indices are in range.
@@ -288,7 +122,7 @@ fn fuzz_obj() {
             std::fs::read(&path).unwrap()
         })
         .collect();
-    fuzz("obj", &seeds, load_mesh, finite_mesh);
+    fuzz::assert_clean(&[fuzz("obj", &seeds, load_mesh, finite_mesh)]);
 }
 
 #[test]
@@ -297,7 +131,7 @@ fn fuzz_off() {
         .iter()
         .map(|m| off_text(m).into_bytes())
         .collect();
-    fuzz("off", &seeds, load_mesh, finite_mesh);
+    fuzz::assert_clean(&[fuzz("off", &seeds, load_mesh, finite_mesh)]);
 }
 
 #[test]
@@ -306,7 +140,7 @@ fn fuzz_ply() {
         .iter()
         .flat_map(|m| [ply_bytes(m, false), ply_bytes(m, true)])
         .collect();
-    fuzz("ply", &seeds, load_mesh, finite_mesh);
+    fuzz::assert_clean(&[fuzz("ply", &seeds, load_mesh, finite_mesh)]);
 }
 
 /// A loaded image is finite, its size matches its pixels, and it is below the pixel limit.
@@ -328,7 +162,7 @@ fn fuzz_png_and_exr() {
     let png = dir.path().join("seed.png");
     let checker = reparam::texture::checker(8, 2);
     save_png(&checker, &png).unwrap();
-    fuzz(
+    let png = fuzz(
         "png",
         &[std::fs::read(&png).unwrap()],
         load_gray_f32,
@@ -337,12 +171,13 @@ fn fuzz_png_and_exr() {
     let exr = dir.path().join("seed.exr");
     let values: Vec<[f32; 2]> = (0..64).map(|i| [i as f32 / 64.0, 0.5]).collect();
     save_exr_rg(&exr, 8, 8, &values).unwrap();
-    fuzz(
+    let exr = fuzz(
         "exr",
         &[std::fs::read(&exr).unwrap()],
         load_gray_f32,
         finite_image,
     );
+    fuzz::assert_clean(&[png, exr]);
 }
 
 /// Standard base64 (for a `.gltf` seed with its buffer in a `data:` URI).
@@ -385,6 +220,7 @@ fn gltf_text(glb: &[u8]) -> Vec<u8> {
 fn fuzz_gltf_and_glb() {
     let glb = glb_bytes(&skinned_tube(6, 2)).unwrap();
     let check = |skinned: &reparam::mesh::SkinnedMesh| finite_mesh(&skinned.mesh);
-    fuzz("gltf", &[gltf_text(&glb)], load_gltf, check);
-    fuzz("glb", &[glb], load_gltf, check);
+    let gltf = fuzz("gltf", &[gltf_text(&glb)], load_gltf, check);
+    let glb = fuzz("glb", &[glb], load_gltf, check);
+    fuzz::assert_clean(&[gltf, glb]);
 }

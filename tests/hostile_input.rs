@@ -437,3 +437,299 @@ fn an_exr_that_makes_the_exr_crate_assert_is_an_error_naming_the_file() {
     let shown = one_line_naming(&error, &path);
     assert!(shown.contains("malformed block data"), "{shown}");
 }
+
+/// skinsimp's surface distances (a GLB with one vertex flipped to x = 2·10¹⁰ took 6 s instead
+/// of 0.9 s): the uniform grid sized by the bounding box put every other triangle in one cell,
+/// so each query measured every triangle. The tree's queries measure a few dozen triangles
+/// whatever the coordinates, and still find the exact minimum.
+#[test]
+fn one_huge_coordinate_does_not_make_surface_distances_quadratic() {
+    use reparam::mesh::distance::{point_triangle_distance, SurfaceTree};
+    use reparam::skinsimp::distance::surface_error;
+    let mut mesh = reparam::mesh::procedural::wavy_grid(100);
+    let faces = mesh.faces.len();
+    let queries: Vec<Point3<f64>> = mesh
+        .faces
+        .iter()
+        .step_by(7)
+        .map(|f| {
+            let [a, b, c] = f.map(|v| mesh.positions[v as usize].coords);
+            Point3::from((a + 2.0 * b + 3.0 * c) / 6.0 + Vector3::new(0.0, 0.0, 0.01))
+        })
+        .collect();
+    let work = |mesh: &TriMesh| {
+        let tree = SurfaceTree::new(&mesh.positions, &mesh.faces);
+        let (mut most, mut total) = (0, 0);
+        for (n, p) in queries.iter().enumerate() {
+            let (d, w) = tree.distance_and_work(p);
+            (most, total) = (w.max(most), total + w);
+            if n % 97 == 0 {
+                let brute = mesh
+                    .faces
+                    .iter()
+                    .map(|f| {
+                        let [a, b, c] = f.map(|v| mesh.positions[v as usize]);
+                        point_triangle_distance(p, &a, &b, &c)
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                assert_eq!(d, brute, "{p}");
+            }
+        }
+        (most, total as f64 / queries.len() as f64)
+    };
+    let (most, mean) = work(&mesh);
+    mesh.positions[5050].x = 2e10;
+    let (most_huge, mean_huge) = work(&mesh);
+    // Measured: 28 and 77 at most; the grid measured all 20 000 triangles per query with the
+    // huge coordinate.
+    assert!(
+        most <= 200 && most_huge <= 200,
+        "{most} {most_huge} of {faces}"
+    );
+    assert!(mean_huge <= 2.0 * mean + 8.0, "{mean} → {mean_huge}");
+    println!("triangles per query: at most {most} → {most_huge}, mean {mean:.1} → {mean_huge:.1}");
+    let start = Instant::now();
+    let e = surface_error(&mesh.positions, &mesh.faces, &mesh.positions, &mesh.faces);
+    // A surface against itself: 0 up to rounding, which on the slivers 2·10¹⁰ long (closest
+    // points from products of order 10⁴⁰) reaches 3.3·10⁻³ (measured).
+    assert!(e.rms < 1e-2 && e.hausdorff < 1e-2, "{e:?}");
+    assert!(
+        start.elapsed() < Duration::from_secs(20),
+        "{:?}",
+        start.elapsed()
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Found by fuzzing the commands in-process (tests/fuzz_commands.rs)
+// ---------------------------------------------------------------------------------------------
+
+/// `reparam vectors bpm` into a fresh folder, in-process.
+fn bpm_vectors(dir: &Path) -> PathBuf {
+    let out = dir.join("vectors");
+    let (result, _) = reparam::cli::run_captured([
+        "reparam",
+        "vectors",
+        "bpm",
+        "--out",
+        &out.display().to_string(),
+    ]);
+    result.unwrap();
+    out
+}
+
+/// A candidate with a NaN and a 1e308 (errors whose squares overflow): `verify --json` reports
+/// it as failing with finite figures (the NaN's worst-element error is `null`, counted in
+/// `non_finite`), where it printed `null` for the RMS and the error (NaN written by serde_json).
+#[test]
+fn verify_reports_nan_and_huge_candidate_values_with_finite_figures() {
+    use reparam::vectors::npy::Array;
+    let dir = tempfile::tempdir().unwrap();
+    let vectors = bpm_vectors(dir.path());
+    let expected = Array::load(&vectors.join("bpm_eval.expected.npy")).unwrap();
+    let mut values = expected.to_f64();
+    values[0] = f64::NAN;
+    values[3] = 1e308;
+    let candidate = dir.path().join("bpm_eval.npy");
+    Array::f64(&expected.shape, values)
+        .save(&candidate)
+        .unwrap();
+    let (result, stdout) = reparam::cli::run_captured([
+        "reparam",
+        "verify",
+        &vectors.display().to_string(),
+        "--candidate",
+        &candidate.display().to_string(),
+        "--json",
+    ]);
+    assert_eq!(result.unwrap(), std::process::ExitCode::from(1));
+    let report: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
+    assert_eq!(report["pass"], false);
+    assert_eq!(report["errors"]["non_finite"], 1);
+    assert!(report["errors"]["rms"].as_f64().unwrap() > 1e300);
+    assert_eq!(report["worst"][0]["error"], serde_json::Value::Null);
+    assert!(report["worst"][1]["error"].as_f64().unwrap() > 1e307);
+}
+
+/// npyz quotes a bad header over several lines; the error is one line naming the file.
+#[test]
+fn a_npy_with_a_broken_header_is_a_one_line_error() {
+    use reparam::vectors::npy::Array;
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(
+        dir.path(),
+        "bad.npy",
+        b"\x93NUMPY\x01\x00\x76\x00{'descr': '<f8', 'fortran_order': False, 'shape': (2, ), } } }                                         \n\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0",
+    );
+    let e = Array::load(&path).unwrap_err();
+    let shown = one_line_naming(&e, &path);
+    assert!(shown.contains("not a .npy file"), "{shown}");
+}
+
+/// stdout closed by its reader (`reparam … | head`): the command ends quietly (status 0, no
+/// panic message) instead of panicking in `println!` ("failed printing to stdout: Broken
+/// pipe").
+#[test]
+fn a_closed_stdout_ends_the_command_quietly() {
+    use std::process::{Command, Stdio};
+    for args in [
+        &["bpm", "qc", "procedural:star", "--subdiv", "1"][..],
+        &["bpm", "qc", "procedural:star", "--subdiv", "1", "--json"][..],
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_reparam"))
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Close the reading end before the command writes anything.
+        drop(child.stdout.take());
+        let output = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(
+            output.status.success(),
+            "{args:?}: {:?} {stderr}",
+            output.status
+        );
+    }
+}
+
+/// `bpm qc --subdiv 8` keeps 65 536 records per face: 800 faces would be 52 M records (1.2 GB);
+/// refused before anything is allocated, naming the figure, the limit and how to raise it.
+#[test]
+fn bpm_qc_subdivision_beyond_the_memory_limit_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("grid.obj");
+    reparam::mesh::write_obj(&reparam::mesh::procedural::wavy_grid(20), &path).unwrap();
+    let path_text = path.display().to_string();
+    let (result, _) = within(Duration::from_secs(10), "bpm qc --subdiv 8", || {
+        reparam::cli::run_captured(["reparam", "bpm", "qc", &path_text, "--subdiv", "8"])
+    });
+    let e = result.unwrap_err();
+    assert!(matches!(
+        e,
+        Error::TooManySubTriangles {
+            faces: 800,
+            subdiv: 8,
+            needed: 52_428_800,
+            limit: 33_554_432,
+            ..
+        }
+    ));
+    let shown = one_line_naming(&e, &path);
+    assert!(shown.contains("REPARAM_MAX_QC_SUB_TRIANGLES"), "{shown}");
+    // The variable sets the limit (here lower than 800 · 4).
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_reparam"))
+        .args(["bpm", "qc", &path_text, "--subdiv", "1"])
+        .env("REPARAM_MAX_QC_SUB_TRIANGLES", "3000")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(
+        stderr.contains("3200 sub-triangles, more than the limit of 3000"),
+        "{stderr}"
+    );
+}
+
+/// A UV of 4 294 967 295 on the star: the f32 kernel's errors are NaN or ∞ and the row fails,
+/// with `worst_ratio` = f64::MAX in `--json` (it was ∞, written as `null`).
+#[test]
+fn crosscheck_of_a_huge_uv_fails_with_finite_figures() {
+    // Rounding for the report kept f64::MAX in range (it rounded up to 1.8e308 = ∞).
+    assert_eq!(
+        reparam::crosscheck::round_significant(f64::MAX, 2),
+        f64::MAX
+    );
+    if reparam_gpu::gpu_or_skip().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from(
+        "v 0 0 0\nv 1.28 0.163 0\nv 0.682 0.813 0\nv -0.448 1.004 0\nv -0.822 -0.197 0\n\
+         v -0.364 -0.769 0\nv 0.249 -0.938 0\n\
+         vt 0.5 0.5\nvt 1.1 0.47\nvt 0.93 0.63\nvt 4294967295 0.72\nvt 0.1 0.5\nvt 0.22 0.36\n\
+         vt 0.47 0.3\n",
+    );
+    for k in 2..=7 {
+        let next = if k == 7 { 2 } else { k + 1 };
+        writeln!(text, "f 1/1 {k}/{k} {next}/{next}").unwrap();
+    }
+    let path = write(dir.path(), "star.obj", text);
+    let (result, stdout) = reparam::cli::run_captured([
+        "reparam",
+        "crosscheck",
+        "bpm",
+        "--mesh",
+        &path.display().to_string(),
+        "--plots",
+        &dir.path().display().to_string(),
+        "--json",
+    ]);
+    assert_eq!(result.unwrap(), std::process::ExitCode::from(1));
+    let report: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
+    let rows = report["adapters"][0]["rows"].as_array().unwrap();
+    assert!(
+        rows.iter()
+            .any(|r| r["worst_ratio"].as_f64() == Some(f64::MAX)),
+        "{rows:?}"
+    );
+}
+
+/// The wavy grid with one vertex thrown to z = 1e308 (areas overflow: the input area spread
+/// was ∞, written as `null`) or to y = 9.2·10¹⁸ (an edge of the smoothed remesh off the
+/// creases with one face: `unreachable!` panicked): `maps --json` gives finite figures.
+#[test]
+fn maps_of_a_grid_with_one_vertex_thrown_far_is_finite_and_does_not_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    for (vertex, axis, value) in [(12usize, 2usize, 1e308), (22, 1, 9223372036854775807.0)] {
+        let mut mesh = reparam::mesh::procedural::wavy_grid(4);
+        mesh.positions[vertex][axis] = value;
+        let path = dir.path().join(format!("far{vertex}.obj"));
+        reparam::mesh::write_obj(&mesh, &path).unwrap();
+        let (result, stdout) = reparam::cli::run_captured([
+            "reparam",
+            "maps",
+            &path.display().to_string(),
+            "--picture-size",
+            "16",
+            "--out",
+            &dir.path().display().to_string(),
+            "--json",
+        ]);
+        match result {
+            Ok(_) => {
+                let summary: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
+                assert!(
+                    summary["distortion"]["input_area_spread"].is_f64(),
+                    "{summary}"
+                );
+            }
+            Err(e) => {
+                assert!(!matches!(e, Error::NonFiniteOutput { .. }), "{e}");
+                one_line_naming(&e, &path);
+            }
+        }
+    }
+}
+
+/// A .npy header whose shape multiplies past u64 (132 × 2⁶³ − 1) made npyz overflow (a panic in
+/// debug builds); a shape larger than the file is refused before npyz reads it.
+#[test]
+fn a_npy_shape_that_overflows_or_exceeds_the_file_is_refused() {
+    use reparam::vectors::npy::Array;
+    let dir = tempfile::tempdir().unwrap();
+    for shape in ["(132, 9223372036854775807, )", "(1000000, 2)"] {
+        let dict = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {shape}, }}");
+        let mut header = format!("{dict:<118}\n").into_bytes();
+        let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+        bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
+        bytes.append(&mut header);
+        bytes.extend_from_slice(&[0u8; 64]);
+        let path = write(dir.path(), "shape.npy", &bytes);
+        let e = Array::load(&path).unwrap_err();
+        let shown = one_line_naming(&e, &path);
+        assert!(shown.contains("declares more elements"), "{shown}");
+    }
+}

@@ -16,7 +16,7 @@ use reparam::maps::smooth::{
 use reparam::maps::{
     build, detect_features, parse_features, BasePoint, FeatureOptions, Features, Maps, MapsOptions,
 };
-use reparam::mesh::distance::SurfaceGrid;
+use reparam::mesh::distance::SurfaceTree;
 use reparam::mesh::{check_manifold, load_mesh, procedural, TriMesh};
 use reparam::Error;
 
@@ -670,7 +670,7 @@ fn uniform_remesh_counts_and_vertices_on_the_surface() {
         .copied()
         .collect::<HashSet<_>>()
         .len();
-    let grid = SurfaceGrid::new(&m.positions, &m.faces);
+    let tree = SurfaceTree::new(&m.positions, &m.faces);
     let diag = diagonal(&m);
     let mut previous = f64::INFINITY;
     for j in 0..=3 {
@@ -689,7 +689,7 @@ fn uniform_remesh_counts_and_vertices_on_the_surface() {
         assert_eq!(r.unmapped, 0);
         for p in &r.mesh.positions {
             // Π⁻¹ interpolates inside an input face: on the surface up to rounding.
-            assert!(grid.distance(p) < 1e-9 * diag);
+            assert!(tree.distance(p) < 1e-9 * diag);
         }
         // Smooth shape: the sampled Hausdorff distance does not grow with j (2% slack for the
         // sampling, which is itself refined with j).
@@ -725,11 +725,11 @@ fn adaptive_remesh_meets_epsilon() {
             ..r.mesh.clone()
         })
         .unwrap();
-        let grid = SurfaceGrid::new(&r.mesh.positions, &r.mesh.faces);
+        let tree = SurfaceTree::new(&r.mesh.positions, &r.mesh.faces);
         for p in &m.positions {
             // The guarantee is per input vertex against its own remesh triangle, so the
             // distance to the whole remesh is at most that.
-            assert!(grid.distance(p) <= eps * b * (1.0 + 1e-12), "eps {eps}");
+            assert!(tree.distance(p) <= eps * b * (1.0 + 1e-12), "eps {eps}");
         }
         assert!(r.mesh.faces.len() > faces, "a smaller epsilon refines more");
         faces = r.mesh.faces.len();
@@ -967,10 +967,10 @@ fn cli_writes_the_base_domain_remeshes_pictures_and_a_json_summary() {
 }
 
 #[test]
-fn surface_grid_distance_equals_brute_force() {
+fn surface_tree_distance_equals_brute_force() {
     use reparam::mesh::distance::point_triangle_distance;
     let m = icosphere(2);
-    let grid = SurfaceGrid::new(&m.positions, &m.faces);
+    let tree = SurfaceTree::new(&m.positions, &m.faces);
     let mut rng = Lcg(5);
     for _ in 0..300 {
         // Points inside, near and far outside the sphere's bounding box.
@@ -992,8 +992,8 @@ fn surface_grid_distance_equals_brute_force() {
                 )
             })
             .fold(f64::INFINITY, f64::min);
-        // The same function on the same triangles: the grid must find the minimiser exactly.
-        assert_eq!(grid.distance(&p), brute, "{p}");
+        // The same function on the same triangles: the tree must find the minimiser exactly.
+        assert_eq!(tree.distance(&p), brute, "{p}");
     }
 }
 
@@ -1026,7 +1026,7 @@ fn loop_stencil_weights_sum_to_one() {
 fn smoothed_remesh_has_the_uniform_connectivity_and_lies_on_the_surface() {
     let m = icosphere(3);
     let maps = built(&m, &Features::default());
-    let grid = SurfaceGrid::new(&m.positions, &m.faces);
+    let tree = SurfaceTree::new(&m.positions, &m.faces);
     let diag = diagonal(&m);
     for j in 0..=3 {
         let plain = uniform(&maps, j).unwrap();
@@ -1040,7 +1040,7 @@ fn smoothed_remesh_has_the_uniform_connectivity_and_lies_on_the_surface() {
         assert_eq!(s.stats.fallbacks, 0, "j={j}: {:?}", s.stats);
         for (p, q) in r.mesh.positions.iter().zip(&r.params) {
             // Π⁻¹ interpolates inside an input face: on the surface up to rounding.
-            assert!(grid.distance(p) < 1e-9 * diag, "j={j}");
+            assert!(tree.distance(p) < 1e-9 * diag, "j={j}");
             assert!(q.bary.iter().all(|&b| (0.0..=1.0).contains(&b)));
             assert!((q.bary.iter().sum::<f64>() - 1.0).abs() < 1e-12);
         }
@@ -1079,10 +1079,10 @@ fn smoothed_remesh_has_the_uniform_connectivity_and_lies_on_the_surface() {
         let maps = built(&m, &features);
         let s = uniform_smoothed_with(&maps, 2, &SmoothOptions::default()).unwrap();
         assert_eq!(s.stats.fallbacks, 0, "{}: {:?}", m.name, s.stats);
-        let grid = SurfaceGrid::new(&m.positions, &m.faces);
+        let tree = SurfaceTree::new(&m.positions, &m.faces);
         let diag = diagonal(&m);
         for p in &s.remesh.mesh.positions {
-            assert!(grid.distance(p) < 1e-9 * diag, "{}", m.name);
+            assert!(tree.distance(p) < 1e-9 * diag, "{}", m.name);
         }
         // The wavy grid's boundary is the square's outline: x or y at 0 or 1 exactly in the
         // input, so Π⁻¹ of a point on a boundary base edge has it up to rounding (1e-12).

@@ -175,7 +175,7 @@ fn a_candidate_off_by_twice_its_bound_at_one_element_fails_naming_it() {
     assert!(!r.pass);
     assert_eq!(r.errors.over_tolerance, 1);
     assert_eq!(r.worst[0].index, vec![17]);
-    assert!((r.worst[0].error / r.worst[0].bound - 2.0).abs() < 1e-6);
+    assert!((r.worst[0].error.unwrap() / r.worst[0].bound - 2.0).abs() < 1e-6);
     // The worst element's inputs: its face and barycentrics.
     assert!(r.worst[0]
         .inputs
@@ -303,7 +303,7 @@ fn a_whole_run_figure_off_by_twice_its_bound_fails_naming_it() {
     assert!(!r.pass);
     assert_eq!(r.errors.over_tolerance, 1);
     assert_eq!(r.worst[0].index, vec![3]);
-    assert!((r.worst[0].error / r.worst[0].bound - 2.0).abs() < 1e-6);
+    assert!((r.worst[0].error.unwrap() / r.worst[0].bound - 2.0).abs() < 1e-6);
 }
 
 /// A precompute candidate is per face (faces × 45): the expected array's shape (samples × 2)

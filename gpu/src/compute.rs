@@ -34,8 +34,13 @@ pub struct ComputeKernel {
 /// The dispatch grid [x, y] of workgroups for `count` invocations:
 /// groups = ⌈count / 64⌉, x = min(groups, max_per_dimension), y = ⌈groups / x⌉. The shader
 /// rebuilds the linear index as `gid.x + gid.y · x · 64` (`linear_index` in `dispatch.wgsl`)
-/// and returns when it is ≥ count. [`GpuError::TooLarge`] when y exceeds the limit too.
-pub fn workgroup_grid(count: u32, max_per_dimension: u32) -> Result<[u32; 2], GpuError> {
+/// and returns when it is ≥ count. [`GpuError::ExceedsLimit`] (naming `kernel`) when y exceeds
+/// the limit too, i.e. more than max_per_dimension² workgroups.
+pub fn workgroup_grid(
+    kernel: &str,
+    count: u32,
+    max_per_dimension: u32,
+) -> Result<[u32; 2], GpuError> {
     let groups = count.div_ceil(WORKGROUP_SIZE);
     if groups == 0 {
         return Ok([0, 0]);
@@ -43,11 +48,20 @@ pub fn workgroup_grid(count: u32, max_per_dimension: u32) -> Result<[u32; 2], Gp
     let x = groups.min(max_per_dimension.max(1));
     let y = groups.div_ceil(x);
     if y > max_per_dimension {
-        return Err(GpuError::TooLarge(format!(
-            "{count} invocations need {groups} workgroups, more than {max_per_dimension}²"
-        )));
+        return Err(GpuError::ExceedsLimit {
+            kernel: kernel.to_string(),
+            limit: "max_compute_workgroups_per_dimension (squared: workgroups per dispatch)",
+            needed: u64::from(groups),
+            allowed: u64::from(max_per_dimension).pow(2),
+        });
     }
     Ok([x, y])
+}
+
+/// The most invocations one dispatch can have when at most `max_per_dimension` workgroups fit
+/// each dimension of the grid of [`workgroup_grid`]: max_per_dimension² · 64.
+pub fn max_dispatch_items(max_per_dimension: u32) -> u64 {
+    u64::from(max_per_dimension).pow(2) * u64::from(WORKGROUP_SIZE)
 }
 
 impl Gpu {
@@ -58,26 +72,33 @@ impl Gpu {
         l.max_storage_buffer_binding_size.min(l.max_buffer_size)
     }
 
-    /// [`GpuError::TooLarge`] unless a buffer of `bytes` bytes can be created (max_buffer_size;
-    /// binding it whole needs [`Gpu::max_storage_bytes`], checked by [`Gpu::dispatch`]).
-    fn check_buffer_size(&self, label: &str, bytes: u64) -> Result<(), GpuError> {
+    /// [`GpuError::ExceedsLimit`] (naming `label`) unless a buffer of `bytes` bytes can be
+    /// created (max_buffer_size; binding it whole needs [`Gpu::max_storage_bytes`], checked by
+    /// [`Gpu::dispatch`]).
+    pub(crate) fn check_buffer_size(&self, label: &str, bytes: u64) -> Result<(), GpuError> {
         let max = self.limits().max_buffer_size;
         if bytes > max {
-            return Err(GpuError::TooLarge(format!(
-                "buffer '{label}' needs {bytes} bytes, the device allows {max}"
-            )));
+            return Err(GpuError::ExceedsLimit {
+                kernel: label.to_string(),
+                limit: "max_buffer_size",
+                needed: bytes,
+                allowed: max,
+            });
         }
         Ok(())
     }
 
-    /// [`GpuError::TooLarge`] if a storage buffer is larger than a binding may be.
-    fn check_binding_size(&self, buffer: &wgpu::Buffer) -> Result<(), GpuError> {
-        let max = self.max_storage_bytes();
+    /// [`GpuError::ExceedsLimit`] (naming `kernel`) if a storage buffer is larger than a binding
+    /// may be.
+    fn check_binding_size(&self, kernel: &str, buffer: &wgpu::Buffer) -> Result<(), GpuError> {
+        let max = self.limits().max_storage_buffer_binding_size;
         if buffer.usage().contains(wgpu::BufferUsages::STORAGE) && buffer.size() > max {
-            return Err(GpuError::TooLarge(format!(
-                "a storage buffer of {} bytes, the device binds at most {max}",
-                buffer.size()
-            )));
+            return Err(GpuError::ExceedsLimit {
+                kernel: kernel.to_string(),
+                limit: "max_storage_buffer_binding_size",
+                needed: buffer.size(),
+                allowed: max,
+            });
         }
         Ok(())
     }
@@ -186,19 +207,24 @@ impl Gpu {
 
     /// Run `kernel` over `count` invocations with `buffers[n]` bound at `@group(0)
     /// @binding(n)`, on the grid of [`workgroup_grid`], and submit. Does nothing for
-    /// `count == 0`; [`GpuError::TooLarge`] if a storage buffer exceeds the binding limit.
+    /// `count == 0`; [`GpuError::ExceedsLimit`] if a storage buffer exceeds the binding limit or
+    /// the grid the workgroup limit (checked before wgpu sees anything).
     pub fn dispatch(
         &self,
         kernel: &ComputeKernel,
         buffers: &[&wgpu::Buffer],
         count: u32,
     ) -> Result<(), GpuError> {
-        let [x, y] = workgroup_grid(count, self.limits().max_compute_workgroups_per_dimension)?;
+        let [x, y] = workgroup_grid(
+            &kernel.label,
+            count,
+            self.limits().max_compute_workgroups_per_dimension,
+        )?;
         if x == 0 {
             return Ok(());
         }
         for buffer in buffers {
-            self.check_binding_size(buffer)?;
+            self.check_binding_size(&kernel.label, buffer)?;
         }
         self.checked(|| {
             let entries: Vec<wgpu::BindGroupEntry> = buffers
@@ -236,9 +262,12 @@ impl Gpu {
         (by_limit.min(MAX_CHUNK_ITEMS as u64) as usize).max(1)
     }
 
-    /// Run a one-item-per-invocation `kernel` over `input`, `chunk_len` items at a time. Per
-    /// chunk: bind `[uniform params(count), shared…, input chunk, output chunk]` at bindings
-    /// 0, 1, …, dispatch `count` invocations, read the output back; return all outputs in order.
+    /// Run a one-item-per-invocation `kernel` over `input`, `chunk_len` items at a time (fewer
+    /// where the device's limits require: an input or output chunk is at most one storage
+    /// binding, a dispatch at most [`max_dispatch_items`]; the split does not change the
+    /// results). Per chunk: bind `[uniform params(count), shared…, input chunk, output chunk]`
+    /// at bindings 0, 1, …, dispatch `count` invocations, read the output back; return all
+    /// outputs in order.
     pub fn run_per_item<P: Pod, I: Pod, O: Pod>(
         &self,
         kernel: &ComputeKernel,
@@ -247,8 +276,15 @@ impl Gpu {
         input: &[I],
         chunk_len: usize,
     ) -> Result<Vec<O>, GpuError> {
+        let item_bytes = std::mem::size_of::<I>().max(std::mem::size_of::<O>());
+        let per_dispatch =
+            max_dispatch_items(self.limits().max_compute_workgroups_per_dimension).max(1);
+        let chunk_len = chunk_len
+            .min(self.max_chunk_len(item_bytes))
+            .min(usize::try_from(per_dispatch).unwrap_or(usize::MAX))
+            .max(1);
         let mut output = Vec::with_capacity(input.len());
-        for chunk in input.chunks(chunk_len.max(1)) {
+        for chunk in input.chunks(chunk_len) {
             let count = u32::try_from(chunk.len())
                 .map_err(|_| GpuError::TooLarge(format!("chunk of {} items", chunk.len())))?;
             let params = self.upload_uniform(&kernel.label, &params(count));
@@ -351,16 +387,28 @@ mod tests {
 
     #[test]
     fn workgroup_grid_wraps_into_rows() {
-        assert_eq!(workgroup_grid(0, 65535).unwrap(), [0, 0]);
-        assert_eq!(workgroup_grid(1, 65535).unwrap(), [1, 1]);
-        assert_eq!(workgroup_grid(64, 65535).unwrap(), [1, 1]);
-        assert_eq!(workgroup_grid(65, 65535).unwrap(), [2, 1]);
+        let grid = |count, max| workgroup_grid("k", count, max);
+        assert_eq!(grid(0, 65535).unwrap(), [0, 0]);
+        assert_eq!(grid(1, 65535).unwrap(), [1, 1]);
+        assert_eq!(grid(64, 65535).unwrap(), [1, 1]);
+        assert_eq!(grid(65, 65535).unwrap(), [2, 1]);
         // 70 000 workgroups: one full row and a partial second one.
-        assert_eq!(workgroup_grid(64 * 70_000, 65535).unwrap(), [65535, 2]);
-        assert_eq!(workgroup_grid(64 * 10 + 1, 4).unwrap(), [4, 3]);
-        assert!(matches!(
-            workgroup_grid(64 * 17, 4),
-            Err(GpuError::TooLarge(_))
-        ));
+        assert_eq!(grid(64 * 70_000, 65535).unwrap(), [65535, 2]);
+        // The largest u32 count fits the 65535² grid of every WebGPU device.
+        assert_eq!(grid(u32::MAX, 65535).unwrap(), [65535, 1025]);
+        assert_eq!(grid(64 * 10 + 1, 4).unwrap(), [4, 3]);
+        assert_eq!(max_dispatch_items(4), 64 * 16);
+        assert_eq!(grid(64 * 16, 4).unwrap(), [4, 4]);
+        let e = grid(64 * 16 + 1, 4).unwrap_err();
+        assert_eq!(
+            e,
+            GpuError::ExceedsLimit {
+                kernel: "k".into(),
+                limit: "max_compute_workgroups_per_dimension (squared: workgroups per dispatch)",
+                needed: 17,
+                allowed: 16,
+            }
+        );
+        assert_eq!(e.to_string().lines().count(), 1);
     }
 }

@@ -51,16 +51,16 @@ impl Gpu {
     /// [`adapter_rank`] (hardware before software, native APIs before GL), with a device of the
     /// adapter's own buffer and dispatch limits (see [`device_limits`]).
     pub fn new() -> Result<Gpu, GpuError> {
-        match std::env::var(ADAPTER_ENV) {
-            Ok(selector) if !selector.trim().is_empty() => Gpu::with_adapter(&selector),
-            _ => {
-                let adapter = usable_adapters()
-                    .into_iter()
-                    .next()
-                    .ok_or(GpuError::NoAdapter)?;
-                Gpu::on(adapter)
-            }
-        }
+        Gpu::on(default_adapter()?, None)
+    }
+
+    /// [`Gpu::new`]'s adapter with a device created with `limits` instead of the adapter's own
+    /// (each clamped to what the adapter supports, `or_worse_values_from`). Kernels see these
+    /// limits through [`Gpu::limits`]: with lowered buffer, binding or workgroup limits they
+    /// split their work into more dispatches or refuse it with [`GpuError::ExceedsLimit`],
+    /// which is how the tests exercise inputs too large for a device without allocating them.
+    pub fn with_limits(limits: &wgpu::Limits) -> Result<Gpu, GpuError> {
+        Gpu::on(default_adapter()?, Some(limits))
     }
 
     /// Open a context on the adapter that `selector` names: an index into [`list_adapters`]
@@ -69,36 +69,7 @@ impl Gpu {
     /// [`GpuError::NoAdapter`] when there is none at all, [`GpuError::NoMatchingAdapter`]
     /// (listing what exists) when none matches.
     pub fn with_adapter(selector: &str) -> Result<Gpu, GpuError> {
-        let adapters = usable_adapters();
-        if adapters.is_empty() {
-            return Err(GpuError::NoAdapter);
-        }
-        let descriptions: Vec<AdapterDescription> = adapters
-            .iter()
-            .enumerate()
-            .map(|(index, a)| AdapterDescription::of(index, &a.get_info()))
-            .collect();
-        let chosen = match selector.trim().parse::<usize>() {
-            Ok(index) => index,
-            Err(_) => {
-                let needle = selector.trim().to_lowercase();
-                descriptions
-                    .iter()
-                    .position(|d| d.summary().to_lowercase().contains(&needle))
-                    .unwrap_or(usize::MAX)
-            }
-        };
-        match adapters.into_iter().nth(chosen) {
-            Some(adapter) => Gpu::on(adapter),
-            None => Err(GpuError::NoMatchingAdapter {
-                selector: selector.to_string(),
-                available: descriptions
-                    .iter()
-                    .map(|d| format!("{}: {}", d.index, d.summary()))
-                    .collect::<Vec<_>>()
-                    .join("; "),
-            }),
-        }
+        Gpu::on(selected_adapter(selector)?, None)
     }
 
     /// A context on every usable adapter, in [`list_adapters`] order (one that refuses a
@@ -107,14 +78,23 @@ impl Gpu {
         usable_adapters()
             .into_iter()
             .enumerate()
-            .map(|(index, a)| (AdapterDescription::of(index, &a.get_info()), Gpu::on(a)))
+            .map(|(index, a)| {
+                (
+                    AdapterDescription::of(index, &a.get_info()),
+                    Gpu::on(a, None),
+                )
+            })
             .collect()
     }
 
-    /// A device and queue on `adapter`.
-    fn on(adapter: wgpu::Adapter) -> Result<Gpu, GpuError> {
+    /// A device and queue on `adapter`, with [`device_limits`] or `requested` (clamped to the
+    /// adapter's).
+    fn on(adapter: wgpu::Adapter, requested: Option<&wgpu::Limits>) -> Result<Gpu, GpuError> {
         let info = adapter.get_info();
-        let limits = device_limits(&adapter.limits());
+        let limits = match requested {
+            Some(limits) => limits.clone().or_worse_values_from(&adapter.limits()),
+            None => device_limits(&adapter.limits()),
+        };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("reparam-gpu"),
             required_features: wgpu::Features::empty(),
@@ -299,6 +279,51 @@ pub fn device_limits(adapter: &wgpu::Limits) -> wgpu::Limits {
 /// Environment variable that picks the adapter of [`Gpu::new`] (and so of the tests):
 /// `REPARAM_ADAPTER=1` or `REPARAM_ADAPTER=gl`, as `reparam crosscheck --adapter` takes.
 pub const ADAPTER_ENV: &str = "REPARAM_ADAPTER";
+
+/// The adapter of [`Gpu::new`]: the one `REPARAM_ADAPTER` selects when set, else the best.
+fn default_adapter() -> Result<wgpu::Adapter, GpuError> {
+    match std::env::var(ADAPTER_ENV) {
+        Ok(selector) if !selector.trim().is_empty() => selected_adapter(&selector),
+        _ => usable_adapters()
+            .into_iter()
+            .next()
+            .ok_or(GpuError::NoAdapter),
+    }
+}
+
+/// The adapter `selector` names (see [`Gpu::with_adapter`]).
+fn selected_adapter(selector: &str) -> Result<wgpu::Adapter, GpuError> {
+    let adapters = usable_adapters();
+    if adapters.is_empty() {
+        return Err(GpuError::NoAdapter);
+    }
+    let descriptions: Vec<AdapterDescription> = adapters
+        .iter()
+        .enumerate()
+        .map(|(index, a)| AdapterDescription::of(index, &a.get_info()))
+        .collect();
+    let chosen = match selector.trim().parse::<usize>() {
+        Ok(index) => index,
+        Err(_) => {
+            let needle = selector.trim().to_lowercase();
+            descriptions
+                .iter()
+                .position(|d| d.summary().to_lowercase().contains(&needle))
+                .unwrap_or(usize::MAX)
+        }
+    };
+    adapters
+        .into_iter()
+        .nth(chosen)
+        .ok_or_else(|| GpuError::NoMatchingAdapter {
+            selector: selector.to_string(),
+            available: descriptions
+                .iter()
+                .map(|d| format!("{}: {}", d.index, d.summary()))
+                .collect::<Vec<_>>()
+                .join("; "),
+        })
+}
 
 /// Every adapter wgpu finds on all backends that [`adapter_rank`] accepts, best first.
 fn usable_adapters() -> Vec<wgpu::Adapter> {

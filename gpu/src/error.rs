@@ -31,9 +31,24 @@ pub enum GpuError {
     /// A wgpu validation error: invalid WGSL, pipeline/bind group mismatch, misuse of the API.
     #[error("GPU validation error: {0}")]
     Validation(String),
-    /// The input does not fit the device's limits (buffer sizes, texture size, dispatch size).
+    /// The device ran out of memory, or a count does not fit the kernel's 32-bit indices.
     #[error("input too large for the GPU: {0}")]
     TooLarge(String),
+    /// One dispatch, buffer or binding of `kernel` would need `needed` (bytes, workgroups or
+    /// texels) where the device's `limit` allows `allowed`, and the kernel cannot split it
+    /// further. Raised before wgpu sees the call, so it never reaches wgpu's validation panic.
+    #[error(
+        "input too large for the GPU: {kernel} needs {needed} where the device's {limit} is \
+         {allowed}"
+    )]
+    ExceedsLimit {
+        /// The kernel (or buffer) label, e.g. `skinsimp_lbs rest`.
+        kernel: String,
+        /// The wgpu limit, e.g. `max_storage_buffer_binding_size`.
+        limit: &'static str,
+        needed: u64,
+        allowed: u64,
+    },
     /// Inconsistent input (lengths that do not match, face ids out of range).
     #[error("invalid input to a GPU kernel: {0}")]
     Input(String),

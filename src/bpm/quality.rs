@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use super::eval::Interp;
 use super::moebius::c_abs;
 use super::precompute::Bpm;
+use crate::error::{Error, Result};
 
 /// Distortion statistics over all sub-triangles. Percentiles and the mean are weighted by the
 /// sub-triangle's area; folded sub-triangles (orientation reversed) are counted separately and
@@ -83,6 +84,36 @@ fn sub_triangles(n: usize) -> Vec<[(usize, usize); 3]> {
         }
     }
     out
+}
+
+/// Default most sub-triangles [`qc_protocol`] measures for one interpolant: 2²⁵ (about 800 MiB
+/// of (QC, area, folded) records, sorted for the area-weighted quantiles). Raise it with
+/// [`MAX_QC_SUB_TRIANGLES_VARIABLE`].
+pub const DEFAULT_MAX_QC_SUB_TRIANGLES: u64 = 1 << 25;
+
+/// Environment variable that overrides [`DEFAULT_MAX_QC_SUB_TRIANGLES`] (a positive integer).
+pub const MAX_QC_SUB_TRIANGLES_VARIABLE: &str = "REPARAM_MAX_QC_SUB_TRIANGLES";
+
+/// [`Error::TooManySubTriangles`] unless `faces × 4^subdiv` sub-triangles are within the limit
+/// ([`MAX_QC_SUB_TRIANGLES_VARIABLE`] when set to a positive integer, else
+/// [`DEFAULT_MAX_QC_SUB_TRIANGLES`]): checked before anything is allocated for them.
+pub fn check_qc_size(mesh: &str, faces: usize, subdiv: u32) -> Result<()> {
+    let limit = std::env::var(MAX_QC_SUB_TRIANGLES_VARIABLE)
+        .ok()
+        .and_then(|v| v.trim().parse::<u64>().ok())
+        .filter(|&n| n > 0)
+        .unwrap_or(DEFAULT_MAX_QC_SUB_TRIANGLES);
+    let needed = (faces as u64).saturating_mul(1u64.checked_shl(2 * subdiv).unwrap_or(u64::MAX));
+    if needed > limit {
+        return Err(Error::TooManySubTriangles {
+            mesh: mesh.to_string(),
+            faces,
+            subdiv,
+            needed,
+            limit,
+        });
+    }
+    Ok(())
 }
 
 /// Run the QC protocol with `subdiv` 1→4 subdivisions per face (n = 4 gives 256 sub-triangles).

@@ -3,17 +3,17 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use clap::{Args, Subcommand, ValueEnum};
-use reparam::bpm::render::{render_cpu, RenderOptions};
-use reparam::bpm::{
+use crate::bpm::render::{render_cpu, RenderOptions};
+use crate::bpm::{
     precompute, qc_protocol, BpmOptions, Fit, Interp, PrecomputeReport, QcStats, Unfold,
 };
-use reparam::report::sig;
-use reparam::texture::save_png;
-use reparam::Result;
+use crate::report::sig;
+use crate::texture::save_png;
+use crate::Result;
+use clap::{Args, Subcommand, ValueEnum};
 use serde::Serialize;
 
-use reparam::bpm::render::resolve_texture;
+use crate::bpm::render::resolve_texture;
 
 use super::inputs::{load_mesh, parse_direction, parse_size};
 
@@ -153,12 +153,12 @@ struct RenderResult {
     #[serde(skip_serializing_if = "Option::is_none")]
     adapter: Option<String>,
     #[serde(skip_serializing_if = "Option::is_none")]
-    versus_cpu: Option<reparam::raster::DiffStats>,
+    versus_cpu: Option<crate::raster::DiffStats>,
 }
 
 fn render(args: RenderArgs) -> Result<()> {
     if args.backend == Backend::Gpu && args.unfold == UnfoldArg::Authors {
-        return Err(reparam::Error::InvalidArgument(
+        return Err(crate::Error::InvalidArgument(
             "--unfold authors needs --backend cpu: the GPU precompute kernel implements only the \
              correct unfolding"
                 .into(),
@@ -202,7 +202,7 @@ fn render(args: RenderArgs) -> Result<()> {
     if args.json {
         return super::print_json(&result);
     }
-    println!(
+    outln!(
         "wrote {} ({}×{}, {:?}, {} backend, {} s)",
         args.output.display(),
         options.width,
@@ -213,7 +213,7 @@ fn render(args: RenderArgs) -> Result<()> {
     );
     print_precompute_report(&bpm.report);
     if let Some(d) = &result.versus_cpu {
-        println!(
+        outln!(
             "versus the CPU render: PSNR {} dB, {}% of pixels differ by more than 1/255, max {}",
             sig(d.psnr_db, 3),
             sig(100.0 * d.fraction_over_1_of_255, 2),
@@ -225,23 +225,23 @@ fn render(args: RenderArgs) -> Result<()> {
 
 #[cfg(feature = "gpu")]
 type GpuRender = (
-    reparam::texture::Image<[u8; 4]>,
+    crate::texture::Image<[u8; 4]>,
     Option<String>,
-    Option<reparam::raster::DiffStats>,
+    Option<crate::raster::DiffStats>,
 );
 
 #[cfg(feature = "gpu")]
 fn render_gpu(
-    mesh: &reparam::mesh::TriMesh,
-    bpm: &reparam::bpm::Bpm,
-    texture: &reparam::texture::Image<[u8; 4]>,
+    mesh: &crate::mesh::TriMesh,
+    bpm: &crate::bpm::Bpm,
+    texture: &crate::texture::Image<[u8; 4]>,
     options: &RenderOptions,
     compare: bool,
 ) -> Result<GpuRender> {
-    let gpu = reparam::bpm::gpu::context()?;
-    let image = reparam::bpm::gpu::render_gpu(&gpu, mesh, bpm.options.fit, texture, options)?;
+    let gpu = crate::bpm::gpu::context()?;
+    let image = crate::bpm::gpu::render_gpu(&gpu, mesh, bpm.options.fit, texture, options)?;
     let diff = match compare {
-        true => Some(reparam::raster::image_diff(
+        true => Some(crate::raster::image_diff(
             &image,
             &render_cpu(mesh, bpm, texture, options),
         )?),
@@ -252,23 +252,23 @@ fn render_gpu(
 
 #[cfg(not(feature = "gpu"))]
 fn render_gpu(
-    _: &reparam::mesh::TriMesh,
-    _: &reparam::bpm::Bpm,
-    _: &reparam::texture::Image<[u8; 4]>,
+    _: &crate::mesh::TriMesh,
+    _: &crate::bpm::Bpm,
+    _: &crate::texture::Image<[u8; 4]>,
     _: &RenderOptions,
     _: bool,
 ) -> Result<(
-    reparam::texture::Image<[u8; 4]>,
+    crate::texture::Image<[u8; 4]>,
     Option<String>,
-    Option<reparam::raster::DiffStats>,
+    Option<crate::raster::DiffStats>,
 )> {
-    Err(reparam::Error::Gpu(
+    Err(crate::Error::Gpu(
         "this build has no GPU support (feature `gpu` is off)".into(),
     ))
 }
 
 pub fn print_precompute_report(r: &PrecomputeReport) {
-    println!(
+    outln!(
         "{} faces; {} degenerate (linear fallback{}), {} mirrored; edges: {} boundary, {} UV seam, {} non-manifold, {} misoriented (all treated as boundary)",
         r.faces,
         r.degenerate_faces,
@@ -279,7 +279,7 @@ pub fn print_precompute_report(r: &PrecomputeReport) {
         r.non_manifold_edges,
         r.misoriented_edges
     );
-    println!(
+    outln!(
         "neighbours folded past 90° (laid out differently by --unfold authors): {}, of which past 135° (folded back over their face): {}",
         r.neighbours_folded_past_90, r.neighbours_folded_past_135
     );
@@ -298,6 +298,7 @@ struct QcResult {
 
 fn qc(args: QcArgs) -> Result<()> {
     let mesh = load_mesh(&args.mesh)?;
+    crate::bpm::quality::check_qc_size(&mesh.name, mesh.faces.len(), args.subdiv)?;
     let start = Instant::now();
     let bpm = precompute(
         &mesh,
@@ -325,12 +326,12 @@ fn qc(args: QcArgs) -> Result<()> {
         return super::print_json(&result);
     }
     print_precompute_report(&bpm.report);
-    println!(
+    outln!(
         "QC = σmax/σmin over {} sub-triangles ({} subdivisions per face, {:?} unfolding), area-weighted:",
         result.bpm.sub_triangles, args.subdiv, result.unfold
     );
-    println!("{}", qc_table(&[&result.linear, &result.bpm]));
-    println!("({} s)", sig(result.seconds, 3));
+    outln!("{}", qc_table(&[&result.linear, &result.bpm]));
+    outln!("({} s)", sig(result.seconds, 3));
     Ok(())
 }
 
@@ -341,7 +342,7 @@ fn check_measured(mesh: &str, report: &PrecomputeReport, stats: &QcStats) -> Res
     if stats.sub_triangles > stats.collapsed {
         return Ok(());
     }
-    Err(reparam::Error::DegenerateFace {
+    Err(crate::Error::DegenerateFace {
         mesh: mesh.to_string(),
         face: report.degenerate_examples.first().copied().unwrap_or(0),
         reason: format!(

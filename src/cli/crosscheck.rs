@@ -8,8 +8,8 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use crate::{Error, Result};
 use clap::{Args, Subcommand};
-use reparam::{Error, Result};
 
 use super::gridwarp::GridwarpArgs;
 use super::unwarp::UnwarpArgs;
@@ -127,27 +127,20 @@ pub struct SkinsimpInput {
     pub common: Common,
 }
 
-/// Run the command; the exit code says whether every kernel passed.
-pub fn run(args: CrosscheckArgs) -> ExitCode {
-    match try_run(args) {
-        Ok(code) => code,
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::from(2)
-        }
-    }
-}
-
+/// Run the command; the exit code says whether every kernel passed (`main` gives an error
+/// status 2).
 #[cfg(not(feature = "gpu"))]
-fn try_run(_: CrosscheckArgs) -> Result<ExitCode> {
+pub fn try_run(_: CrosscheckArgs) -> Result<ExitCode> {
     Err(Error::Gpu(
         "this build has no GPU support (feature `gpu` is off)".into(),
     ))
 }
 
+/// Run the command; the exit code says whether every kernel passed (`main` gives an error
+/// status 2).
 #[cfg(feature = "gpu")]
-fn try_run(args: CrosscheckArgs) -> Result<ExitCode> {
-    use reparam::crosscheck::run::{AdapterRows, CrosscheckReport};
+pub fn try_run(args: CrosscheckArgs) -> Result<ExitCode> {
+    use crate::crosscheck::run::{AdapterRows, CrosscheckReport};
     use reparam_gpu::Gpu;
 
     if args.list_adapters {
@@ -257,32 +250,32 @@ fn list_adapters() -> Result<ExitCode> {
             ]
         })
         .collect();
-    println!("{}", super::text_table(&header, &rows));
+    outln!("{}", super::text_table(&header, &rows));
     Ok(ExitCode::SUCCESS)
 }
 
 #[cfg(feature = "gpu")]
-fn print_report(report: &reparam::crosscheck::run::CrosscheckReport) -> Result<()> {
-    use reparam::crosscheck::run::{side_by_side, text_table};
+fn print_report(report: &crate::crosscheck::run::CrosscheckReport) -> Result<()> {
+    use crate::crosscheck::run::{side_by_side, text_table};
     for (k, a) in report.adapters.iter().enumerate() {
-        println!("[{k}] adapter: {}", a.adapter);
-        println!("f32 GPU against f64 CPU from identical (f32-rounded) inputs; ε = u = 2⁻²⁴");
+        outln!("[{k}] adapter: {}", a.adapter);
+        outln!("f32 GPU against f64 CPU from identical (f32-rounded) inputs; ε = u = 2⁻²⁴");
         let (header, rows, notes) = text_table(&a.rows);
-        println!("{}", super::text_table(&header, &rows));
-        println!("{}\n", notes.join("\n"));
+        outln!("{}", super::text_table(&header, &rows));
+        outln!("{}\n", notes.join("\n"));
     }
     if report.adapters.len() > 1 {
         let (header, rows) = side_by_side(&report.adapters)?;
-        println!("side by side (max error in each row's unit, worst error/bound):");
-        println!("{}", super::text_table(&header, &rows));
+        outln!("side by side (max error in each row's unit, worst error/bound):");
+        outln!("{}", super::text_table(&header, &rows));
     }
     for (sweep, plot) in report.sweeps.iter().zip(&report.plots) {
-        println!("\nsweep: {} (first adapter; plot {plot})", sweep.title);
+        outln!("\nsweep: {} (first adapter; plot {plot})", sweep.title);
         let (header, rows) = sweep.table();
-        println!("{}", super::text_table(&header, &rows));
+        outln!("{}", super::text_table(&header, &rows));
     }
     if report.failures.is_empty() {
-        println!("every kernel within its bound");
+        outln!("every kernel within its bound");
     }
     Ok(())
 }
@@ -293,8 +286,8 @@ pub fn sweeps(
     gpu: &reparam_gpu::Gpu,
     algorithm: &Algorithm,
     dir: &std::path::Path,
-) -> Result<(Vec<reparam::crosscheck::sweep::Sweep>, Vec<String>)> {
-    use reparam::crosscheck::sweep::sweeps_of;
+) -> Result<(Vec<crate::crosscheck::sweep::Sweep>, Vec<String>)> {
+    use crate::crosscheck::sweep::sweeps_of;
     let names: &[&str] = match algorithm {
         Algorithm::Bpm(_) => &["bpm"],
         Algorithm::Gridwarp(_) => &["gridwarp"],
@@ -312,7 +305,7 @@ pub fn sweeps(
     for name in names {
         for sweep in sweeps_of(gpu, name)? {
             let path = dir.join(format!("{}.png", sweep.name));
-            reparam::texture::save_png(&sweep.plot(640, 420)?, &path)?;
+            crate::texture::save_png(&sweep.plot(640, 420)?, &path)?;
             plots.push(path.display().to_string());
             all.push(sweep);
         }
@@ -325,7 +318,7 @@ pub fn sweeps(
 pub fn rows_for(
     gpu: &reparam_gpu::Gpu,
     algorithm: &Algorithm,
-) -> Result<Vec<reparam::crosscheck::Row>> {
+) -> Result<Vec<crate::crosscheck::Row>> {
     match algorithm {
         Algorithm::Bpm(a) => bpm_rows(gpu, a),
         Algorithm::Gridwarp(a) => gridwarp_rows(gpu, &a.args),
@@ -351,9 +344,9 @@ pub fn rows_for(
 }
 
 /// The built-in meshes of `crosscheck bpm` without `--mesh`.
-pub fn bpm_meshes(input: &BpmInput) -> Result<Vec<reparam::mesh::TriMesh>> {
+pub fn bpm_meshes(input: &BpmInput) -> Result<Vec<crate::mesh::TriMesh>> {
     if input.mesh.is_empty() {
-        return Ok(reparam::mesh::procedural::all_small());
+        return Ok(crate::mesh::procedural::all_small());
     }
     input
         .mesh
@@ -363,9 +356,9 @@ pub fn bpm_meshes(input: &BpmInput) -> Result<Vec<reparam::mesh::TriMesh>> {
 }
 
 #[cfg(feature = "gpu")]
-fn bpm_rows(gpu: &reparam_gpu::Gpu, input: &BpmInput) -> Result<Vec<reparam::crosscheck::Row>> {
-    use reparam::crosscheck::bpm::bpm_rows_with_options;
-    let texture = reparam::texture::checker(512, 16);
+fn bpm_rows(gpu: &reparam_gpu::Gpu, input: &BpmInput) -> Result<Vec<crate::crosscheck::Row>> {
+    use crate::crosscheck::bpm::bpm_rows_with_options;
+    let texture = crate::texture::checker(512, 16);
     let mut rows = Vec::new();
     for mesh in bpm_meshes(input)? {
         if mesh.uvs.is_empty() {
@@ -379,7 +372,7 @@ fn bpm_rows(gpu: &reparam_gpu::Gpu, input: &BpmInput) -> Result<Vec<reparam::cro
             &mesh,
             &texture,
             input.common.perturb_gpu_input,
-            reparam::bpm::BpmOptions {
+            crate::bpm::BpmOptions {
                 unfold: input.unfold.into(),
                 ..Default::default()
             },
@@ -392,8 +385,8 @@ fn bpm_rows(gpu: &reparam_gpu::Gpu, input: &BpmInput) -> Result<Vec<reparam::cro
 fn gridwarp_rows(
     gpu: &reparam_gpu::Gpu,
     args: &GridwarpArgs,
-) -> Result<Vec<reparam::crosscheck::Row>> {
-    use reparam::crosscheck::gridwarp::crosscheck_gridwarp;
+) -> Result<Vec<crate::crosscheck::Row>> {
+    use crate::crosscheck::gridwarp::crosscheck_gridwarp;
     let options = super::gridwarp::solve_options(args);
     let mut rows = Vec::new();
     for w in super::gridwarp::warp_inputs(args)? {
@@ -435,7 +428,7 @@ pub fn default_gridwarp_args() -> Result<GridwarpArgs> {
 }
 
 #[cfg(feature = "gpu")]
-fn unwarp_rows(gpu: &reparam_gpu::Gpu, args: &UnwarpArgs) -> Result<Vec<reparam::crosscheck::Row>> {
+fn unwarp_rows(gpu: &reparam_gpu::Gpu, args: &UnwarpArgs) -> Result<Vec<crate::crosscheck::Row>> {
     let mut args = args.clone();
     if args.input.is_none() && args.procedural.is_none() {
         args.procedural = Some("cones".into());
@@ -447,7 +440,7 @@ fn unwarp_rows(gpu: &reparam_gpu::Gpu, args: &UnwarpArgs) -> Result<Vec<reparam:
         (None, Some(n)) => format!("{n} {}²", args.size),
         _ => "height map".into(),
     };
-    reparam::crosscheck::unwarp::crosscheck_unwarp(gpu, &name, &heights, &options)
+    crate::crosscheck::unwarp::crosscheck_unwarp(gpu, &name, &heights, &options)
 }
 
 /// The demo's torus (48 × 24).
@@ -462,8 +455,8 @@ pub fn default_maps_input() -> MapsInput {
 }
 
 #[cfg(feature = "gpu")]
-fn maps_rows(gpu: &reparam_gpu::Gpu, input: &MapsInput) -> Result<Vec<reparam::crosscheck::Row>> {
-    use reparam::maps::{build, detect_features, load_features, FeatureOptions, MapsOptions};
+fn maps_rows(gpu: &reparam_gpu::Gpu, input: &MapsInput) -> Result<Vec<crate::crosscheck::Row>> {
+    use crate::maps::{build, detect_features, load_features, FeatureOptions, MapsOptions};
     let spec = input.mesh.as_deref().unwrap_or("procedural:torus");
     let mesh = super::maps::load(spec)?;
     let features = match input.features.as_deref() {
@@ -477,7 +470,7 @@ fn maps_rows(gpu: &reparam_gpu::Gpu, input: &MapsInput) -> Result<Vec<reparam::c
         ..Default::default()
     };
     let maps = build(&mesh, &features, &options)?;
-    reparam::crosscheck::maps::crosscheck_maps(gpu, &mesh.name, &maps, &options)
+    crate::crosscheck::maps::crosscheck_maps(gpu, &mesh.name, &maps, &options)
 }
 
 /// The built-in skinned tube (12 × 12), 4 uniform poses per clip.
@@ -493,11 +486,11 @@ pub fn default_skinsimp_input() -> SkinsimpInput {
 fn skinsimp_rows(
     gpu: &reparam_gpu::Gpu,
     input: &SkinsimpInput,
-) -> Result<Vec<reparam::crosscheck::Row>> {
-    use reparam::skinsimp::poses::{select_poses, skinned_input};
+) -> Result<Vec<crate::crosscheck::Row>> {
+    use crate::skinsimp::poses::{select_poses, skinned_input};
     let model = match &input.model {
-        Some(path) => reparam::mesh::load_gltf(path)?,
-        None => reparam::skinsimp::tube::skinned_tube(12, 12),
+        Some(path) => crate::mesh::load_gltf(path)?,
+        None => crate::skinsimp::tube::skinned_tube(12, 12),
     };
     let sets = select_poses(&model, &super::skinsimp::parse_poses(&input.poses)?)?;
     let skinned = skinned_input(&model, &sets.training)?;
@@ -505,25 +498,25 @@ fn skinsimp_rows(
         Some(p) => p.display().to_string(),
         None => model.mesh.name.clone(),
     };
-    reparam::crosscheck::skinsimp::crosscheck_skinsimp(gpu, &name, &skinned)
+    crate::crosscheck::skinsimp::crosscheck_skinsimp(gpu, &name, &skinned)
 }
 
 /// The demo report's cross-check section: per algorithm, its table on built-in data with the
 /// adapter named, the bound formulas and notes, then every sweep's table and plot (written to
 /// `out/crosscheck/`).
 #[cfg(feature = "gpu")]
-pub fn report_section(out: &std::path::Path, report: &mut reparam::report::Report) -> Result<()> {
-    use reparam::crosscheck::run::text_table;
+pub fn report_section(out: &std::path::Path, report: &mut crate::report::Report) -> Result<()> {
+    use crate::crosscheck::run::text_table;
     report.section("Cross-check — every f32 GPU kernel against the f64 reference");
     let gpu = match reparam_gpu::Gpu::new() {
         Ok(gpu) => gpu,
         Err(e) => {
-            println!("crosscheck: no GPU adapter, section skipped ({e})");
+            outln!("crosscheck: no GPU adapter, section skipped ({e})");
             report.paragraph(&format!("Skipped: {e}"));
             return Ok(());
         }
     };
-    println!("crosscheck: every kernel on built-in data, and the sweeps");
+    outln!("crosscheck: every kernel on built-in data, and the sweeps");
     report.paragraph(&format!(
         "`reparam crosscheck all` on this machine. Adapter: **{}**. Each kernel runs on the GPU \
          and in f64 on the CPU from identical (f32-rounded) inputs; a row gives the count \

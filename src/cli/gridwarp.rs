@@ -4,30 +4,30 @@
 
 use std::path::{Path, PathBuf};
 
-use clap::{Args, ValueEnum};
-use nalgebra::Vector3;
-use reparam::gridwarp::energy_naa::DeformedJacobian;
-use reparam::gridwarp::merit::{rigid_stretch, rigid_stretch_naa, RigidStretch};
-use reparam::gridwarp::picture::{
+use crate::gridwarp::energy_naa::DeformedJacobian;
+use crate::gridwarp::merit::{rigid_stretch, rigid_stretch_naa, RigidStretch};
+use crate::gridwarp::picture::{
     atlas_texture, detail_texture, grid_overlay, remap_mesh_uvs, render_remapped,
     render_remapped_framed, rigid_faces, roi_crop, stretch_map, surface_mesh,
 };
-use reparam::gridwarp::rasterize::{
+use crate::gridwarp::rasterize::{
     frames_fields, rigidity_from_image, rigidity_from_image_of_size, texel_map, Roi,
 };
-use reparam::gridwarp::remap::check_disjoint;
-use reparam::gridwarp::rigidity::{parse_discs, rigidity_from_texture, AutoRigidityOptions};
-use reparam::gridwarp::scene::{analytic_scene, disc_rigidity, partials_of, AnalyticScene, SCENES};
-use reparam::gridwarp::{
+use crate::gridwarp::remap::check_disjoint;
+use crate::gridwarp::rigidity::{parse_discs, rigidity_from_texture, AutoRigidityOptions};
+use crate::gridwarp::scene::{analytic_scene, disc_rigidity, partials_of, AnalyticScene, SCENES};
+use crate::gridwarp::{
     grid_from_rigidity, solve_naa_sequence, solve_sequence, AtlasRemap, Grid, NaaModel, Remap,
     SolveOptions, VertexGrid, Warped,
 };
-use reparam::gridwarp::{DeformedFields, Field, RestFields};
-use reparam::lm::{LmOptions, LmReport, StopCode};
-use reparam::mesh::{load_gltf, load_gltf_base_colour, load_obj, write_obj, TriMesh};
-use reparam::report::sig;
-use reparam::texture::{load_rgba8, save_png, side_by_side, Image};
-use reparam::{Error, Result};
+use crate::gridwarp::{DeformedFields, Field, RestFields};
+use crate::lm::{LmOptions, LmReport, StopCode};
+use crate::mesh::{load_gltf, load_gltf_base_colour, load_obj, write_obj, TriMesh};
+use crate::report::sig;
+use crate::texture::{load_rgba8, save_png, side_by_side, Image};
+use crate::{Error, Result};
+use clap::{Args, ValueEnum};
+use nalgebra::Vector3;
 use serde::Serialize;
 
 /// Which energy to minimise.
@@ -817,7 +817,7 @@ pub fn run(args: GridwarpArgs) -> Result<()> {
     if args.json {
         return super::print_json(&result);
     }
-    println!(
+    outln!(
         "{} ({}): {} ROI(s), {} frames",
         result.scene,
         match result.variant {
@@ -828,7 +828,7 @@ pub fn run(args: GridwarpArgs) -> Result<()> {
         result.combined.len()
     );
     for (k, r) in result.rois.iter().enumerate() {
-        println!(
+        outln!(
             "ROI {k} u [{}, {}] x v [{}, {}]: {} unknowns (rest grid {}×{} lines)",
             r.roi[0],
             r.roi[1],
@@ -839,12 +839,12 @@ pub fn run(args: GridwarpArgs) -> Result<()> {
             r.rest_grid.t.len()
         );
         if r.unknowns == 0 {
-            println!("{}", NOTHING_TO_WARP);
+            outln!("{}", NOTHING_TO_WARP);
         }
-        println!("{}", frame_table(&r.frames));
+        outln!("{}", frame_table(&r.frames));
     }
     if result.rois.len() > 1 {
-        println!("all ROIs combined:");
+        outln!("all ROIs combined:");
         let header: Vec<String> = ["frame", "ms", "iterations", "evaluations (E + J)"]
             .iter()
             .map(|h| h.to_string())
@@ -861,11 +861,11 @@ pub fn run(args: GridwarpArgs) -> Result<()> {
                 ]
             })
             .collect();
-        println!("{}", super::text_table(&header, &rows));
+        outln!("{}", super::text_table(&header, &rows));
     }
-    println!("pictures show frame {}", result.pictured_frame);
+    outln!("pictures show frame {}", result.pictured_frame);
     for p in result.pictures.iter().chain([&lines]) {
-        println!("wrote {}", p.display());
+        outln!("wrote {}", p.display());
     }
     Ok(())
 }

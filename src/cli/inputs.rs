@@ -3,9 +3,9 @@
 
 use std::path::Path;
 
+use crate::mesh::{io::load_obj, procedural, TriMesh};
+use crate::{Error, Result};
 use nalgebra::Vector3;
-use reparam::mesh::{io::load_obj, procedural, TriMesh};
-use reparam::{Error, Result};
 
 /// Load a mesh from an OBJ file, or build a built-in one from `procedural:<name>`.
 pub fn load_mesh(spec: &str) -> Result<TriMesh> {

@@ -4,20 +4,20 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
-use reparam::maps::distortion::{distortion, Distortion};
-use reparam::maps::quality::AngleStats;
-use reparam::maps::remesh::{adaptive, uniform, AdaptiveOptions, Remesh};
-use reparam::maps::smooth::{uniform_smoothed_with, SmoothOptions, SmoothStats};
-use reparam::maps::{
+use crate::maps::distortion::{distortion, Distortion};
+use crate::maps::quality::AngleStats;
+use crate::maps::remesh::{adaptive, uniform, AdaptiveOptions, Remesh};
+use crate::maps::smooth::{uniform_smoothed_with, SmoothOptions, SmoothStats};
+use crate::maps::{
     build_with_progress, detect_features, load_features, picture, FeatureOptions, Features,
     HierarchyStop, LevelReport, Maps, MapsOptions, RejectCounts, StopReason, Timings,
 };
-use reparam::mesh::{write_obj, TriMesh};
-use reparam::report::sig;
-use reparam::texture::{save_png, side_by_side};
-use reparam::{Error, Result};
+use crate::mesh::{write_obj, TriMesh};
+use crate::report::sig;
+use crate::texture::{save_png, side_by_side};
+use crate::{Error, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use super::inputs::builtin_mesh;
@@ -157,7 +157,7 @@ pub struct MapsSummary {
     /// Distortion of Π per level and at the end, and the input's triangle-size spread.
     pub distortion: Distortion,
     /// The input's own folds (edges past 90°): the wrong-facing area a remesh cannot avoid.
-    pub input_folds: reparam::maps::quality::InputFolds,
+    pub input_folds: crate::maps::quality::InputFolds,
     /// Seconds spent measuring the distortion.
     pub distortion_seconds: f64,
     /// Set when a remesh is not faithful to the input: what was measured and what to try.
@@ -182,7 +182,7 @@ pub fn run(args: MapsArgs) -> Result<()> {
 /// name: genus2, genus3, horned, pedestal (64 grid cubes along the longest side, 26k–34k
 /// triangles), genus2_100k (110 cubes, ≈ 100k triangles).
 fn hard_model(name: &str) -> Option<TriMesh> {
-    use reparam::mesh::procedural::{genus_bumpy, horned, pedestal};
+    use crate::mesh::procedural::{genus_bumpy, horned, pedestal};
     Some(match name {
         "genus2" => genus_bumpy(2, 64),
         "genus3" => genus_bumpy(3, 64),
@@ -204,7 +204,7 @@ pub(super) fn load(spec: &str) -> Result<TriMesh> {
                 m
             })
             .ok_or_else(|| Error::InvalidArgument(format!("unknown built-in mesh '{name}'"))),
-        None => reparam::mesh::load_mesh(Path::new(spec)),
+        None => crate::mesh::load_mesh(Path::new(spec)),
     }
 }
 
@@ -373,7 +373,7 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
     let t = Instant::now();
     let distortion = distortion(&maps);
     let distortion_seconds = t.elapsed().as_secs_f64();
-    let input_folds = reparam::maps::quality::input_folds(&maps.positions, &maps.input_faces);
+    let input_folds = crate::maps::quality::input_folds(&maps.positions, &maps.input_faces);
     let warning = unfaithful_warning(&remeshes, &distortion, maps.base_faces.len(), &input_folds);
     if let Some(w) = &warning {
         eprintln!("{w}");
@@ -460,7 +460,7 @@ pub fn unfaithful_warning(
     remeshes: &[RemeshSummary],
     distortion: &Distortion,
     base_faces: usize,
-    folds: &reparam::maps::quality::InputFolds,
+    folds: &crate::maps::quality::InputFolds,
 ) -> Option<String> {
     let bad: Vec<&RemeshSummary> = remeshes.iter().filter(|r| !r.faithful).collect();
     let worst = bad
@@ -469,8 +469,8 @@ pub fn unfaithful_warning(
     let d = &distortion.final_map;
     let only_folds = folds.edges > 0
         && bad.iter().all(|r| {
-            r.hausdorff_relative <= reparam::maps::quality::FAITHFUL_HAUSDORFF
-                && r.mean_distance_relative <= reparam::maps::quality::FAITHFUL_MEAN
+            r.hausdorff_relative <= crate::maps::quality::FAITHFUL_HAUSDORFF
+                && r.mean_distance_relative <= crate::maps::quality::FAITHFUL_MEAN
                 && r.wrong_facing_area <= folds.area_fraction
         });
     if only_folds {
@@ -544,7 +544,7 @@ pub fn write_pictures(
 ) -> Result<Vec<String>> {
     let mut files = Vec::new();
     let mut save =
-        |name: String, img: &reparam::texture::Image<reparam::texture::Rgba8>| -> Result<()> {
+        |name: String, img: &crate::texture::Image<crate::texture::Rgba8>| -> Result<()> {
             save_png(img, &out.join(&name))?;
             files.push(name);
             Ok(())
@@ -586,22 +586,22 @@ pub fn write_pictures(
 }
 
 fn print_summary(s: &MapsSummary) {
-    println!(
+    outln!(
         "{}: {} faces, {} vertices → {} levels, base domain {} faces / {} vertices ({} corners, {} feature edges tagged)",
         s.mesh, s.input_faces, s.input_vertices, s.levels, s.base_faces, s.base_vertices, s.feature_corners, s.feature_edges
     );
-    println!(
+    outln!(
         "rejected removals: {} by the flattening guard, {} by the triangulation checks ({} flipped in 3D, {} duplicate edge/face)",
         s.rejected.flatten, s.rejected.triangulation, s.rejected.flipped, s.rejected.duplicate
     );
-    println!(
+    outln!(
         "time: check {} s, hierarchy {} s, Π/Π⁻¹ {} s",
         sig(s.timings.check, 3),
         sig(s.timings.hierarchy, 3),
         sig(s.timings.param, 3)
     );
     let d = &s.distortion.final_map;
-    println!(
+    outln!(
         "distortion of Π: |log area ratio| mean {} p95 {} max {} (input's triangle-size spread {}), \
          σmax/σmin mean {} p95 {} max {}, {} folded of {} triangles",
         sig(d.area_mean, 3),
@@ -643,9 +643,9 @@ fn print_summary(s: &MapsSummary) {
                 ]
             })
             .collect();
-        println!("{}", super::text_table(&header, &rows));
+        outln!("{}", super::text_table(&header, &rows));
     }
     for p in &s.pictures {
-        println!("wrote {p}");
+        outln!("wrote {p}");
     }
 }

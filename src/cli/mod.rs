@@ -1,5 +1,67 @@
 //! Command-line parsing (clap derive) and dispatch. Each subcommand lives in its own file and
 //! only glues the library together: parse, call, print (or `--json`), save.
+//!
+//! Everything meant for stdout goes through [`outln!`] / [`out!`] ([`write_out`]): on a closed
+//! stdout (`reparam verify … | head`) the process ends quietly with status 0 instead of
+//! panicking in `println!`, and [`run_captured`] collects it in a buffer to run a command
+//! in-process (the command fuzzer, `tests/fuzz_commands.rs`). `println!` is denied here by
+//! clippy's `print_stdout`.
+
+#![deny(clippy::print_stdout)]
+
+use std::cell::RefCell;
+use std::io::Write as _;
+
+/// `println!` for the command line's output: through [`write_out`].
+macro_rules! outln {
+    () => {
+        $crate::cli::write_out(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::cli::write_out(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// `print!` for the command line's output: through [`write_out`].
+#[allow(unused_macros)]
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::cli::write_out(format_args!($($arg)*))
+    };
+}
+
+thread_local! {
+    /// The buffer of [`run_captured`] while it runs a command on this thread.
+    static CAPTURE: RefCell<Option<Vec<u8>>> = const { RefCell::new(None) };
+}
+
+/// Write command output: into [`run_captured`]'s buffer when one is active on this thread, else
+/// to stdout. A reader that has gone away (`BrokenPipe`, e.g. `| head`) ends the process
+/// quietly with status 0, as ripgrep does: the reader asked for no more, and the Rust runtime
+/// ignores SIGPIPE, so `println!` would panic instead. This is portable (Windows reports a
+/// closed pipe the same way) and needs no `unsafe` signal handling; any other write error is
+/// one line on stderr and status 1.
+#[doc(hidden)]
+pub fn write_out(args: std::fmt::Arguments) {
+    let captured = CAPTURE.with(|c| match c.borrow_mut().as_mut() {
+        Some(buffer) => {
+            // Writing into a Vec cannot fail.
+            let _ = buffer.write_fmt(args);
+            true
+        }
+        None => false,
+    });
+    if captured {
+        return;
+    }
+    if let Err(e) = std::io::stdout().lock().write_fmt(args) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("error: cannot write to stdout: {e}");
+        std::process::exit(1);
+    }
+}
 
 mod bpm;
 mod crosscheck;
@@ -62,39 +124,73 @@ enum Command {
 }
 
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
-    let result = match cli.command {
-        Command::Demo(args) => demo::run(args),
-        Command::Bpm(cmd) => bpm::run(cmd),
-        Command::Crosscheck(args) => return crosscheck::run(args),
-        #[cfg(feature = "gpu")]
-        Command::Vectors(args) => vectors::run(args),
-        #[cfg(feature = "gpu")]
-        Command::Verify(args) => return vectors::verify(args),
-        Command::Gridwarp(args) => gridwarp::run(args),
-        Command::Maps(args) => maps::run(args),
-        Command::Unwarp(args) => unwarp::run(args),
-        Command::Skinsimp(args) => skinsimp::run(args),
-        Command::ReferenceData { out } => reparam::reference_data::write_all(&out).map(|files| {
-            for f in files {
-                println!("wrote {}", f.display());
-            }
-        }),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
+    match dispatch(Cli::parse()) {
+        Ok(code) => code,
+        Err((e, code)) => {
             eprintln!("error: {e}");
-            ExitCode::FAILURE
+            ExitCode::from(code)
         }
     }
 }
 
-/// Print `value` as pretty JSON on stdout.
-pub fn print_json<T: serde::Serialize>(value: &T) -> reparam::Result<()> {
+/// Run the command line `args` (the first is the program name, as in `std::env::args`) in this
+/// process, with its standard output captured: the exit code or the error `main` would print
+/// after `error: `, and the bytes it wrote to stdout. Unparsable arguments are
+/// [`crate::Error::InvalidArgument`] with clap's message. Progress bars and warnings still go
+/// to stderr.
+pub fn run_captured<I, T>(args: I) -> (crate::Result<ExitCode>, Vec<u8>)
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let previous = CAPTURE.with(|c| c.borrow_mut().replace(Vec::new()));
+    let result = Cli::try_parse_from(args)
+        .map_err(|e| crate::Error::InvalidArgument(e.to_string().trim().to_string()))
+        .and_then(|cli| dispatch(cli).map_err(|(e, _)| e));
+    let output = CAPTURE.with(|c| std::mem::replace(&mut *c.borrow_mut(), previous));
+    (result, output.unwrap_or_default())
+}
+
+/// Run a parsed command line: its exit code, or its error and the exit status `main` gives it
+/// (1; 2 for `crosscheck` and `verify`, whose 1 means a bound exceeded).
+fn dispatch(cli: Cli) -> Result<ExitCode, (crate::Error, u8)> {
+    let result = match cli.command {
+        Command::Demo(args) => demo::run(args),
+        Command::Bpm(cmd) => bpm::run(cmd),
+        Command::Crosscheck(args) => return crosscheck::try_run(args).map_err(|e| (e, 2)),
+        #[cfg(feature = "gpu")]
+        Command::Vectors(args) => vectors::run(args),
+        #[cfg(feature = "gpu")]
+        Command::Verify(args) => {
+            return match vectors::try_verify(&args) {
+                Ok(true) => Ok(ExitCode::SUCCESS),
+                Ok(false) => Ok(ExitCode::from(1)),
+                Err(e) => Err((e, 2)),
+            }
+        }
+        Command::Gridwarp(args) => gridwarp::run(args),
+        Command::Maps(args) => maps::run(args),
+        Command::Unwarp(args) => unwarp::run(args),
+        Command::Skinsimp(args) => skinsimp::run(args),
+        Command::ReferenceData { out } => crate::reference_data::write_all(&out).map(|files| {
+            for f in files {
+                outln!("wrote {}", f.display());
+            }
+        }),
+    };
+    result.map(|()| ExitCode::SUCCESS).map_err(|e| (e, 1))
+}
+
+/// Print `value` as pretty JSON on stdout. A NaN or infinite number anywhere in it (which
+/// serde_json would write as `null`) is [`crate::Error::NonFiniteOutput`] naming the field:
+/// a figure that cannot be computed must be a typed error upstream, never a `null` with exit 0.
+pub fn print_json<T: serde::Serialize>(value: &T) -> crate::Result<()> {
+    if let Some(field) = crate::report::first_non_finite(value) {
+        return Err(crate::Error::NonFiniteOutput { field });
+    }
     let text = serde_json::to_string_pretty(value)
-        .map_err(|e| reparam::Error::InvalidArgument(format!("cannot serialise results: {e}")))?;
-    println!("{text}");
+        .map_err(|e| crate::Error::InvalidArgument(format!("cannot serialise results: {e}")))?;
+    outln!("{text}");
     Ok(())
 }
 

@@ -4,30 +4,28 @@
 //! poses. `--frames f0.obj f1.obj …` simplifies a frame sequence with shared connectivity
 //! instead (writes `<out>_<k>.obj` per frame). `--compare` runs all three methods at equal
 //! vertex counts. Next to the GLB it writes `<out stem>_poses.png` (original vs simplified in 4
-//! poses, [`reparam::skinsimp::picture::pose_strip`]); `--plot <png>` adds the held-out error
+//! poses, [`crate::skinsimp::picture::pose_strip`]); `--plot <png>` adds the held-out error
 //! against vertex count of the three methods
-//! ([`reparam::skinsimp::picture::error_plot`]).
+//! ([`crate::skinsimp::picture::error_plot`]).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
-use reparam::mesh::{load_gltf, load_obj, write_obj, SkinnedMesh};
-use reparam::report::sig;
-use reparam::skinsimp::evaluate::{compare, pose_set_error, MethodQuality};
-use reparam::skinsimp::glb::{level_model, write_glb};
-use reparam::skinsimp::picture::{
+use crate::mesh::{load_gltf, load_obj, write_obj, SkinnedMesh};
+use crate::report::sig;
+use crate::skinsimp::evaluate::{compare, pose_set_error, MethodQuality};
+use crate::skinsimp::glb::{level_model, write_glb};
+use crate::skinsimp::picture::{
     error_plot, level_counts, pose_strip, spread_poses, ErrorSeries, PlotAxes, PoseStripOptions,
 };
-use reparam::skinsimp::poses::{
-    frames_input, select_poses, skinned_input, PoseSelection, PoseSets,
-};
-use reparam::skinsimp::{
+use crate::skinsimp::poses::{frames_input, select_poses, skinned_input, PoseSelection, PoseSets};
+use crate::skinsimp::{
     simplify, simplify_with_progress, Hierarchy, Input, Level, Method, Options, Schedule,
 };
-use reparam::texture::save_png;
-use reparam::{Error, Result};
+use crate::texture::save_png;
+use crate::{Error, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 #[derive(Args, Clone)]
@@ -314,8 +312,8 @@ fn print_summary(summary: &Summary, json: bool, model: &SkinnedMesh) -> Result<(
     if json {
         return super::print_json(summary);
     }
-    print!("{}", model.report);
-    println!(
+    out!("{}", model.report);
+    outln!(
         "{}: {} vertices, {} faces; {} training and {} held-out poses; wrote {}",
         summary.input,
         summary.input_vertices,
@@ -324,13 +322,13 @@ fn print_summary(summary: &Summary, json: bool, model: &SkinnedMesh) -> Result<(
         summary.held_out_poses,
         summary.output
     );
-    println!("{}", quality_table(&summary.results));
+    outln!("{}", quality_table(&summary.results));
     if let Some(plot) = &summary.error_plot {
-        let (header, rows) = reparam::skinsimp::picture::table_of(&plot.series);
-        println!("error plot ({}):", plot.axes.caption());
-        println!("{}", super::text_table(&header, &rows));
+        let (header, rows) = crate::skinsimp::picture::table_of(&plot.series);
+        outln!("error plot ({}):", plot.axes.caption());
+        outln!("{}", super::text_table(&header, &rows));
     }
-    println!("pictures: {}", summary.pictures.join(", "));
+    outln!("pictures: {}", summary.pictures.join(", "));
     Ok(())
 }
 
@@ -408,7 +406,7 @@ fn run_frames(args: &SkinsimpArgs, method: Method) -> Result<()> {
     if args.json {
         return super::print_json(&summary);
     }
-    println!(
+    outln!(
         "{} frames: {} → {} vertices ({} faces) in {} s; wrote {}",
         summary.frames,
         summary.input_vertices,

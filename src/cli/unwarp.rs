@@ -5,17 +5,17 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
-use reparam::report::sig;
-use reparam::texture::{load_gray_f32, load_rgba8};
-use reparam::unwarp::height::PROCEDURAL;
-use reparam::unwarp::output::write_outputs;
-use reparam::unwarp::stats::{area_ratios, coefficient_of_variation, uniformity, Uniformity};
-use reparam::unwarp::{
+use crate::report::sig;
+use crate::texture::{load_gray_f32, load_rgba8};
+use crate::unwarp::height::PROCEDURAL;
+use crate::unwarp::output::write_outputs;
+use crate::unwarp::stats::{area_ratios, coefficient_of_variation, uniformity, Uniformity};
+use crate::unwarp::{
     load_height_map, procedural, Border, Energy, HeightMap, Solution, UnwarpOptions,
 };
-use reparam::{Error, Result};
+use crate::{Error, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 #[derive(Args, Clone)]
@@ -154,12 +154,12 @@ fn run_solve(
     heights: &HeightMap,
     options: &UnwarpOptions,
     gpu: bool,
-    progress: impl FnMut(&reparam::unwarp::Progress),
+    progress: impl FnMut(&crate::unwarp::Progress),
 ) -> Result<(Solution, String)> {
     if gpu {
         #[cfg(feature = "gpu")]
         {
-            let (solution, adapter) = reparam::unwarp::gpu::solve_gpu(heights, options, progress)?;
+            let (solution, adapter) = crate::unwarp::gpu::solve_gpu(heights, options, progress)?;
             return Ok((solution, format!("gpu f32 ({adapter})")));
         }
         #[cfg(not(feature = "gpu"))]
@@ -168,7 +168,7 @@ fn run_solve(
         ));
     }
     Ok((
-        reparam::unwarp::solve(heights, options, progress)?,
+        crate::unwarp::solve(heights, options, progress)?,
         "cpu f64".into(),
     ))
 }
@@ -307,9 +307,9 @@ pub fn run(args: UnwarpArgs) -> Result<()> {
         return super::print_json(&summary);
     }
     let header = ["figure".to_string(), "value".to_string()];
-    println!("{}", super::text_table(&header, &summary_rows(&summary)));
+    outln!("{}", super::text_table(&header, &summary_rows(&summary)));
     for f in &summary.files {
-        println!("wrote {}", f.display());
+        outln!("wrote {}", f.display());
     }
     Ok(())
 }

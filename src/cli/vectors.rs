@@ -3,11 +3,10 @@
 //! outputs against them (exit 0 pass, 1 over a bound or NaN, 2 bad input).
 
 use std::path::PathBuf;
-use std::process::ExitCode;
 
+use crate::vectors::{write_vectors, Array, KernelData};
+use crate::{Error, Result};
 use clap::{Args, Subcommand};
-use reparam::vectors::{write_vectors, Array, KernelData};
-use reparam::{Error, Result};
 
 #[derive(Args)]
 pub struct VectorsArgs {
@@ -94,19 +93,19 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
             if m.uvs.is_empty() {
                 return Err(Error::MissingUvs { mesh: m.name });
             }
-            let kernels = reparam::vectors::bpm::vectors(&m)?;
+            let kernels = crate::vectors::bpm::vectors(&m)?;
             let candidates = match gpu {
                 Some(g) => {
-                    let mut c = reparam::vectors::bpm::gpu_candidates(g, &m)?;
+                    let mut c = crate::vectors::bpm::gpu_candidates(g, &m)?;
                     // Not a kernel of its own: the seed's fit, to verify with --kernel bpm_eval.
                     c.push((
                         "bpm_eval.determinant_fit".into(),
-                        reparam::vectors::bpm::determinant_fit_candidate(g, &m)?,
+                        crate::vectors::bpm::determinant_fit_candidate(g, &m)?,
                     ));
                     // The same fit's per-triangle data, to verify with --kernel bpm_precompute.
                     c.push((
                         "bpm_precompute.determinant_fit".into(),
-                        reparam::vectors::bpm::determinant_fit_maps_candidate(g, &m)?,
+                        crate::vectors::bpm::determinant_fit_maps_candidate(g, &m)?,
                     ));
                     c
                 }
@@ -137,7 +136,7 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
                 .into_iter()
                 .next()
                 .ok_or_else(|| Error::InvalidArgument("no ROI".into()))?;
-            let (k, c) = reparam::vectors::gridwarp::all_vectors(
+            let (k, c) = crate::vectors::gridwarp::all_vectors(
                 gpu,
                 &input.rest,
                 &input.rest_grid,
@@ -148,14 +147,14 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
         }
         VectorsAlgorithm::Unwarp { input, size, scale } => {
             let heights = match input {
-                Some(p) => reparam::unwarp::load_height_map(p)?,
-                None => reparam::unwarp::procedural("cones", *size)?,
+                Some(p) => crate::unwarp::load_height_map(p)?,
+                None => crate::unwarp::procedural("cones", *size)?,
             };
-            let options = reparam::unwarp::UnwarpOptions {
+            let options = crate::unwarp::UnwarpOptions {
                 scale: *scale,
                 ..Default::default()
             };
-            let (k, c) = reparam::vectors::unwarp::vectors(gpu, &heights, &options)?;
+            let (k, c) = crate::vectors::unwarp::vectors(gpu, &heights, &options)?;
             let name = input
                 .as_ref()
                 .map_or(format!("cones {size}²"), |p| p.display().to_string());
@@ -167,27 +166,27 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
             uniform,
         } => {
             let m = super::maps::load(mesh)?;
-            let options = reparam::maps::MapsOptions {
+            let options = crate::maps::MapsOptions {
                 base_size: *base_size,
                 ..Default::default()
             };
-            let built = reparam::maps::build(&m, &Default::default(), &options)?;
-            let remesh = reparam::maps::remesh::uniform(&built, *uniform)?;
-            let (k, c) = reparam::vectors::maps::all_vectors(gpu, &built, &remesh)?;
+            let built = crate::maps::build(&m, &Default::default(), &options)?;
+            let remesh = crate::maps::remesh::uniform(&built, *uniform)?;
+            let (k, c) = crate::vectors::maps::all_vectors(gpu, &built, &remesh)?;
             Ok((k, mesh.clone(), c))
         }
         VectorsAlgorithm::Skinsimp { model, poses } => {
-            use reparam::skinsimp::poses::select_poses;
+            use crate::skinsimp::poses::select_poses;
             let m = match model {
-                Some(p) => reparam::mesh::load_gltf(p)?,
-                None => reparam::skinsimp::tube::skinned_tube(12, 12),
+                Some(p) => crate::mesh::load_gltf(p)?,
+                None => crate::skinsimp::tube::skinned_tube(12, 12),
             };
             let sets = select_poses(&m, &super::skinsimp::parse_poses(poses)?)?;
             let kernels = match gpu {
-                Some(g) => Some(reparam::skinsimp::gpu::SkinsimpKernels::new(g.clone())?),
+                Some(g) => Some(crate::skinsimp::gpu::SkinsimpKernels::new(g.clone())?),
                 None => None,
             };
-            let (k, c) = reparam::vectors::skinsimp::all_vectors(&m, &sets, kernels.as_ref())?;
+            let (k, c) = crate::vectors::skinsimp::all_vectors(&m, &sets, kernels.as_ref())?;
             let name = model
                 .as_ref()
                 .map_or(m.mesh.name.clone(), |p| p.display().to_string());
@@ -205,7 +204,7 @@ pub fn run(args: VectorsArgs) -> Result<()> {
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let manifest = write_vectors(&args.out, &command, &input, &kernels)?;
     for k in &manifest.kernels {
-        println!(
+        outln!(
             "{}: {} input arrays, expected {:?} ({}), bound {}",
             k.name,
             k.inputs.len(),
@@ -214,7 +213,7 @@ pub fn run(args: VectorsArgs) -> Result<()> {
             k.bound_formula
         );
     }
-    println!("wrote {}", args.out.join("manifest.json").display());
+    outln!("wrote {}", args.out.join("manifest.json").display());
     if let Some(dir) = &args.gpu_candidate {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
         let adapter = gpu
@@ -224,7 +223,7 @@ pub fn run(args: VectorsArgs) -> Result<()> {
         for (name, array) in &candidates {
             let path = dir.join(format!("{name}.npy"));
             array.save(&path)?;
-            println!("GPU candidate ({adapter}): {}", path.display());
+            outln!("GPU candidate ({adapter}): {}", path.display());
         }
     }
     Ok(())
@@ -245,29 +244,21 @@ pub struct VerifyArgs {
     pub json: bool,
 }
 
-/// `reparam verify`; exit 0 pass, 1 fail, 2 bad input.
-pub fn verify(args: VerifyArgs) -> ExitCode {
-    match try_verify(&args) {
-        Ok(true) => ExitCode::SUCCESS,
-        Ok(false) => ExitCode::from(1),
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::from(2)
-        }
-    }
-}
-
-fn try_verify(args: &VerifyArgs) -> Result<bool> {
-    use reparam::report::sig;
-    let r = reparam::vectors::verify::verify(&args.dir, &args.candidate, args.kernel.as_deref())?;
+/// `reparam verify`: whether the candidate passes (exit 0 pass, 1 fail; `main` gives an error
+/// status 2).
+pub fn try_verify(args: &VerifyArgs) -> Result<bool> {
+    use crate::report::sig;
+    let r = crate::vectors::verify::verify(&args.dir, &args.candidate, args.kernel.as_deref())?;
     if args.json {
         super::print_json(&r)?;
         return Ok(r.pass);
     }
     let e = &r.errors;
-    println!(
+    outln!(
         "kernel {} · candidate {} ({:?})",
-        r.kernel, r.candidate, r.candidate_dtype
+        r.kernel,
+        r.candidate,
+        r.candidate_dtype
     );
     let header = [
         "count",
@@ -295,9 +286,9 @@ fn try_verify(args: &VerifyArgs) -> Result<bool> {
         e.non_finite.to_string(),
         if r.pass { "pass" } else { "FAIL" }.into(),
     ];
-    println!("{}", super::text_table(&header, &[row]));
-    println!("bound: {}", r.bound_formula);
-    println!("worst elements:");
+    outln!("{}", super::text_table(&header, &[row]));
+    outln!("bound: {}", r.bound_formula);
+    outln!("worst elements:");
     for w in &r.worst {
         let inputs: Vec<String> = w
             .inputs
@@ -307,10 +298,10 @@ fn try_verify(args: &VerifyArgs) -> Result<bool> {
                 format!("{name} [{}]", values.join(", "))
             })
             .collect();
-        println!(
+        outln!(
             "  {:?}: error {} (bound {}) {}",
             w.index,
-            sig(w.error, 3),
+            w.error.map_or("NaN/∞".into(), |e| sig(e, 3)),
             sig(w.bound, 3),
             inputs.join("; ")
         );

@@ -52,9 +52,20 @@ impl ErrorSummary {
             .iter()
             .zip(magnitudes)
             .filter(|(e, m)| e.is_finite() && **m > 0.0)
-            .map(|(e, m)| e / m)
+            // e / m overflows for a huge error over a subnormal magnitude: f64::MAX then.
+            .map(|(e, m)| (e / m).min(f64::MAX))
             .fold(0.0, f64::max);
         let rms = (finite.iter().map(|e| e * e).sum::<f64>() / finite.len().max(1) as f64).sqrt();
+        // Errors near f64::MAX (a candidate's 1e308) overflow the sum of squares: scaled by
+        // the largest error then.
+        let largest = finite.last().copied().unwrap_or(0.0);
+        let rms = if rms.is_finite() {
+            rms
+        } else {
+            largest
+                * (finite.iter().map(|e| (e / largest).powi(2)).sum::<f64>() / finite.len() as f64)
+                    .sqrt()
+        };
         ErrorSummary {
             unit: unit.to_string(),
             count: errors.len(),
@@ -98,9 +109,15 @@ pub fn round_significant(x: f64, digits: u32) -> f64 {
     let magnitude = x.abs().log10().floor() as i32;
     let factor = 10f64.powi(digits as i32 - 1 - magnitude);
     // Format through a string so that the result is the shortest decimal with those digits.
-    format!("{:.*e}", (digits - 1) as usize, x)
+    let rounded = format!("{:.*e}", (digits - 1) as usize, x)
         .parse()
-        .unwrap_or((x * factor).round() / factor)
+        .unwrap_or((x * factor).round() / factor);
+    // Near f64::MAX rounding up leaves the range (1.8e308): keep x then.
+    if rounded.is_finite() {
+        rounded
+    } else {
+        x
+    }
 }
 
 /// f64 → f32 → f64: the value the GPU sees.

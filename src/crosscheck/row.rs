@@ -92,7 +92,8 @@ pub struct Row {
     pub bound_max: f64,
     /// Elements over their own bound (NaN/∞ included).
     pub over: usize,
-    /// max error / bound over the elements (≤ 1 when all pass).
+    /// max error / bound over the elements (≤ 1 when all pass); `f64::MAX` when an error is
+    /// NaN or ∞ or exceeds a zero bound (JSON has no ∞; the verdict is a fail either way).
     pub worst_ratio: f64,
     pub verdict: Verdict,
     /// Anything the figures need to be read right (what was left out and why).
@@ -140,9 +141,9 @@ impl Row {
             }
             let ratio = if e == 0.0 { 0.0 } else { e / b };
             worst = if ratio.is_nan() {
-                f64::INFINITY
+                f64::MAX
             } else {
-                worst.max(ratio)
+                worst.max(ratio.min(f64::MAX))
             };
         }
         let errors = ErrorSummary {
@@ -201,7 +202,11 @@ impl Row {
             bound_per_element: false,
             bound_max: summary.tolerance,
             over,
-            worst_ratio,
+            worst_ratio: if worst_ratio.is_nan() {
+                f64::MAX
+            } else {
+                worst_ratio.min(f64::MAX)
+            },
             verdict,
             note: String::new(),
             timing: Timing::default(),

@@ -207,6 +207,9 @@ fn images(maps: &Maps, loc: &[Option<(u32, [f64; 3])>]) -> Vec<Option<Image>> {
 }
 
 /// p95 of |log(A_t / Ā)| over the input triangles ([`Distortion::input_area_spread`]).
+/// Triangles of zero area have no log ratio; triangles whose area or log ratio is not finite in
+/// f64 (coordinates near 10¹⁵⁴ and beyond, found by fuzzing) are left out, and Ā is summed as
+/// Σ A_t / n when Σ A_t overflows.
 pub fn input_area_spread(positions: &[Point3<f64>], faces: &[[u32; 3]]) -> f64 {
     let areas: Vec<f64> = faces
         .iter()
@@ -214,15 +217,21 @@ pub fn input_area_spread(positions: &[Point3<f64>], faces: &[[u32; 3]]) -> f64 {
             let [a, b, c] = t.map(|v| positions[v as usize]);
             0.5 * (b - a).cross(&(c - a)).norm()
         })
+        .filter(|a| a.is_finite())
         .collect();
     if areas.is_empty() {
         return 0.0;
     }
-    let mean = areas.iter().sum::<f64>() / areas.len() as f64;
+    let n = areas.len() as f64;
+    let mut mean = areas.iter().sum::<f64>() / n;
+    if !mean.is_finite() {
+        mean = areas.iter().map(|a| a / n).sum::<f64>();
+    }
     let mut logs: Vec<f64> = areas
         .iter()
         .filter(|&&a| a > 0.0 && mean > 0.0)
         .map(|a| (a / mean).ln().abs())
+        .filter(|l| l.is_finite())
         .collect();
     logs.sort_by(f64::total_cmp);
     quantile(&logs, 0.95)

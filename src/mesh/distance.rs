@@ -1,4 +1,5 @@
-//! Point-to-surface distances: the closest point of a triangle, a uniform grid and a BVH
+//! Point-to-surface distances: the closest point of a triangle, a bounding-volume tree of our own
+//! (exact minimum of [`point_triangle_distance`]) and a BVH
 //! (parry3d's triangle mesh) for nearest-surface queries, the sampled two-sided Hausdorff
 //! distance and the surface comparison of issue #23 (mean distances, area facing the wrong way).
 //! Shared by the MAPS remesh errors (issues #5, #23) and the skinned-simplification errors
@@ -82,149 +83,180 @@ fn closest_on_segment(p: &Point3<f64>, a: &Point3<f64>, b: &Point3<f64>) -> Poin
     a + d * ((p - a).dot(&d) / len2).clamp(0.0, 1.0)
 }
 
-/// A uniform grid over a triangle set for nearest-surface queries: each triangle is listed in
-/// every cell its bounding box touches; a query searches shells of cells around the query's cell
-/// until the best distance found is below the distance to the next shell.
-pub struct SurfaceGrid<'a> {
+/// A bounding-volume tree over a triangle set for exact nearest-surface distances: triangles
+/// are split at the median of their centroids along the longest side of the centroids' box
+/// until at most [`SurfaceTree::LEAF`] remain; a query descends nearer box first and skips a box
+/// farther than the best distance found. The minimum is the exact minimum of
+/// [`point_triangle_distance`] over all triangles (a box is skipped only when every triangle in
+/// it is farther, with a margin of a few ulps of the coordinates), and the cost of a query does
+/// not depend on the coordinates' magnitudes: one vertex thrown to 2·10¹⁰ (a flipped bit in a
+/// file, issue #25) adds a few long triangles to visit, where a uniform grid sized by the
+/// bounding box put every other triangle in one cell and made each query linear.
+pub struct SurfaceTree<'a> {
     positions: &'a [Point3<f64>],
     faces: &'a [[u32; 3]],
-    lo: Point3<f64>,
-    cell: f64,
-    dims: [usize; 3],
-    start: Vec<u32>,
-    items: Vec<u32>,
+    /// Node 0 is the root (absent for an empty set).
+    nodes: Vec<TreeNode>,
+    /// Face ids, each leaf's a contiguous range.
+    order: Vec<u32>,
 }
 
-impl<'a> SurfaceGrid<'a> {
-    /// Build the grid with about one triangle per cell (cell side from the bounding box volume,
-    /// at least 1/256 of the longest side).
+#[derive(Clone, Copy, Debug)]
+struct TreeNode {
+    lo: [f64; 3],
+    hi: [f64; 3],
+    /// Leaf: `order[start..start + len]`. Inner node (`len == 0`): children `start`, `start + 1`.
+    start: u32,
+    len: u32,
+}
+
+impl<'a> SurfaceTree<'a> {
+    /// Most triangles in a leaf.
+    pub const LEAF: usize = 4;
+
+    /// Build the tree (O(F log F)).
     pub fn new(positions: &'a [Point3<f64>], faces: &'a [[u32; 3]]) -> Self {
-        let mut lo = Point3::new(f64::INFINITY, f64::INFINITY, f64::INFINITY);
-        let mut hi = Point3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY);
-        for f in faces {
-            for &v in f {
-                let p = positions[v as usize];
-                for a in 0..3 {
-                    lo[a] = lo[a].min(p[a]);
-                    hi[a] = hi[a].max(p[a]);
-                }
-            }
-        }
-        let ext: Vector3<f64> = hi - lo;
-        let longest = ext.max().max(1e-300);
-        // Surface-like sets: about one triangle per cell on a 2D sheet means a side of
-        // longest/√F; never finer than longest/256 along an axis.
-        let cell = (longest / (faces.len() as f64).sqrt().max(1.0)).max(longest / 256.0);
-        let dims = [0, 1, 2].map(|a| ((ext[a] / cell).floor() as usize + 1).min(257));
-        let index = |p: &Point3<f64>| {
-            [0, 1, 2].map(|a| (((p[a] - lo[a]) / cell).floor().max(0.0) as usize).min(dims[a] - 1))
+        let boxes: Vec<([f64; 3], [f64; 3])> = faces
+            .iter()
+            .map(|f| {
+                let pts = f.map(|v| positions[v as usize]);
+                let lo = [0, 1, 2].map(|a| pts[0][a].min(pts[1][a]).min(pts[2][a]));
+                let hi = [0, 1, 2].map(|a| pts[0][a].max(pts[1][a]).max(pts[2][a]));
+                (lo, hi)
+            })
+            .collect();
+        let centre = |f: u32, a: usize| {
+            let (lo, hi) = boxes[f as usize];
+            0.5 * lo[a] + 0.5 * hi[a]
         };
-        let mut counts = vec![0u32; dims[0] * dims[1] * dims[2] + 1];
-        let mut ranges = Vec::with_capacity(faces.len());
-        for f in faces {
-            let pts = f.map(|v| positions[v as usize]);
-            let mut flo = pts[0];
-            let mut fhi = pts[0];
-            for p in &pts[1..] {
+        let mut order: Vec<u32> = (0..faces.len() as u32).collect();
+        let mut nodes = Vec::with_capacity(2 * faces.len() / Self::LEAF + 1);
+        if faces.is_empty() {
+            return SurfaceTree {
+                positions,
+                faces,
+                nodes,
+                order,
+            };
+        }
+        nodes.push(TreeNode {
+            lo: [0.0; 3],
+            hi: [0.0; 3],
+            start: 0,
+            len: faces.len() as u32,
+        });
+        // (node, range of `order`) still to build.
+        let mut pending = vec![(0usize, 0usize, faces.len())];
+        while let Some((node, start, end)) = pending.pop() {
+            let ids = &mut order[start..end];
+            let mut lo = [f64::INFINITY; 3];
+            let mut hi = [f64::NEG_INFINITY; 3];
+            let mut clo = [f64::INFINITY; 3];
+            let mut chi = [f64::NEG_INFINITY; 3];
+            for &f in ids.iter() {
+                let (flo, fhi) = boxes[f as usize];
                 for a in 0..3 {
-                    flo[a] = flo[a].min(p[a]);
-                    fhi[a] = fhi[a].max(p[a]);
+                    lo[a] = lo[a].min(flo[a]);
+                    hi[a] = hi[a].max(fhi[a]);
+                    clo[a] = clo[a].min(centre(f, a));
+                    chi[a] = chi[a].max(centre(f, a));
                 }
             }
-            let (i0, i1) = (index(&flo), index(&fhi));
-            ranges.push((i0, i1));
-            for x in i0[0]..=i1[0] {
-                for y in i0[1]..=i1[1] {
-                    for z in i0[2]..=i1[2] {
-                        counts[(z * dims[1] + y) * dims[0] + x + 1] += 1;
-                    }
-                }
+            nodes[node].lo = lo;
+            nodes[node].hi = hi;
+            if ids.len() <= Self::LEAF {
+                nodes[node].start = start as u32;
+                nodes[node].len = ids.len() as u32;
+                continue;
             }
-        }
-        for k in 1..counts.len() {
-            counts[k] += counts[k - 1];
-        }
-        let mut fill = counts.clone();
-        let mut items = vec![0u32; *counts.last().unwrap() as usize];
-        for (f, (i0, i1)) in ranges.iter().enumerate() {
-            for x in i0[0]..=i1[0] {
-                for y in i0[1]..=i1[1] {
-                    for z in i0[2]..=i1[2] {
-                        let c = (z * dims[1] + y) * dims[0] + x;
-                        items[fill[c] as usize] = f as u32;
-                        fill[c] += 1;
-                    }
-                }
+            let axis = (0..3)
+                .max_by(|&a, &b| (chi[a] - clo[a]).total_cmp(&(chi[b] - clo[b])))
+                .unwrap_or(0);
+            let mid = ids.len() / 2;
+            // Ties broken by face id: the tree depends on the input only.
+            ids.select_nth_unstable_by(mid, |&f, &g| {
+                centre(f, axis).total_cmp(&centre(g, axis)).then(f.cmp(&g))
+            });
+            let children = nodes.len();
+            for _ in 0..2 {
+                nodes.push(TreeNode {
+                    lo: [0.0; 3],
+                    hi: [0.0; 3],
+                    start: 0,
+                    len: 0,
+                });
             }
+            nodes[node].start = children as u32;
+            nodes[node].len = 0;
+            pending.push((children, start, start + mid));
+            pending.push((children + 1, start + mid, end));
         }
-        SurfaceGrid {
+        SurfaceTree {
             positions,
             faces,
-            lo,
-            cell,
-            dims,
-            start: counts,
-            items,
+            nodes,
+            order,
         }
     }
 
-    /// Distance from `p` to the nearest triangle.
+    /// Distance from `p` to the nearest triangle (∞ for an empty set).
     pub fn distance(&self, p: &Point3<f64>) -> f64 {
-        // Clamping a query outside the grid to its nearest cell keeps the shell bound valid:
-        // cells s+1 index steps away are still at least s cells away from p.
-        let c = [0, 1, 2].map(|a| {
-            (((p[a] - self.lo[a]) / self.cell).floor().max(0.0) as i64).min(self.dims[a] as i64 - 1)
-        });
+        self.distance_and_work(p).0
+    }
+
+    /// [`SurfaceTree::distance`] and the number of triangles it measured (the cost of the
+    /// query, for tests that it stays small whatever the coordinates).
+    pub fn distance_and_work(&self, p: &Point3<f64>) -> (f64, usize) {
         let mut best = f64::INFINITY;
-        let max_shell = self.dims.iter().max().copied().unwrap_or(1) as i64;
-        for shell in 0..=max_shell {
-            self.search_shell(p, c, shell, &mut best);
-            // Every triangle not yet seen lies outside the searched block of cells, at least
-            // `gap` away from p (a block side at the grid's edge has nothing beyond it).
-            if best <= self.block_gap(p, c, shell) {
-                break;
-            }
+        let mut work = 0;
+        if self.nodes.is_empty() {
+            return (best, work);
         }
-        best
-    }
-
-    /// The distance from p to the nearest side of the block of cells within Chebyshev index
-    /// distance `shell` of cell `c` that has cells beyond it (∞ when the block covers the grid).
-    fn block_gap(&self, p: &Point3<f64>, c: [i64; 3], shell: i64) -> f64 {
-        let mut gap = f64::INFINITY;
-        for a in 0..3 {
-            if c[a] - shell > 0 {
-                gap = gap.min(p[a] - (self.lo[a] + (c[a] - shell) as f64 * self.cell));
+        let mut stack = vec![(0u32, 0.0f64)];
+        while let Some((n, gap)) = stack.pop() {
+            let node = &self.nodes[n as usize];
+            if gap > best {
+                continue;
             }
-            if c[a] + shell < self.dims[a] as i64 - 1 {
-                gap = gap.min(self.lo[a] + (c[a] + shell + 1) as f64 * self.cell - p[a]);
-            }
-        }
-        gap
-    }
-
-    /// Update `best` with the triangles of the cells at Chebyshev index distance exactly
-    /// `shell` from cell `c`.
-    fn search_shell(&self, p: &Point3<f64>, c: [i64; 3], shell: i64, best: &mut f64) {
-        let range = |a: usize| (c[a] - shell).max(0)..=(c[a] + shell).min(self.dims[a] as i64 - 1);
-        for x in range(0) {
-            for y in range(1) {
-                for z in range(2) {
-                    let on_shell = (x - c[0]).abs() == shell
-                        || (y - c[1]).abs() == shell
-                        || (z - c[2]).abs() == shell;
-                    if !on_shell {
-                        continue;
-                    }
-                    let cell = (z as usize * self.dims[1] + y as usize) * self.dims[0] + x as usize;
-                    for &f in &self.items[self.start[cell] as usize..self.start[cell + 1] as usize]
-                    {
-                        let [a, b, cc] = self.faces[f as usize].map(|v| self.positions[v as usize]);
-                        *best = best.min(point_triangle_distance(p, &a, &b, &cc));
-                    }
+            if node.len > 0 {
+                let start = node.start as usize;
+                for &f in &self.order[start..start + node.len as usize] {
+                    let [a, b, c] = self.faces[f as usize].map(|v| self.positions[v as usize]);
+                    best = best.min(point_triangle_distance(p, &a, &b, &c));
+                    work += 1;
                 }
+                continue;
+            }
+            let (l, r) = (node.start, node.start + 1);
+            let (gl, gr) = (self.gap(p, l), self.gap(p, r));
+            // Nearer child on top of the stack (ties: the left one).
+            if gl <= gr {
+                stack.push((r, gr));
+                stack.push((l, gl));
+            } else {
+                stack.push((l, gl));
+                stack.push((r, gr));
             }
         }
+        (best, work)
+    }
+
+    /// A lower bound of the distance from `p` to anything in node `n`'s box: the distance to
+    /// the box less a margin of 16 ulps of the largest coordinate involved, so that rounding in
+    /// [`point_triangle_distance`] never makes a skipped triangle the nearest one.
+    fn gap(&self, p: &Point3<f64>, n: u32) -> f64 {
+        let node = &self.nodes[n as usize];
+        let mut d2 = 0.0;
+        let mut scale: f64 = 0.0;
+        for a in 0..3 {
+            let d = (node.lo[a] - p[a]).max(p[a] - node.hi[a]).max(0.0);
+            d2 += d * d;
+            scale = scale
+                .max(p[a].abs())
+                .max(node.lo[a].abs())
+                .max(node.hi[a].abs());
+        }
+        d2.sqrt() - 16.0 * f64::EPSILON * scale
     }
 }
 

@@ -4,15 +4,15 @@
 //! **Sampling.** Each triangle of a surface is sampled at the 10 barycentric points
 //! `(i, j, k)/3`, `i + j + k = 3` (corners, two points per edge, the centroid), each weighted by
 //! `area/10`. For every sample, the exact distance to the nearest triangle of the other surface
-//! (closest point on a triangle, Ericson §5.1.5), found through the uniform grid
-//! [`SurfaceGrid`] of the other surface's triangles. One way: `ms_{A→B} = Σ w d² / Σ w`, `h_{A→B} = max d`. Reported:
+//! (closest point on a triangle, Ericson §5.1.5), found through the bounding-volume tree
+//! [`SurfaceTree`] of the other surface's triangles. One way: `ms_{A→B} = Σ w d² / Σ w`, `h_{A→B} = max d`. Reported:
 //! `rms = √(½(ms_{A→B} + ms_{B→A}))`, `hausdorff = max(h_{A→B}, h_{B→A})` (the sampled
 //! Hausdorff distance: a lower bound of the true one, exact at the samples).
 
 use nalgebra::Point3;
 use rayon::prelude::*;
 
-use crate::mesh::distance::SurfaceGrid;
+use crate::mesh::distance::SurfaceTree;
 
 /// RMS and (sampled) Hausdorff distance between two surfaces.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
@@ -38,7 +38,7 @@ pub fn surface_error(
 
 /// `(Σ w d² / Σ w, max d)` over the samples of `(pa, fa)` against `(pb, fb)`.
 fn one_way(pa: &[Point3<f64>], fa: &[[u32; 3]], pb: &[Point3<f64>], fb: &[[u32; 3]]) -> (f64, f64) {
-    let grid = SurfaceGrid::new(pb, fb);
+    let tree = SurfaceTree::new(pb, fb);
     let per_face: Vec<(f64, f64, f64)> = fa
         .par_iter()
         .map(|t| {
@@ -52,7 +52,7 @@ fn one_way(pa: &[Point3<f64>], fa: &[[u32; 3]], pb: &[Point3<f64>], fb: &[[u32; 
                     let p = Point3::from(
                         (a.coords * i as f64 + b.coords * j as f64 + c.coords * k as f64) / 3.0,
                     );
-                    let d = grid.distance(&p);
+                    let d = tree.distance(&p);
                     sum += w * d * d;
                     max = max.max(d);
                 }

@@ -130,7 +130,10 @@ pub fn errors_at_samples(
             } else {
                 eval_bpm(&t, b, options.exp_log, options.order)
             };
-            Ok(scale * (uv - C::new(expected[2 * s], expected[2 * s + 1])).norm())
+            let row = &candidate[f * MAPS_ROW..(f + 1) * MAPS_ROW];
+            let e = &expected[2 * s..2 * s + 2];
+            let error = scale * (uv - C::new(e[0], e[1])).norm();
+            Ok(super::saturate(error, e, row))
         })
         .collect()
 }

@@ -85,33 +85,46 @@ impl Metric {
 
     /// The element errors of `candidate` against `expected` (same length; flat C order with
     /// `last` values along the last axis); `None` for [`Metric::BpmMapsAtSamples`], whose errors
-    /// need the samples ([`bpm::errors_at_samples`]).
+    /// need the samples ([`bpm::errors_at_samples`]). NaN or ∞ where a value is; an error of
+    /// finite values too large for f64 (a candidate's 1e308) is `f64::MAX`, not ∞.
     pub fn errors(&self, expected: &[f64], candidate: &[f64], last: usize) -> Option<Vec<f64>> {
         Some(match self {
             Metric::NormOfLastAxis { scale, .. } => expected
                 .chunks(last.max(1))
                 .zip(candidate.chunks(last.max(1)))
                 .map(|(e, c)| {
-                    scale
+                    let error = scale
                         * e.iter()
                             .zip(c)
                             .map(|(a, b)| (a - b) * (a - b))
                             .sum::<f64>()
-                            .sqrt()
+                            .sqrt();
+                    saturate(error, e, c)
                 })
                 .collect(),
             Metric::Absolute { .. } => expected
                 .iter()
                 .zip(candidate)
-                .map(|(a, b)| (a - b).abs())
+                .map(|(a, b)| saturate((a - b).abs(), &[*a], &[*b]))
                 .collect(),
             Metric::Relative { .. } => expected
                 .iter()
                 .zip(candidate)
-                .map(|(a, b)| relative_difference(*b, *a))
+                .map(|(a, b)| saturate(relative_difference(*b, *a), &[*a], &[*b]))
                 .collect(),
             Metric::BpmMapsAtSamples { .. } => return None,
         })
+    }
+}
+
+/// An element's `error` from the expected values `e` and the candidate's `c`: itself, unless
+/// it overflowed from finite values (a candidate's 1e308), then `f64::MAX`, so that only a
+/// NaN or ∞ of the candidate counts as non-finite.
+pub fn saturate(error: f64, e: &[f64], c: &[f64]) -> f64 {
+    if error.is_finite() || e.iter().chain(c).any(|x| !x.is_finite()) {
+        error
+    } else {
+        f64::MAX
     }
 }
 

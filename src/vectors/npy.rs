@@ -139,8 +139,20 @@ impl Array {
             file: path.display().to_string(),
             reason: why,
         };
-        let npy =
-            npyz::NpyFile::new(&bytes[..]).map_err(|e| bad(format!("not a .npy file: {e}")))?;
+        if let Some(shape) = declared_shape(&bytes) {
+            // npyz multiplies the shape unchecked (an overflow panics in debug builds and wraps
+            // in release): refuse a shape that overflows or that the file cannot hold.
+            let elements = shape.iter().try_fold(1u64, |n, &d| n.checked_mul(d));
+            if elements.is_none_or(|n| n > bytes.len() as u64) {
+                return Err(bad(format!(
+                    "the header's shape {shape:?} declares more elements than the file's {} \
+                     bytes hold",
+                    bytes.len()
+                )));
+            }
+        }
+        let npy = npyz::NpyFile::new(&bytes[..])
+            .map_err(|e| bad(format!("not a .npy file: {}", one_line(&e.to_string()))))?;
         if npy.order() != npyz::Order::C {
             return Err(bad("Fortran order; save the array in C order".into()));
         }
@@ -167,4 +179,34 @@ impl Array {
         }
         Ok(a)
     }
+}
+
+/// The `'shape': (d0, d1, …)` of a .npy header as integers, when it reads as such (anything
+/// else is left to npyz to refuse). Only the header's first 64 KiB are searched.
+fn declared_shape(bytes: &[u8]) -> Option<Vec<u64>> {
+    let header = String::from_utf8_lossy(&bytes[..bytes.len().min(1 << 16)]);
+    let after = &header[header.find("'shape'")? + "'shape'".len()..];
+    let tuple = after
+        .trim_start()
+        .strip_prefix(':')?
+        .trim_start()
+        .strip_prefix('(')?;
+    let inside = &tuple[..tuple.find(')')?];
+    inside
+        .split(',')
+        .map(str::trim)
+        .filter(|d| !d.is_empty())
+        .map(|d| d.trim_end_matches('L').parse::<u64>().ok())
+        .collect()
+}
+
+/// `message` on one line: npyz's header errors quote the header over several lines (a caret
+/// under the bad character); its lines are joined by ` | ` with their indentation dropped.
+fn one_line(message: &str) -> String {
+    message
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && *l != "|")
+        .collect::<Vec<_>>()
+        .join(" | ")
 }

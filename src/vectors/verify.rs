@@ -20,7 +20,9 @@ pub const WORST_LISTED: usize = 5;
 pub struct WorstElement {
     /// Its index in the expected array (the last axis left out for a vector metric).
     pub index: Vec<usize>,
-    pub error: f64,
+    /// |candidate − expected| in the metric's unit; `None` (JSON `null`) where the candidate's
+    /// value is NaN or ∞: the error is unbounded and the element counts in `non_finite`.
+    pub error: Option<f64>,
     pub bound: f64,
     /// The kernel's input rows for it: every input whose first axis runs along the element's
     /// first index, at that index (at most 12 values each).
@@ -177,7 +179,7 @@ pub fn verify(dir: &Path, candidate: &Path, kernel: Option<&str>) -> Result<Veri
                 .collect();
             WorstElement {
                 index,
-                error: errors[n],
+                error: Some(errors[n]).filter(|e| e.is_finite()),
                 bound: bound[n],
                 inputs: rows,
             }

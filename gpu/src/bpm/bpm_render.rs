@@ -91,8 +91,8 @@ pub fn run_windowed(
     ))
 }
 
-/// [`GpuError::Input`] for inconsistent sizes, [`GpuError::TooLarge`] beyond the device's
-/// texture or vertex limits.
+/// [`GpuError::Input`] for inconsistent sizes, [`GpuError::ExceedsLimit`] beyond the device's
+/// texture size or (for the readback of the picture) buffer size.
 fn check_input(gpu: &Gpu, input: &RenderInput) -> Result<(), GpuError> {
     let max = gpu.limits().max_texture_dimension_2d;
     for (what, w, h) in [
@@ -103,11 +103,18 @@ fn check_input(gpu: &Gpu, input: &RenderInput) -> Result<(), GpuError> {
             return Err(GpuError::Input(format!("empty {what} ({w}×{h})")));
         }
         if w > max || h > max {
-            return Err(GpuError::TooLarge(format!(
-                "{what} of {w}×{h}, the device allows {max}×{max}"
-            )));
+            return Err(GpuError::ExceedsLimit {
+                kernel: format!("bpm_render {what}"),
+                limit: "max_texture_dimension_2d",
+                needed: u64::from(w.max(h)),
+                allowed: u64::from(max),
+            });
         }
     }
+    gpu.check_buffer_size(
+        "bpm_render readback",
+        u64::from(padded_bytes_per_row(input.width)) * u64::from(input.height),
+    )?;
     let texture_bytes = 4 * input.texture_width as usize * input.texture_height as usize;
     if input.texture.len() != texture_bytes {
         return Err(GpuError::Input(format!(
