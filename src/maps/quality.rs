@@ -145,7 +145,8 @@ pub struct InputFolds {
 }
 
 /// [`InputFolds`] of a triangle mesh, in time linear in its faces (one hash map of directed
-/// edges; edges of one face or of three or more are left out).
+/// edges; edges of one face or of three or more are left out, and so are faces whose area is
+/// not a finite number).
 pub fn input_folds(positions: &[Point3<f64>], faces: &[[u32; 3]]) -> InputFolds {
     use std::collections::HashMap;
     let normal = |f: &[u32; 3]| {
@@ -178,14 +179,27 @@ pub fn input_folds(positions: &[Point3<f64>], faces: &[[u32; 3]]) -> InputFolds 
             on_fold[j] = true;
         }
     }
-    let area = |f: &[u32; 3]| 0.5 * normal(f).norm();
-    let total: f64 = faces.iter().map(area).sum();
-    let folded: f64 = faces
+    // Areas scaled by the largest finite one, so that the sums cannot overflow; a face whose
+    // area is not finite (coordinates near f64's range) is left out.
+    let areas: Vec<f64> = faces.iter().map(|f| 0.5 * normal(f).norm()).collect();
+    let largest = areas
         .iter()
-        .zip(&on_fold)
-        .filter(|(_, &on)| on)
-        .map(|(f, _)| area(f))
-        .sum();
+        .copied()
+        .filter(|a| a.is_finite())
+        .fold(0.0, f64::max);
+    let share = |keep: &dyn Fn(usize) -> bool| -> f64 {
+        areas
+            .iter()
+            .enumerate()
+            .filter(|&(i, a)| a.is_finite() && keep(i))
+            .map(|(_, a)| a / largest)
+            .sum()
+    };
+    let (total, folded) = if largest > 0.0 {
+        (share(&|_| true), share(&|i| on_fold[i]))
+    } else {
+        (0.0, 0.0)
+    };
     InputFolds {
         edges,
         area_fraction: if total > 0.0 { folded / total } else { 0.0 },
