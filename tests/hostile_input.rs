@@ -679,11 +679,16 @@ fn crosscheck_of_a_huge_uv_fails_with_finite_figures() {
 
 /// The wavy grid with one vertex thrown to z = 1e308 (areas overflow: the input area spread
 /// was ∞, written as `null`) or to y = 9.2·10¹⁸ (an edge of the smoothed remesh off the
-/// creases with one face: `unreachable!` panicked): `maps --json` gives finite figures.
+/// creases with one face: `unreachable!` panicked) or y = −1e308 (its dot in the picture at
+/// pixel i64::MAX + 1 overflowed): `maps --json` gives finite figures.
 #[test]
 fn maps_of_a_grid_with_one_vertex_thrown_far_is_finite_and_does_not_panic() {
     let dir = tempfile::tempdir().unwrap();
-    for (vertex, axis, value) in [(12usize, 2usize, 1e308), (22, 1, 9223372036854775807.0)] {
+    for (vertex, axis, value) in [
+        (12usize, 2usize, 1e308),
+        (22, 1, 9223372036854775807.0),
+        (24, 1, -1e308),
+    ] {
         let mut mesh = reparam::mesh::procedural::wavy_grid(4);
         mesh.positions[vertex][axis] = value;
         let path = dir.path().join(format!("far{vertex}.obj"));

@@ -156,11 +156,16 @@ pub fn base_domain_points(maps: &Maps, size: usize) -> Image<Rgba8> {
             continue;
         }
         let [x, y] = ndc_to_pixel(clip.x / clip.w, clip.y / clip.w, size, size);
+        // A vertex far off the view (a coordinate of 1e308: w ≈ 0) is not drawn; the cast
+        // saturates and the +1 below must not overflow.
+        if !(x.is_finite() && y.is_finite()) {
+            continue;
+        }
         let (xi, yi) = (x as i64, y as i64);
         // Draw only where the dot is the visible surface (its depth close to the z-buffer's).
         let depth = clip.z / clip.w;
         for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-            let (px, py) = (xi + dx, yi + dy);
+            let (px, py) = (xi.saturating_add(dx), yi.saturating_add(dy));
             if px < 0 || py < 0 || px as usize >= size || py as usize >= size {
                 continue;
             }
