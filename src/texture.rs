@@ -236,14 +236,56 @@ fn exr_error(path: &Path, error: exr::error::Error) -> Error {
 /// would reserve gigabytes from a few hundred bytes.
 fn check_exr_size(path: &Path) -> Result<()> {
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| exr_error(path, e))?;
+    let file_bytes = std::fs::metadata(path)
+        .map_err(|e| Error::io(path, e))?
+        .len();
     for (k, header) in meta.headers.iter().enumerate() {
         let window = header.data_window();
-        check_image_size(
-            path,
-            &format!("layer {k}'s data window"),
-            window.size.width() as u64,
-            window.size.height() as u64,
-        )?;
+        let (width, height) = (window.size.width() as u64, window.size.height() as u64);
+        let what = format!("layer {k}'s data window");
+        check_image_size(path, &what, width, height)?;
+        let sample_bytes: u64 = header
+            .channels
+            .list
+            .iter()
+            .map(|c| c.sample_type.bytes_per_sample() as u64)
+            .sum();
+        check_exr_expansion(path, &what, width, height, sample_bytes, file_bytes)?;
+    }
+    Ok(())
+}
+
+/// The most an EXR's decoded samples can take per byte of the file, with 1 MiB of slack:
+/// deflate (ZIP, ZIPS, PXR24) compresses at most 1032:1 (1376:1 of PXR24's 24-bit samples
+/// read back as 32), PIZ's Huffman runs and RLE far less, B44 ≈ 10:1 at best; 2048 leaves a
+/// margin over all of them.
+pub const EXR_MAX_EXPANSION: u64 = 2048;
+
+/// Refuse a data window whose samples (`width × height × sample_bytes`) decode to more than
+/// [`EXR_MAX_EXPANSION`] times the file's bytes (plus 1 MiB): no compression reaches that, so
+/// the header is damaged or the file truncated, and the `exr` crate would reserve the whole
+/// image (256 MiB from an 806-byte file, found by `tests/fuzz_parsers.rs`) before it failed.
+fn check_exr_expansion(
+    path: &Path,
+    what: &str,
+    width: u64,
+    height: u64,
+    sample_bytes: u64,
+    file_bytes: u64,
+) -> Result<()> {
+    let decoded = width.saturating_mul(height).saturating_mul(sample_bytes);
+    let holdable = file_bytes
+        .saturating_mul(EXR_MAX_EXPANSION)
+        .saturating_add(1 << 20);
+    if decoded > holdable {
+        return Err(Error::Image {
+            path: path.to_path_buf(),
+            message: format!(
+                "{what} declares {width}x{height} pixels ({decoded} bytes of samples), more \
+                 than a {file_bytes}-byte file can hold at any EXR compression \
+                 ({EXR_MAX_EXPANSION}:1); the header is damaged or the file is truncated"
+            ),
+        });
     }
     Ok(())
 }

@@ -438,6 +438,29 @@ fn an_exr_that_makes_the_exr_crate_assert_is_an_error_naming_the_file() {
     assert!(shown.contains("malformed block data"), "{shown}");
 }
 
+/// Found by the long run of tests/fuzz_parsers.rs (case 851 928 of 1 000 000): an 806-byte
+/// EXR whose header declares a data window within the pixel limit but far beyond what the file
+/// can hold at any compression; the exr crate reserved the whole image (257 MiB peak heap,
+/// against the harness's 67 MiB for that size) before failing. Refused from the header.
+#[test]
+fn an_exr_declaring_more_samples_than_its_bytes_can_hold_is_refused() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/hostile/exr_window_beyond_the_file.exr");
+    let error = within(Duration::from_secs(1), "decoding", || {
+        load_gray_f32(&path).unwrap_err()
+    });
+    let shown = one_line_naming(&error, &path);
+    assert!(
+        shown.contains("more than a 806-byte file can hold"),
+        "{shown}"
+    );
+    // A real EXR of the same kind still loads.
+    let dir = tempfile::tempdir().unwrap();
+    let ok = dir.path().join("ok.exr");
+    save_exr_rg(&ok, 64, 64, &[[0.25, 0.5]; 64 * 64]).unwrap();
+    assert_eq!(load_gray_f32(&ok).unwrap().width, 64);
+}
+
 /// skinsimp's surface distances (a GLB with one vertex flipped to x = 2·10¹⁰ took 6 s instead
 /// of 0.9 s): the uniform grid sized by the bounding box put every other triangle in one cell,
 /// so each query measured every triangle. The tree's queries measure a few dozen triangles
