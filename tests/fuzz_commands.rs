@@ -20,6 +20,14 @@
 //! | verify | `verify <vectors> --candidate <case.npy> --json` |
 //! | verify-manifest | `verify <vectors with case as manifest.json> --candidate ok.npy --json` |
 //! | crosscheck-bpm | `crosscheck bpm --mesh <case.obj> --json` (GPU; skipped without one) |
+//! | vectors-gridwarp | `vectors gridwarp --gltf <case.glb> --size 16 --grid 3x3 --samples 2` |
+//! | vectors-unwarp | `vectors unwarp <case.png> --size 16` |
+//! | vectors-maps | `vectors maps <case.obj> --uniform 1` |
+//! | vectors-skinsimp | `vectors skinsimp <case.glb> --poses 2` |
+//! | crosscheck-gridwarp | `crosscheck gridwarp --obj <case.obj> frame1.obj --rigidity discs:… --size 16 --json` (GPU) |
+//! | crosscheck-unwarp | `crosscheck unwarp <case.png> --sweeps 2 --json` (GPU) |
+//! | crosscheck-maps | `crosscheck maps <case.obj> --json` (GPU) |
+//! | crosscheck-skinsimp | `crosscheck skinsimp <case.glb> --poses 2 --json` (GPU) |
 //!
 //! CI runs `CI_CASES` per target (about a minute in all, debug build, 2 cores). A long run:
 //! `REPARAM_FUZZ_SECS=600 cargo test --release --test fuzz_commands -- --nocapture
@@ -186,11 +194,10 @@ fn fuzz_maps() {
 
 #[test]
 fn fuzz_skinsimp() {
-    let glb = glb_bytes(&skinned_tube(6, 2)).unwrap();
     fuzz::assert_clean(&[fuzz_command(
         "skinsimp",
         "glb",
-        &[glb],
+        &[skinsimp_seed()],
         &[
             "skinsimp",
             "{case}",
@@ -204,8 +211,9 @@ fn fuzz_skinsimp() {
     )]);
 }
 
-#[test]
-fn fuzz_gridwarp() {
+/// The gridwarp seeds (a wavy grid and a bent copy, as OBJ) and the path of the second frame,
+/// written once.
+fn gridwarp_seeds() -> (Vec<Vec<u8>>, String) {
     let dir = tmp_dir("fuzz-out/gridwarp-seed");
     let rest = wavy_grid(4);
     let mut moved = rest.clone();
@@ -214,30 +222,36 @@ fn fuzz_gridwarp() {
     }
     let frame1 = dir.join("frame1.obj");
     write_obj(&moved, &frame1).unwrap();
-    let frame1 = frame1.display().to_string();
-    fuzz::assert_clean(&[fuzz_command(
-        "gridwarp",
-        "obj",
-        &[obj_bytes(&rest), obj_bytes(&moved)],
-        &[
-            "gridwarp",
-            "--obj",
-            "{case}",
-            &frame1,
-            "--rigidity",
-            "discs:0.5,0.5,0.2",
-            "--size",
-            "16",
-            "--out",
-            "{out}",
-            "--json",
-        ],
-        true,
-    )]);
+    (
+        vec![obj_bytes(&rest), obj_bytes(&moved)],
+        frame1.display().to_string(),
+    )
+}
+
+/// The arguments after `gridwarp` (or `crosscheck gridwarp`) for an OBJ pair.
+fn gridwarp_args(frame1: &str) -> Vec<&str> {
+    vec![
+        "--obj",
+        "{case}",
+        frame1,
+        "--rigidity",
+        "discs:0.5,0.5,0.2",
+        "--size",
+        "16",
+        "--json",
+    ]
 }
 
 #[test]
-fn fuzz_unwarp() {
+fn fuzz_gridwarp() {
+    let (seeds, frame1) = gridwarp_seeds();
+    let mut args = vec!["gridwarp", "--out", "{out}"];
+    args.extend(gridwarp_args(&frame1));
+    fuzz::assert_clean(&[fuzz_command("gridwarp", "obj", &seeds, &args, true)]);
+}
+
+/// A 16² PNG height map (a cap), the unwarp seed.
+fn unwarp_seed() -> Vec<u8> {
     let dir = tmp_dir("fuzz-out/unwarp-seed");
     let path = dir.join("seed.png");
     let n = 16;
@@ -262,15 +276,33 @@ fn fuzz_unwarp() {
             .collect(),
     };
     reparam::texture::save_png(&image, &path).unwrap();
+    std::fs::read(&path).unwrap()
+}
+
+#[test]
+fn fuzz_unwarp() {
     fuzz::assert_clean(&[fuzz_command(
         "unwarp",
         "png",
-        &[std::fs::read(&path).unwrap()],
+        &[unwarp_seed()],
         &[
             "unwarp", "{case}", "--sweeps", "2", "--out", "{out}", "--json",
         ],
         true,
     )]);
+}
+
+/// The maps seeds: a torus and a wavy grid, as OBJ.
+fn maps_seeds() -> Vec<Vec<u8>> {
+    [torus(6, 4, 1.0, 0.3), wavy_grid(4)]
+        .iter()
+        .map(obj_bytes)
+        .collect()
+}
+
+/// The skinsimp seed: a small skinned tube, as GLB.
+fn skinsimp_seed() -> Vec<u8> {
+    glb_bytes(&skinned_tube(6, 2)).unwrap()
 }
 
 /// Conformance vectors of bpm_eval on the star, written once.
@@ -371,6 +403,120 @@ fn fuzz_crosscheck_bpm() {
         ],
         true,
     )]);
+}
+
+/// `vectors` of the four other algorithms, each on its own mutated input (CPU only: the
+/// reference's f64 run, written as `.npy` and a manifest).
+#[test]
+fn fuzz_vectors_of_every_algorithm() {
+    let gridwarp = fuzz_command(
+        "vectors-gridwarp",
+        "glb",
+        &[skinsimp_seed()],
+        &[
+            "vectors",
+            "gridwarp",
+            "--gltf",
+            "{case}",
+            "--size",
+            "16",
+            "--grid",
+            "3x3",
+            "--samples",
+            "2",
+            "--out",
+            "{out}",
+        ],
+        false,
+    );
+    let unwarp = fuzz_command(
+        "vectors-unwarp",
+        "png",
+        &[unwarp_seed()],
+        &[
+            "vectors", "unwarp", "{case}", "--size", "16", "--out", "{out}",
+        ],
+        false,
+    );
+    let maps = fuzz_command(
+        "vectors-maps",
+        "obj",
+        &maps_seeds(),
+        &[
+            "vectors",
+            "maps",
+            "{case}",
+            "--uniform",
+            "1",
+            "--out",
+            "{out}",
+        ],
+        false,
+    );
+    let skinsimp = fuzz_command(
+        "vectors-skinsimp",
+        "glb",
+        &[skinsimp_seed()],
+        &[
+            "vectors", "skinsimp", "{case}", "--poses", "2", "--out", "{out}",
+        ],
+        false,
+    );
+    fuzz::assert_clean(&[gridwarp, unwarp, maps, skinsimp]);
+}
+
+/// `crosscheck` of the four other algorithms (GPU; skipped without one).
+#[test]
+fn fuzz_crosscheck_of_every_algorithm() {
+    if reparam_gpu::gpu_or_skip().is_none() {
+        return;
+    }
+    let (seeds, frame1) = gridwarp_seeds();
+    let mut args = vec!["crosscheck", "gridwarp"];
+    args.extend(gridwarp_args(&frame1));
+    let gridwarp = fuzz_command("crosscheck-gridwarp", "obj", &seeds, &args, true);
+    let unwarp = fuzz_command(
+        "crosscheck-unwarp",
+        "png",
+        &[unwarp_seed()],
+        &[
+            "crosscheck",
+            "unwarp",
+            "{case}",
+            "--sweeps",
+            "2",
+            "--out",
+            "{out}",
+            "--plots",
+            "{out}",
+            "--json",
+        ],
+        true,
+    );
+    let maps = fuzz_command(
+        "crosscheck-maps",
+        "obj",
+        &maps_seeds(),
+        &["crosscheck", "maps", "{case}", "--plots", "{out}", "--json"],
+        true,
+    );
+    let skinsimp = fuzz_command(
+        "crosscheck-skinsimp",
+        "glb",
+        &[skinsimp_seed()],
+        &[
+            "crosscheck",
+            "skinsimp",
+            "{case}",
+            "--poses",
+            "2",
+            "--plots",
+            "{out}",
+            "--json",
+        ],
+        true,
+    );
+    fuzz::assert_clean(&[gridwarp, unwarp, maps, skinsimp]);
 }
 
 /// `print_json` refuses a NaN (serde_json would print `null`) with a one-line error naming the

@@ -340,6 +340,43 @@ pub fn tmp_dir(name: &str) -> PathBuf {
 
 /// Fuzz `run` on files `<target>.<ext>` mutated from `seeds` (`default_cases` unless the
 /// environment says otherwise); print the tally and return it (see [`assert_clean`]).
+/// Recompute the CRC-32 of every whole chunk of a PNG (length, type, data, CRC; PNG spec §5.3)
+/// after a mutation, so that a changed width, bit depth or pixel reaches the caller of the
+/// decoder rather than stopping at the checksum. Chunks are walked from byte 8 while they fit;
+/// the rest is left as mutated.
+pub fn repair_png_checksums(bytes: &mut [u8]) {
+    let mut at = 8;
+    while at + 12 <= bytes.len() {
+        let length = u32::from_be_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
+        let end = at + 8 + length as usize;
+        if end + 4 > bytes.len() {
+            return;
+        }
+        let crc = crc32fast::hash(&bytes[at + 4..end]);
+        bytes[end..end + 4].copy_from_slice(&crc.to_be_bytes());
+        at = end + 4;
+    }
+}
+
+/// Rewrite a GLB's lengths after a mutation (glTF 2.0 §4.4: a 12-byte header with the total
+/// length, then chunks of length, type, data): the total becomes the file's size and the JSON
+/// chunk's length reaches the `BIN\0` chunk's header (or the end), so that an edit of the JSON
+/// reaches the glTF loader instead of stopping at the container.
+pub fn repair_glb_lengths(bytes: &mut [u8]) {
+    if bytes.len() < 20 {
+        return;
+    }
+    let total = u32::try_from(bytes.len()).unwrap_or(u32::MAX);
+    bytes[8..12].copy_from_slice(&total.to_le_bytes());
+    let bin = bytes[20..]
+        .windows(4)
+        .position(|w| w == b"BIN\0")
+        .filter(|&at| at >= 4)
+        .map_or(bytes.len(), |at| 20 + at - 4);
+    let json = u32::try_from(bin - 20).unwrap_or(u32::MAX);
+    bytes[12..16].copy_from_slice(&json.to_le_bytes());
+}
+
 pub fn fuzz(
     target: &str,
     ext: &str,
@@ -362,7 +399,14 @@ pub fn fuzz(
         tally.cases += 1;
         let first = &seeds[rng.below(seeds.len())];
         let second = &seeds[rng.below(seeds.len())];
-        let bytes = mutate(&mut rng, first, second);
+        let mut bytes = mutate(&mut rng, first, second);
+        if rng.below(2) == 0 {
+            match ext {
+                "png" => repair_png_checksums(&mut bytes),
+                "glb" => repair_glb_lengths(&mut bytes),
+                _ => {}
+            }
+        }
         std::fs::write(&path, &bytes).unwrap();
         let (time_limit, memory_limit) = (bounds.time(bytes.len()), bounds.memory(bytes.len()));
 
