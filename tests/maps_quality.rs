@@ -4,7 +4,7 @@
 use nalgebra::{Point3, Vector3};
 use reparam::maps::distortion::{distortion, quantile, triangle_map};
 use reparam::maps::priority::{priorities, priorities_quantile};
-use reparam::maps::quality::{angle_stats, smallest_angle_deg};
+use reparam::maps::quality::{angle_stats, remesh_quality, smallest_angle_deg};
 use reparam::maps::remesh::uniform;
 use reparam::maps::{build, Features, MapsOptions, StopReason};
 use reparam::mesh::distance::{
@@ -152,6 +152,42 @@ fn surface_comparison_of_known_pairs() {
     let c = compare_surfaces(&m.positions, &m.faces, &m.positions, &[]);
     assert_eq!(c.hausdorff.a_to_b, f64::INFINITY);
     assert!(!c.mean_b_to_a.is_nan() && !c.opposed_area_fraction.is_nan());
+}
+
+#[test]
+fn wrong_facing_faces_are_counted_with_their_shape_and_distance() {
+    let (m, _) = flat_grid(6);
+    let diagonal = 2f64.sqrt();
+    // Lifted by d, and two faces wound backwards: exactly those two face the wrong way (all
+    // four samples each), and their samples lie d from the input (rounding of O(1)
+    // coordinates, 1e-14).
+    let d = 0.01;
+    let lifted: Vec<Point3<f64>> = m.positions.iter().map(|p| p + Vector3::z() * d).collect();
+    let mut faces = m.faces.clone();
+    for k in [3, 17] {
+        faces[k] = [faces[k][0], faces[k][2], faces[k][1]];
+    }
+    let q = remesh_quality(&lifted, &faces, &m.positions, &m.faces, diagonal);
+    assert_eq!(q.wrong_facing.faces, 2, "{q:?}");
+    let angle = |k: usize| {
+        let [a, b, c] = faces[k].map(|v| lifted[v as usize]);
+        smallest_angle_deg(&a, &b, &c)
+    };
+    assert_eq!(
+        q.wrong_facing.largest_smallest_angle_deg,
+        angle(3).max(angle(17))
+    );
+    assert!((q.wrong_facing.largest_distance_relative - d / diagonal).abs() < 1e-14);
+    let area = |k: usize| {
+        let [a, b, c] = faces[k].map(|v| lifted[v as usize]);
+        0.5 * (b - a).cross(&(c - a)).norm()
+    };
+    let total: f64 = (0..faces.len()).map(area).sum();
+    // Σ of 2 areas over Σ of 50: a few ulps.
+    assert!((q.wrong_facing_area - (area(3) + area(17)) / total).abs() < 1e-15);
+    // None flipped: none counted.
+    let q = remesh_quality(&lifted, &m.faces, &m.positions, &m.faces, diagonal);
+    assert_eq!(q.wrong_facing, Default::default());
 }
 
 #[test]

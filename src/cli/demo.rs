@@ -653,7 +653,7 @@ fn maps_demo(out: &Path, report: &mut Report) -> Result<()> {
                 r.faces.to_string(),
                 sig(r.hausdorff_relative, 3),
                 sig(r.mean_distance_relative, 3),
-                sig(r.wrong_facing_area, 3),
+                super::maps::wrong_facing_cell(r),
                 sig(r.smallest_angles.min_deg, 3),
                 sig(r.seconds, 3),
             ]
@@ -665,7 +665,7 @@ fn maps_demo(out: &Path, report: &mut Report) -> Result<()> {
             "faces",
             "sampled Hausdorff / diagonal",
             "mean distance / diagonal",
-            "wrong-facing area",
+            "wrong-facing area (faces, largest smallest angle)",
             "smallest angle (°)",
             "seconds",
         ],

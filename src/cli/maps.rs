@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use crate::maps::distortion::{distortion, Distortion};
-use crate::maps::quality::AngleStats;
+use crate::maps::quality::{AngleStats, WrongFacing};
 use crate::maps::remesh::{adaptive, uniform, AdaptiveOptions, Remesh};
 use crate::maps::smooth::{uniform_smoothed_with, SmoothOptions, SmoothStats};
 use crate::maps::{
@@ -120,6 +120,9 @@ pub struct RemeshSummary {
     pub mean_distance_relative: f64,
     /// Fraction of the remesh's area whose normal opposes the nearest input triangle's.
     pub wrong_facing_area: f64,
+    /// The faces that carry it: their count, the largest of their smallest angles, and their
+    /// largest distance from the input relative to the diagonal.
+    pub wrong_facing: WrongFacing,
     /// The remesh's smallest angles (degrees): min, mean, fraction under 10°, histogram by 10°.
     pub smallest_angles: AngleStats,
     /// Whether it meets issue #23's targets (Hausdorff ≤ 1.5%, mean ≤ 0.1% of the diagonal,
@@ -337,6 +340,7 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
             hausdorff_relative: r.quality.hausdorff_relative,
             mean_distance_relative: r.quality.mean_relative,
             wrong_facing_area: r.quality.wrong_facing_area,
+            wrong_facing: r.quality.wrong_facing,
             smallest_angles: r.quality.angles,
             faithful: r.quality.faithful(),
             seconds,
@@ -505,17 +509,57 @@ pub fn unfaithful_warning(
         sig(distortion.input_area_spread, 3),
         sig(d.conformal_p95, 3),
         d.folded,
-        if folds.edges > 0 && worst.wrong_facing_area > 0.0 {
-            format!(
-                " The input itself has {} edges folded past 90° ({}% of its area on their \
-                 faces): a remesh coarser than those folds faces them the wrong way.",
-                folds.edges,
-                sig(100.0 * folds.area_fraction, 3)
-            )
-        } else {
-            String::new()
-        }
+        wrong_facing_note(worst, folds)
     ))
+}
+
+/// A table cell for a remesh's wrong-facing area: the fraction, and with some, its faces and
+/// the largest of their smallest angles, e.g. `0.000446 (5 faces, ≤ 38.2°)`.
+pub fn wrong_facing_cell(r: &RemeshSummary) -> String {
+    if r.wrong_facing.faces == 0 {
+        return sig(r.wrong_facing_area, 3);
+    }
+    format!(
+        "{} ({} faces, ≤ {}°)",
+        sig(r.wrong_facing_area, 3),
+        r.wrong_facing.faces,
+        sig(r.wrong_facing.largest_smallest_angle_deg, 3)
+    )
+}
+
+/// The part of [`unfaithful_warning`] that says where a remesh's wrong-facing area is: its
+/// faces, how thin and how far from the input; whether they are slivers on the surface (every
+/// smallest angle under 10°, every distance within the Hausdorff target); and the input's own
+/// folds when it has some.
+fn wrong_facing_note(worst: &RemeshSummary, folds: &crate::maps::quality::InputFolds) -> String {
+    if worst.wrong_facing_area == 0.0 {
+        return String::new();
+    }
+    let w = &worst.wrong_facing;
+    let slivers = w.largest_smallest_angle_deg < 10.0
+        && w.largest_distance_relative <= crate::maps::quality::FAITHFUL_HAUSDORFF;
+    let mut note = format!(
+        " The wrong-facing area is on {} faces, smallest angles up to {}°, at most {}% of the \
+         diagonal from the input{}",
+        w.faces,
+        sig(w.largest_smallest_angle_deg, 3),
+        sig(100.0 * w.largest_distance_relative, 3),
+        if slivers {
+            ": slivers on the surface, folded over where Π⁻¹ stretches a small base-domain \
+             triangle across a bend (σmax/σmin above)."
+        } else {
+            "."
+        }
+    );
+    if folds.edges > 0 {
+        note += &format!(
+            " The input itself has {} edges folded past 90° ({}% of its area on their faces): \
+             a remesh coarser than those folds faces them the wrong way.",
+            folds.edges,
+            sig(100.0 * folds.area_fraction, 3)
+        );
+    }
+    note
 }
 
 /// A file-name stem for the mesh spec.
@@ -621,7 +665,7 @@ fn print_summary(s: &MapsSummary) {
             "vertices",
             "Hausdorff/diag",
             "mean dist/diag",
-            "wrong-facing area",
+            "wrong-facing area (faces, largest smallest angle)",
             "angles < 10°",
             "seconds",
         ]
@@ -637,7 +681,7 @@ fn print_summary(s: &MapsSummary) {
                     r.vertices.to_string(),
                     sig(r.hausdorff_relative, 3),
                     sig(r.mean_distance_relative, 3),
-                    sig(r.wrong_facing_area, 3),
+                    wrong_facing_cell(r),
                     sig(r.smallest_angles.below_10, 3),
                     sig(r.seconds, 3),
                 ]

@@ -6,7 +6,7 @@
 
 use nalgebra::Point3;
 
-use crate::mesh::distance::{compare_surfaces, SurfaceComparison};
+use crate::mesh::distance::{compare_surfaces_per_face, FaceComparison, SurfaceComparison};
 
 /// Issue #23's target for a faithful remesh: two-sided Hausdorff distance at most 1.5% of the
 /// bounding-box diagonal.
@@ -92,6 +92,8 @@ pub struct RemeshQuality {
     pub mean_relative: f64,
     /// Fraction of the remesh's area whose normal opposes the nearest input triangle's.
     pub wrong_facing_area: f64,
+    /// Where the wrong-facing area is: how many faces, how thin and how far from the input.
+    pub wrong_facing: WrongFacing,
     /// The remesh's smallest angles.
     pub angles: AngleStats,
     /// Wall-clock seconds of the distance figures (BVH builds and queries).
@@ -108,6 +110,47 @@ impl RemeshQuality {
     }
 }
 
+/// The remesh faces with some area facing the wrong way (n_remesh · n_input < 0 at one of
+/// their samples, [`SurfaceComparison::opposed_area_fraction`]), described by how thin and how
+/// far from the input they are. Wrong-facing slivers on the surface (smallest angles of a few
+/// degrees, distances of the order of the mean distance) are a remesh triangle folding over
+/// where Π⁻¹ stretches a small base-domain triangle across a bend; a wrong-facing triangle of
+/// ordinary shape far from the surface is a misplaced part of the remesh.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct WrongFacing {
+    /// Faces with some wrong-facing area.
+    pub faces: usize,
+    /// The largest smallest angle (degrees) among them: every one is at least this thin.
+    pub largest_smallest_angle_deg: f64,
+    /// The largest distance from the input at their samples, relative to the diagonal.
+    pub largest_distance_relative: f64,
+}
+
+/// [`WrongFacing`] of a remesh from its faces' comparisons with the input.
+pub fn wrong_facing(
+    positions: &[Point3<f64>],
+    faces: &[[u32; 3]],
+    compared: &[FaceComparison],
+    diagonal: f64,
+) -> WrongFacing {
+    let mut w = WrongFacing::default();
+    for (f, c) in faces.iter().zip(compared) {
+        if c.opposed_area > 0.0 {
+            let [a, b, d] = f.map(|v| positions[v as usize]);
+            w.faces += 1;
+            w.largest_smallest_angle_deg = w
+                .largest_smallest_angle_deg
+                .max(smallest_angle_deg(&a, &b, &d));
+            w.largest_distance_relative = w.largest_distance_relative.max(if diagonal > 0.0 {
+                c.max_distance / diagonal
+            } else {
+                0.0
+            });
+        }
+    }
+    w
+}
+
 /// Measure `remesh` against `input` ([`RemeshQuality`]); `diagonal` is the input's bounding-box
 /// diagonal (a zero diagonal gives relative figures of 0).
 pub fn remesh_quality(
@@ -118,7 +161,8 @@ pub fn remesh_quality(
     diagonal: f64,
 ) -> RemeshQuality {
     let t = std::time::Instant::now();
-    let distances = compare_surfaces(remesh_positions, remesh_faces, input_positions, input_faces);
+    let (distances, per_face) =
+        compare_surfaces_per_face(remesh_positions, remesh_faces, input_positions, input_faces);
     let distance_seconds = t.elapsed().as_secs_f64();
     let relative = |x: f64| if diagonal > 0.0 { x / diagonal } else { 0.0 };
     RemeshQuality {
@@ -127,6 +171,7 @@ pub fn remesh_quality(
         hausdorff_relative: relative(distances.hausdorff.max()),
         mean_relative: relative(distances.mean()),
         wrong_facing_area: distances.opposed_area_fraction,
+        wrong_facing: wrong_facing(remesh_positions, remesh_faces, &per_face, diagonal),
         angles: angle_stats(remesh_positions, remesh_faces),
         distance_seconds,
     }

@@ -477,12 +477,24 @@ impl<'a> PseudoNormals<'a> {
 
 /// One side of [`compare_surfaces`]: (max distance, mean distance, opposed area fraction) of
 /// the samples of `from` measured against `to`.
+/// One face of A compared with B: the largest distance at its samples, and the part of its
+/// area (a quarter per sample) whose normal opposes B's there.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FaceComparison {
+    /// Largest distance to B over the face's four interior samples.
+    pub max_distance: f64,
+    /// Area of the face at whose samples n_A · n_B < 0 (0, ¼, ½, ¾ or all of the face's area).
+    pub opposed_area: f64,
+}
+
+/// One direction of [`compare_surfaces`]: (largest distance, area-weighted mean distance,
+/// opposed-area fraction), and each face's [`FaceComparison`].
 fn one_way(
     from_p: &[Point3<f64>],
     from_f: &[[u32; 3]],
     to_p: &[Point3<f64>],
     to_f: &[[u32; 3]],
-) -> (f64, f64, f64) {
+) -> ((f64, f64, f64), Vec<FaceComparison>) {
     let bvh = SurfaceBvh::new(to_p, to_f);
     let unit_normal = |p: &[Point3<f64>], t: [u32; 3]| {
         let [a, b, c] = t.map(|v| p[v as usize]);
@@ -540,11 +552,19 @@ fn one_way(
         opposed += o;
         total += a;
     }
-    if total > 0.0 {
+    let faces = per_face
+        .iter()
+        .map(|&(max_distance, _, opposed_area, _)| FaceComparison {
+            max_distance,
+            opposed_area,
+        })
+        .collect();
+    let figures = if total > 0.0 {
         (max, weighted / total, opposed / total)
     } else {
         (max, 0.0, 0.0)
-    }
+    };
+    (figures, faces)
 }
 
 /// Compare surface A with surface B (issue #23): the sampled Hausdorff distances (samples of
@@ -558,9 +578,21 @@ pub fn compare_surfaces(
     b_positions: &[Point3<f64>],
     b_faces: &[[u32; 3]],
 ) -> SurfaceComparison {
-    let (ab_max, ab_mean, opposed) = one_way(a_positions, a_faces, b_positions, b_faces);
-    let (ba_max, ba_mean, _) = one_way(b_positions, b_faces, a_positions, a_faces);
-    SurfaceComparison {
+    compare_surfaces_per_face(a_positions, a_faces, b_positions, b_faces).0
+}
+
+/// [`compare_surfaces`], with each face of A's [`FaceComparison`] (in A's face order): where A
+/// is far from B, and which of its faces face the wrong way.
+pub fn compare_surfaces_per_face(
+    a_positions: &[Point3<f64>],
+    a_faces: &[[u32; 3]],
+    b_positions: &[Point3<f64>],
+    b_faces: &[[u32; 3]],
+) -> (SurfaceComparison, Vec<FaceComparison>) {
+    let ((ab_max, ab_mean, opposed), a_per_face) =
+        one_way(a_positions, a_faces, b_positions, b_faces);
+    let ((ba_max, ba_mean, _), _) = one_way(b_positions, b_faces, a_positions, a_faces);
+    let comparison = SurfaceComparison {
         hausdorff: Hausdorff {
             a_to_b: ab_max,
             b_to_a: ba_max,
@@ -568,5 +600,6 @@ pub fn compare_surfaces(
         mean_a_to_b: ab_mean,
         mean_b_to_a: ba_mean,
         opposed_area_fraction: opposed,
-    }
+    };
+    (comparison, a_per_face)
 }
