@@ -299,6 +299,17 @@ fn distortion_of_a_torus_grows_with_the_levels_and_does_not_fold() {
     // The torus grid's triangles have two sizes (inner and outer side of the tube) with
     // ratio (R + r)/(R − r) ≈ 2.08 at the extremes: the spread is below ln 2.08.
     assert!(d.input_area_spread > 0.0 && d.input_area_spread < 2.08f64.ln());
+    // Π composes exactly across the levels: Π⁻¹(Π(p_v)) = p_v up to rounding. Per level, u =
+    // Σ b μ and the robust barycentrics each round to a few ulps of the ring's size (≤ the
+    // diagonal): ≤ 8 ε per level and direction; 2 × levels × 8 ε ≤ 2 × 30 × 8 × 2.2e-16
+    // ≈ 1e-13 of the diagonal.
+    assert!(
+        d.round_trip_max_relative < 1e-13,
+        "{} over {} levels",
+        d.round_trip_max_relative,
+        maps.level_count()
+    );
+    assert!(maps.level_count() <= 30);
 }
 
 // ---------------------------------------------------------------- remesh quality

@@ -647,7 +647,8 @@ fn print_summary(s: &MapsSummary) {
     let d = &s.distortion.final_map;
     outln!(
         "distortion of Π: |log area ratio| mean {} p95 {} max {} (input's triangle-size spread {}), \
-         σmax/σmin mean {} p95 {} max {}, {} folded of {} triangles",
+         σmax/σmin mean {} p95 {} max {}, {} folded of {} triangles; Π⁻¹(Π(v)) within {} of the \
+         diagonal",
         sig(d.area_mean, 3),
         sig(d.area_p95, 3),
         sig(d.area_max, 3),
@@ -656,7 +657,8 @@ fn print_summary(s: &MapsSummary) {
         sig(d.conformal_p95, 3),
         sig(d.conformal_max, 3),
         d.folded,
-        d.triangles
+        d.triangles,
+        sig(s.distortion.round_trip_max_relative, 2)
     );
     if !s.remeshes.is_empty() {
         let header: Vec<String> = [
