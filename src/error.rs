@@ -117,6 +117,20 @@ pub enum Error {
     /// instead of printing, so a figure that cannot be computed is never a `null` with exit 0.
     #[error("{field}: the result is not a finite number (NaN or infinity), not written")]
     NonFiniteOutput { field: String },
+    /// A vertex coordinate too large for the f32 GPU kernels of `crosscheck`: their products
+    /// of coordinate differences (areas, dot products, quadrics) would overflow f32
+    /// ([`crate::crosscheck::F32_COORDINATE_MAX`]).
+    #[error(
+        "{mesh}: vertex {vertex} has a coordinate of {value:e}, beyond ±{limit:e}, the largest \
+         the f32 kernels can multiply and sum without overflow; rescale the mesh (a unit \
+         bounding box, say) to cross-check it"
+    )]
+    OutOfF32Range {
+        mesh: String,
+        vertex: usize,
+        value: f64,
+        limit: f64,
+    },
     /// `bpm qc --subdiv` would measure more sub-triangles (`faces · 4^subdiv`) than the limit
     /// (`REPARAM_MAX_QC_SUB_TRIANGLES`, default 2²⁵), each kept for the quantiles.
     #[error(

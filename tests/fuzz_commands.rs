@@ -117,14 +117,39 @@ fn run_command(args: &[&str], case: &Path, out: &Path, json: bool) -> Result<Ver
         }
         // `verify` and `crosscheck` print their own error and exit 2 on bad input.
         Ok(code) if code == std::process::ExitCode::from(2) => Ok(Verdict::Error),
-        Ok(_) if json => match serde_json::from_slice::<serde_json::Value>(&stdout) {
-            Ok(_) => Ok(Verdict::Result),
-            Err(e) => Err(format!(
-                "--json output does not parse ({e}): {:?}",
-                String::from_utf8_lossy(&stdout[..stdout.len().min(300)])
-            )),
-        },
+        // A cross-check with a kernel over its bound is a result, but one worth reading: its
+        // derived bound did not cover this input. Kept for inspection.
+        Ok(code) if code == std::process::ExitCode::from(1) && args[1] == "crosscheck" => {
+            keep_over_bound(case);
+            judge_json(&stdout, json)
+        }
+        Ok(_) => judge_json(&stdout, json),
+    }
+}
+
+/// A result: with `--json`, its stdout must parse.
+fn judge_json(stdout: &[u8], json: bool) -> Result<Verdict, String> {
+    if !json {
+        return Ok(Verdict::Result);
+    }
+    match serde_json::from_slice::<serde_json::Value>(stdout) {
         Ok(_) => Ok(Verdict::Result),
+        Err(e) => Err(format!(
+            "--json output does not parse ({e}): {:?}",
+            String::from_utf8_lossy(&stdout[..stdout.len().min(300)])
+        )),
+    }
+}
+
+/// Copy a cross-check input that put a kernel over its bound (exit 1) to
+/// `target/tmp/fuzz-over-bound/` (the first 100 per process).
+fn keep_over_bound(case: &Path) {
+    static KEPT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = KEPT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    if n < 100 {
+        let name = case.file_name().map_or_else(Default::default, |f| f.to_os_string());
+        let dir = tmp_dir("fuzz-over-bound");
+        let _ = std::fs::copy(case, dir.join(format!("{n}-{}", name.to_string_lossy())));
     }
 }
 

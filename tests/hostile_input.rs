@@ -358,22 +358,6 @@ fn coincident_rest_vertices_are_an_error_naming_the_face_not_a_nan() {
 // Images whose header declares more pixels than anyone should allocate
 // ---------------------------------------------------------------------------------------------
 
-/// CRC-32 (IEEE) of `bytes`, for a hand-made PNG chunk.
-fn crc32(bytes: &[u8]) -> u32 {
-    let mut crc = !0u32;
-    for &b in bytes {
-        crc ^= b as u32;
-        for _ in 0..8 {
-            crc = if crc & 1 != 0 {
-                (crc >> 1) ^ 0xEDB8_8320
-            } else {
-                crc >> 1
-            };
-        }
-    }
-    !crc
-}
-
 #[test]
 fn a_png_declaring_100000_by_100000_pixels_is_refused_from_its_header() {
     let mut ihdr = Vec::new();
@@ -390,7 +374,7 @@ fn a_png_declaring_100000_by_100000_pixels_is_refused_from_its_header() {
         png.extend_from_slice(&(data.len() as u32).to_be_bytes());
         let chunk = [&kind[..], data].concat();
         png.extend_from_slice(&chunk);
-        png.extend_from_slice(&crc32(&chunk).to_be_bytes());
+        png.extend_from_slice(&crc32fast::hash(&chunk).to_be_bytes());
     }
     let dir = tempfile::tempdir().unwrap();
     let path = write(dir.path(), "huge.png", png);
@@ -739,6 +723,60 @@ fn maps_of_a_grid_with_one_vertex_thrown_far_is_finite_and_does_not_panic() {
                 one_line_naming(&e, &path);
             }
         }
+    }
+}
+
+/// Found by the command fuzzer: `crosscheck maps` on the wavy grid with one coordinate thrown
+/// to 1e23 wrote an infinite tolerance (the f32 kernels' products overflow): now refused,
+/// naming the vertex. With one vertex at y = 4 294 967 295 instead (the fixture), the other
+/// vertices are 1e-10 of the diagonal apart, so the kernels' squares underflow: the area and
+/// angle bounds now carry underflow terms, rings with a vertex on the centre after rounding to
+/// f32 are not compared, and the kernel's atan2(0, 0) is 0 (it was NaN): exit 0, finite.
+#[test]
+fn crosscheck_maps_refuses_f32_overflow_and_bounds_underflow() {
+    let mut mesh = reparam::mesh::procedural::wavy_grid(4);
+    mesh.positions[18].x = 1e23;
+    let e = reparam::crosscheck::check_f32_range("far.obj", &mesh.positions).unwrap_err();
+    assert!(matches!(e, Error::OutOfF32Range { vertex: 18, .. }), "{e}");
+    let shown = e.to_string();
+    assert!(
+        shown.starts_with("far.obj: vertex 18 has a coordinate of 1e23") && !shown.contains('\n'),
+        "{shown}"
+    );
+    // At the limit itself: accepted.
+    mesh.positions[18].x = reparam::crosscheck::F32_COORDINATE_MAX;
+    assert!(reparam::crosscheck::check_f32_range("far.obj", &mesh.positions).is_ok());
+    if reparam_gpu::gpu_or_skip().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    mesh.positions[18].x = 1e23;
+    let far = dir.path().join("far.obj");
+    reparam::mesh::write_obj(&mesh, &far).unwrap();
+    let plots = dir.path().display().to_string();
+    let run = |path: &Path| {
+        reparam::cli::run_captured([
+            "reparam",
+            "crosscheck",
+            "maps",
+            &path.display().to_string(),
+            "--plots",
+            &plots,
+            "--json",
+        ])
+    };
+    let (result, _) = run(&far);
+    let e = result.unwrap_err();
+    assert!(matches!(e, Error::OutOfF32Range { vertex: 18, .. }), "{e}");
+    one_line_naming(&e, &far);
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/hostile/maps_vertex_at_4e9.obj");
+    let (result, stdout) = run(&fixture);
+    assert_eq!(result.unwrap(), std::process::ExitCode::SUCCESS);
+    let report: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
+    for row in report["adapters"][0]["rows"].as_array().unwrap() {
+        assert_eq!(row["verdict"], "pass", "{row}");
+        assert!(row["errors"]["tolerance"].is_f64(), "{row}");
     }
 }
 

@@ -65,9 +65,13 @@ fn atan_unit(x: f32) -> f32 {
         - 3.33329491539e-1) * z * t + t);
 }
 
-// atan2(y, x) for y ≥ 0 (an angle in [0, π]), from atan_unit of min/max.
+// atan2(y, x) for y ≥ 0 (an angle in [0, π]), from atan_unit of min/max; 0 for y = x = 0, as
+// the reference's f64 atan2 (both can underflow to 0 for edges ~1e-19 long).
 fn angle_atan2(y: f32, x: f32) -> f32 {
     let ax = abs(x);
+    if (y == 0.0 && ax == 0.0) {
+        return 0.0;
+    }
     var t = 0.0;
     if (y <= ax) {
         t = atan_unit(y / ax);

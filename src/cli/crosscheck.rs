@@ -459,6 +459,7 @@ fn maps_rows(gpu: &reparam_gpu::Gpu, input: &MapsInput) -> Result<Vec<crate::cro
     use crate::maps::{build, detect_features, load_features, FeatureOptions, MapsOptions};
     let spec = input.mesh.as_deref().unwrap_or("procedural:torus");
     let mesh = super::maps::load(spec)?;
+    crate::crosscheck::check_f32_range(&mesh.name, &mesh.positions)?;
     let features = match input.features.as_deref() {
         None => Default::default(),
         Some("auto") => detect_features(&mesh, &FeatureOptions::default()),

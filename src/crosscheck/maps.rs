@@ -112,7 +112,7 @@ pub fn crosscheck_maps(
             &p.area,
             p.area_over_bound,
             p.area_worst_ratio,
-            "per ring: area_bound (f32 cross products and sums of the star) / a",
+            "per ring: area_bound (f32 cross products, their underflow and sums of the star) / a",
         )
         .with_note(&levels)
         .with_timing(Timing {
@@ -139,11 +139,21 @@ pub fn crosscheck_maps(
             &f.theta,
             f.theta_over_bound,
             f.theta_worst_ratio,
-            "per slot: theta_bound (k acos of f32 cosines, summed)",
+            "per slot: theta_bound (k atan2 of f32 cross and dot products with their underflow, summed)",
         )
         .with_note(&format!(
-            "{} rings ({} rejected by the reference), {} status mismatches",
-            f.rings, f.rejected, f.status_mismatches
+            "{} rings ({} rejected by the reference), {} status mismatches{}",
+            f.rings,
+            f.rejected,
+            f.status_mismatches,
+            if f.coincident_in_f32 > 0 {
+                format!(
+                    "; {} rings with a vertex on the centre once rounded to f32 not compared",
+                    f.coincident_in_f32
+                )
+            } else {
+                String::new()
+            }
         ))
         .with_timing(Timing {
             cpu_ms: Some(flatten_cpu_ms),

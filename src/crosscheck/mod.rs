@@ -11,6 +11,30 @@
 
 use serde::Serialize;
 
+/// The largest vertex coordinate a cross-checked mesh may have: 2⁴⁸ ≈ 2.8e14. The f32 kernels
+/// multiply coordinate differences (|Δ| ≤ 2|x| ≤ 2⁴⁹) and sum such products (a ring's areas
+/// and dot products, a quadric's entries): each is ≤ 2⁹⁸, so a sum of up to 2²⁹ of them (more
+/// terms than any ring or mesh here has) stays ≤ 2¹²⁷ < f32::MAX ≈ 2¹²⁸, and no bound derived
+/// from them is infinite. Past it the comparison would measure overflow, not arithmetic: such a
+/// mesh is refused ([`check_f32_range`]).
+pub const F32_COORDINATE_MAX: f64 = 281_474_976_710_656.0; // 2^48
+
+/// Refuse a mesh with a coordinate beyond ±[`F32_COORDINATE_MAX`]
+/// ([`crate::Error::OutOfF32Range`], naming the first such vertex).
+pub fn check_f32_range(mesh: &str, positions: &[nalgebra::Point3<f64>]) -> crate::Result<()> {
+    for (vertex, p) in positions.iter().enumerate() {
+        if let Some(&value) = p.iter().find(|x| x.abs() > F32_COORDINATE_MAX) {
+            return Err(crate::Error::OutOfF32Range {
+                mesh: mesh.to_string(),
+                vertex,
+                value,
+                limit: F32_COORDINATE_MAX,
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Differences between a GPU result and the f64 reference over many samples.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ErrorSummary {

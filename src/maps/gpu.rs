@@ -221,10 +221,23 @@ pub fn priority_terms_gpu(gpu: &Gpu, batch: &Rings) -> Result<Vec<[f64; 2]>> {
         .collect())
 }
 
+/// The smallest normal f32, 2⁻¹²⁶: a product or square below it may be flushed to zero (GPUs
+/// flush subnormals), losing up to this much absolutely.
+pub const F32_FLUSH: f64 = f32::MIN_POSITIVE as f64;
+
+/// Absolute error, from underflow alone, of an f32 length |a × b| = √(Σ c²) whose components
+/// c are differences of two products: each component loses ≤ 2·2⁻¹²⁶, the three squares
+/// ≤ 3·2⁻¹²⁶ together, and √(s + δ) − √s ≤ √δ: ≤ √(3·2⁻¹²⁶) + 2√3·2⁻¹²⁶ ≈ 1.9e-19. Negligible
+/// unless the vectors are themselves ~1e-10 long (a mesh whose features are 10⁻¹⁰ of its
+/// diagonal, found by the command fuzzer), where it dominates.
+pub fn length_underflow() -> f64 {
+    (3.0 * F32_FLUSH).sqrt() + 2.0 * 3f64.sqrt() * F32_FLUSH
+}
+
 /// Bound on |a_f32 − a_f64| of one star from the reference's quantities: each triangle's cross
 /// product (differences rounded by u, products and a subtraction) is off by ≤ 4u|q − p||r − p|
-/// per component, ≤ 7u|q − p||r − p| in length with the norm's 3 roundings, times ½; the K − 1
-/// additions add ≤ K u·a.
+/// per component, ≤ 7u|q − p||r − p| in length with the norm's 3 roundings, times ½, plus ½ the
+/// underflow of the length ([`length_underflow`]); the K − 1 additions add ≤ K u·a.
 pub fn area_bound(positions: &[Point3<f64>], star: &[[u32; 3]], area: f64) -> f64 {
     let edges: f64 = star
         .iter()
@@ -233,7 +246,8 @@ pub fn area_bound(positions: &[Point3<f64>], star: &[[u32; 3]], area: f64) -> f6
             (q - p).norm() * (r - p).norm()
         })
         .sum();
-    3.5 * U32 * edges + star.len() as f64 * U32 * area
+    let k = star.len() as f64;
+    3.5 * U32 * edges + k * 0.5 * length_underflow() + k * U32 * area
 }
 
 /// Bound on |κ_f32 − κ_f64| of one ring, from the reference's quantities (the kernel fits in
@@ -402,16 +416,42 @@ pub fn flatten_gpu(gpu: &Gpu, batch: &Rings) -> Result<(Vec<FlatRing>, Vec<FlatP
     flatten::run(gpu, batch).map_err(gpu_error)
 }
 
-/// Bound on |θ_k,f32 − θ_k| given the reference's θ (θ_0 … θ_k). Per angle φ = atan2(y, x),
-/// y = |a×b|, x = a·b: the components of a×b and x carry ≤ 3u|a||b| absolute error, the length
-/// 2u|y| more, which moves φ by ≤ (|x| + |y|)3u/(|a||b|) + 2u ≤ 6.3u; rounding the differences
-/// a, b turns each by ≤ √3u (≤ 3.5u together); the kernel's atan (Cephes' atanf, ≤ 2 ulp), its
-/// argument's division and π − t add ≤ 6uφ + 2uφ. The k − 1 additions add ≤ u θ_k each.
-pub fn theta_bound(theta: &[f64], k: usize) -> f64 {
+/// Bound on |θ_k,f32 − θ_k| given the reference's θ (θ_0 … θ_k) and, per sector m, the
+/// product |a||b| of its two edge vectors. Per angle φ = atan2(y, x), y = |a×b|, x = a·b: the
+/// components of a×b and x carry ≤ 3u|a||b| absolute error, the length 2u|y| more, which moves
+/// φ by ≤ (|x| + |y|)3u/(|a||b|) + 2u ≤ 6.3u; rounding the differences a, b turns each by
+/// ≤ √3u (≤ 3.5u together); the kernel's atan (Cephes' atanf, ≤ 2 ulp), its argument's
+/// division and π − t add ≤ 6uφ + 2uφ. Underflow moves y by ≤ [`length_underflow`] and x by
+/// ≤ 3·2⁻¹²⁶, so φ by ≤ (those)/(|a||b|) more (√(x² + y²) = |a||b|). The k − 1 additions add
+/// ≤ u θ_k each.
+pub fn theta_bound(theta: &[f64], edge_products: &[f64], k: usize) -> f64 {
+    let underflow = length_underflow() + 3.0 * F32_FLUSH;
     let angles: f64 = (0..k)
-        .map(|m| 10.0 * U32 + 8.0 * U32 * (theta[m + 1] - theta[m]))
+        .map(|m| {
+            10.0 * U32 + 8.0 * U32 * (theta[m + 1] - theta[m]) + underflow / edge_products[m]
+        })
         .sum();
     angles + k as f64 * U32 * theta[k]
+}
+
+/// |a||b| of each sector of a ring (a = p_{j_m} − p_i, b = p_{j_{m+1}} − p_i, the last sector
+/// closing the ring when `closed`), for [`theta_bound`].
+pub fn sector_edge_products(
+    positions: &[Point3<f64>],
+    centre: u32,
+    ring: &[u32],
+    closed: bool,
+) -> Vec<f64> {
+    let p = positions[centre as usize];
+    let k = ring.len();
+    let sectors = if closed { k } else { k.saturating_sub(1) };
+    (0..sectors)
+        .map(|m| {
+            let a = positions[ring[m] as usize] - p;
+            let b = positions[ring[(m + 1) % k] as usize] - p;
+            a.norm() * b.norm()
+        })
+        .collect()
 }
 
 /// Bound on |μ_f32 − μ| at a slot of modulus |μ| = r^{a_k}, given the bound Δθ on the ring's θ
@@ -455,6 +495,9 @@ pub struct FlattenCrosscheck {
     pub rejected: usize,
     /// Rings whose kernel status differs from the reference's decision.
     pub status_mismatches: usize,
+    /// Rings not compared because a ring vertex coincides with the centre once the positions
+    /// are rounded to f32 (|a||b| = 0: the angle atan2(0, 0) is undefined on both sides).
+    pub coincident_in_f32: usize,
 }
 
 /// Run `maps_flatten` on `rings` over `positions` and compare with [`flatten_cpu`] on the same
@@ -470,6 +513,7 @@ pub fn crosscheck_flatten(
     let (mut theta_err, mut theta_mag, mut a_err, mut a_mag, mut mu_err, mut mu_mag) =
         (vec![], vec![], vec![], vec![], vec![], vec![]);
     let (mut theta_over, mut mu_over, mut a_over, mut rejected, mut mismatches) = (0, 0, 0, 0, 0);
+    let mut coincident = 0;
     let mut a_tol = 0.0f64;
     let (mut theta_ratio, mut mu_ratio, mut theta_tol, mut mu_tol) =
         (0.0f64, 0.0f64, 0.0f64, 0.0f64);
@@ -477,6 +521,13 @@ pub fn crosscheck_flatten(
         let g = &flat[r];
         let slots = &points[h.first as usize..(h.first + h.count) as usize];
         let last = theta.len() - 1;
+        let closed = !matches!(rings.shapes[r], RingShape::HalfDisk);
+        let products =
+            sector_edge_products(&positions.cpu, rings.vertices[r], &rings.rings[r], closed);
+        if products.iter().any(|&x| !(x > 0.0)) {
+            coincident += 1;
+            continue;
+        }
         // θ of every slot and the total.
         let mut pairs: Vec<(f64, f64, usize)> = slots
             .iter()
@@ -485,7 +536,7 @@ pub fn crosscheck_flatten(
             .collect();
         pairs.push((g.theta_total as f64, theta[last], last));
         for (gt, ct, k) in pairs {
-            let bound = theta_bound(theta, k);
+            let bound = theta_bound(theta, &products, k);
             let e = (gt - ct).abs();
             theta_err.push(e);
             theta_mag.push(ct);
@@ -523,7 +574,7 @@ pub fn crosscheck_flatten(
                 )
             }
         };
-        let dtheta = theta_bound(theta, last);
+        let dtheta = theta_bound(theta, &products, last);
         let a_max = a1.max(a2);
         let rho = a_relative_bound(a_max, dtheta);
         a_tol = a_tol.max(rho);
@@ -555,6 +606,7 @@ pub fn crosscheck_flatten(
         theta_worst_ratio: theta_ratio,
         mu_worst_ratio: mu_ratio,
         rejected,
+        coincident_in_f32: coincident,
         status_mismatches: mismatches,
     })
 }
