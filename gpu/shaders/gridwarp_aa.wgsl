@@ -3,14 +3,17 @@
 //
 // Twin of the plain f64 path src/gridwarp/plain/aa.rs (`PlainAaEnergy`, the formula sample by
 // sample) and src/gridwarp/field.rs (`Field::bilinear`, here `field_bilinear`), name for name:
-// `rest_cell`, `slope`, `warped_point`, `stretch`, `residual`, `line_derivatives` and
-// `add_residual` are the plain path's functions, in the same order of operations per sample
+// `rest_cell`, `slope`, `warped_point`, `stretch`, `residual`, `sample_residuals`,
+// `line_derivatives` and `add_residual` are the plain path's functions, in the same order of
+// operations per sample
 // (bilinear as two lerps, fma where the plain path uses `mul_add`). The plain path's residuals
 // are those of the fast path src/gridwarp/energy.rs bit for bit (tests/gridwarp_plain.rs).
 //
 // Where the kernel differs from the plain path, for the GPU's sake and not in the formula:
 // - the plain path finds a sample's rest quantities (σ, o_s, o_t) once (`rest_samples`); the
 //   host computes them the same way and uploads them (`samples`);
+// - the plain path takes a cell's slopes a, b per sample (`sample_residuals`); the kernel once
+//   per cell (`cell_lines`, shared with `gridwarp_aa_residuals`), the same values;
 // - the plain path multiplies by 1/h_i, 1/k_j (`inv_h`, computed once per cell) where the
 //   kernel divides by h_i, k_j (`line_derivatives`: σ/h, one division instead of a stored
 //   reciprocal);
@@ -212,6 +215,50 @@ fn add_residual(out: ptr<function, CellContribution>, r: f32, d: array<f32, 4>) 
     }
 }
 
+// What every sample of cell (i, j) shares: its four lines s_i, s_{i+1}, t_j, t_{j+1}, its rest
+// widths and the slopes a, b (the plain path's `rest_cell` and `slope`, which the plain path
+// takes per sample; the same values).
+struct CellLines {
+    s0: f32,
+    s1: f32,
+    t0: f32,
+    t1: f32,
+    cell: RestCell,
+    a: f32,
+    b: f32,
+}
+
+fn cell_lines(i: u32, j: u32) -> CellLines {
+    let m = params.columns + 1u;
+    let s0 = geometry[i];
+    let s1 = geometry[i + 1u];
+    let t0 = geometry[m + j];
+    let t1 = geometry[m + j + 1u];
+    let cell = rest_cell(i, j);
+    return CellLines(s0, s1, t0, t1, cell, slope(s0, s1, cell.h), slope(t0, t1, cell.k));
+}
+
+// One sample's residuals r^s, r^t and the stretches their derivatives need (the plain path's
+// `sample_residuals`, its derivatives left to the caller).
+struct SampleResiduals {
+    r_s: f32,
+    r_t: f32,
+    c_s: FieldSample,
+    c_t: FieldSample,
+}
+
+fn sample_residuals(l: CellLines, sample: RestSample) -> SampleResiduals {
+    let p = warped_point(l.s0, l.s1, l.t0, l.t1, sample.alpha, sample.beta);
+    let c_s = stretch(0u, params.ds_width, params.ds_height, p);
+    let c_t = stretch(params.dt_offset, params.dt_width, params.dt_height, p);
+    return SampleResiduals(
+        residual(sample.sigma, c_s.value, l.a, sample.o_s),
+        residual(sample.sigma, c_t.value, l.b, sample.o_t),
+        c_s,
+        c_t,
+    );
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn gridwarp_aa_cell(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) workgroups: vec3<u32>) {
     let index = linear_index(gid, workgroups);
@@ -222,13 +269,7 @@ fn gridwarp_aa_cell(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
     let i = index / params.rows;
     let j = index % params.rows;
     let m = params.columns + 1u;
-    let s0 = geometry[i];
-    let s1 = geometry[i + 1u];
-    let t0 = geometry[m + j];
-    let t1 = geometry[m + j + 1u];
-    let cell = rest_cell(i, j);
-    let a = slope(s0, s1, cell.h);
-    let b = slope(t0, t1, cell.k);
+    let l = cell_lines(i, j);
 
     var out: CellContribution;
     // `cell_unknowns`: the unknowns of the slots (s_i, s_{i+1}, t_j, t_{j+1}).
@@ -247,17 +288,13 @@ fn gridwarp_aa_cell(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_
         let alpha = sample.alpha;
         let beta = sample.beta;
         let sigma = sample.sigma;
-        let p = warped_point(s0, s1, t0, t1, alpha, beta);
-        let c_s = stretch(0u, params.ds_width, params.ds_height, p);
-        let c_t = stretch(params.dt_offset, params.dt_width, params.dt_height, p);
-        let r_s = residual(sigma, c_s.value, a, sample.o_s);
-        let r_t = residual(sigma, c_t.value, b, sample.o_t);
+        let r = sample_residuals(l, sample);
         // r^s stretches along s: its lines along are s_i, s_{i+1} (slots 0, 1).
-        let d_s = line_derivatives(sigma, c_s.value, c_s.ds, c_s.dt, a, cell.h, alpha, beta);
+        let d_s = line_derivatives(sigma, r.c_s.value, r.c_s.ds, r.c_s.dt, l.a, l.cell.h, alpha, beta);
         // r^t stretches along t: its lines along are t_j, t_{j+1} (slots 2, 3).
-        let d_t = line_derivatives(sigma, c_t.value, c_t.dt, c_t.ds, b, cell.k, beta, alpha);
-        add_residual(&out, r_s, d_s);
-        add_residual(&out, r_t, array<f32, 4>(d_t[2], d_t[3], d_t[0], d_t[1]));
+        let d_t = line_derivatives(sigma, r.c_t.value, r.c_t.dt, r.c_t.ds, l.b, l.cell.k, beta, alpha);
+        add_residual(&out, r.r_s, d_s);
+        add_residual(&out, r.r_t, array<f32, 4>(d_t[2], d_t[3], d_t[0], d_t[1]));
     }
     cells[index] = out;
 }

@@ -1,9 +1,8 @@
 // gridwarp_aa_residuals: one invocation per sample, its two residuals r^s, r^t alone, for the
 // conformance vectors (`reparam vectors gridwarp`, kernel `gridwarp_aa.residuals`). Appended by
-// the host after dispatch.wgsl and gridwarp_aa.wgsl, whose functions it calls in the same order
-// as `gridwarp_aa_cell` does for one sample (`rest_cell`, `slope`, `warped_point`, `stretch`,
-// `residual`), so its residuals are those that kernel sums. A sample of weight σ = 0 has none:
-// it writes (0, 0).
+// the host after dispatch.wgsl and gridwarp_aa.wgsl, whose `cell_lines` and `sample_residuals`
+// it calls as `gridwarp_aa_cell` does for one sample, so its residuals are those that kernel
+// sums. A sample of weight σ = 0 has none: it writes (0, 0).
 //
 // Its output takes binding 5, `cells`' slot: the two entry points never run in one pipeline.
 
@@ -25,21 +24,6 @@ fn gridwarp_aa_residuals(@builtin(global_invocation_id) gid: vec3<u32>, @builtin
     }
     // Sample n of cell (i, j) = cell column i, row j, at i·rows + j.
     let cell_index = index / params.per_cell;
-    let i = cell_index / params.rows;
-    let j = cell_index % params.rows;
-    let m = params.columns + 1u;
-    let s0 = geometry[i];
-    let s1 = geometry[i + 1u];
-    let t0 = geometry[m + j];
-    let t1 = geometry[m + j + 1u];
-    let cell = rest_cell(i, j);
-    let a = slope(s0, s1, cell.h);
-    let b = slope(t0, t1, cell.k);
-    let p = warped_point(s0, s1, t0, t1, sample.alpha, sample.beta);
-    let c_s = stretch(0u, params.ds_width, params.ds_height, p);
-    let c_t = stretch(params.dt_offset, params.dt_width, params.dt_height, p);
-    residuals[index] = vec2<f32>(
-        residual(sample.sigma, c_s.value, a, sample.o_s),
-        residual(sample.sigma, c_t.value, b, sample.o_t),
-    );
+    let r = sample_residuals(cell_lines(cell_index / params.rows, cell_index % params.rows), sample);
+    residuals[index] = vec2<f32>(r.r_s, r.r_t);
 }
