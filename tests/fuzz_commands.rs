@@ -147,7 +147,9 @@ fn keep_over_bound(case: &Path) {
     static KEPT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
     let n = KEPT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     if n < 100 {
-        let name = case.file_name().map_or_else(Default::default, |f| f.to_os_string());
+        let name = case
+            .file_name()
+            .map_or_else(Default::default, |f| f.to_os_string());
         let dir = tmp_dir("fuzz-over-bound");
         let _ = std::fs::copy(case, dir.join(format!("{n}-{}", name.to_string_lossy())));
     }

@@ -6,7 +6,9 @@
 
 use std::time::Instant;
 
-use reparam::crosscheck::unwarp::{area_cv_bound, run_energy_bound, step_bound};
+use reparam::crosscheck::unwarp::{
+    area_cv_bound, indistinguishable_radius, run_energy_bound, step_bound, ETA,
+};
 use reparam::unwarp::gpu::{grid_for, round_problem, GpuPass};
 use reparam::unwarp::pass::{descend_texel_traced, pass};
 use reparam::unwarp::stats::{area_ratios, coefficient_of_variation};
@@ -187,4 +189,73 @@ fn gpu_throughput_on_256_squared() {
         offsets.iter().any(|o| *o != [0.0, 0.0]),
         "the sweep moved nothing"
     );
+}
+
+/// Bound 1 of `step_bound` measured on F: on a quadratic line function it is the quadratic
+/// model's 2√(ηF/F'') (to the bisection's 2⁻⁵⁰ and the doubling scan's 2⁻⁴⁰ of the span), and
+/// where F is flat on one side of t* (no quadratic model holds) it reaches the end of the flat
+/// part. CPU only.
+#[test]
+fn indistinguishable_radius_is_the_quadratic_models_on_a_parabola_and_wider_on_a_plateau() {
+    let (f0, c, t_star, hi) = (2.5, 40.0, 0.3, 1.0);
+    let parabola = |t: f64| f0 + 0.5 * c * (t - t_star) * (t - t_star);
+    let level = f0 + 2.0 * ETA * f0;
+    let radius = indistinguishable_radius(&parabola, t_star, hi, level);
+    let model = 2.0 * (ETA * f0 / c).sqrt();
+    assert!((radius / model - 1.0).abs() < 1e-6, "{radius} vs {model}");
+    // Flat for 0.2 past t*, then steep: the radius is at least 0.2 (the quadratic model at t*,
+    // F'' = c, would say 2√(ηF/c) ≈ 1.2e-4).
+    let plateau = |t: f64| {
+        if t < t_star {
+            parabola(t)
+        } else if t < t_star + 0.2 {
+            f0
+        } else {
+            f0 + 1e3 * (t - t_star - 0.2)
+        }
+    };
+    let radius = indistinguishable_radius(&plateau, t_star, hi, level);
+    // The exact crossing: 1e3 (t − t* − 0.2) = 2ηF; the bisection ends within 2⁻⁵⁰ of its
+    // bracket (≤ 0.7): 1e-15.
+    let crossing = 0.2 + 2.0 * ETA * f0 / 1e3;
+    assert!((radius - crossing).abs() < 1e-12, "{radius} vs {crossing}");
+    // Under the level on the whole bracket: the wider side's span.
+    assert_eq!(
+        indistinguishable_radius(&|_| f0, t_star, hi, level),
+        hi - t_star
+    );
+}
+
+/// Found by the command fuzzer: a 16² height map (a mutated PNG) on which one texel's f32 step
+/// fell 1.14× outside the quadratic model's bound 1; with the interval measured on F the pass
+/// comparison passes (`crosscheck unwarp`, exit 0).
+#[test]
+fn a_line_function_far_from_quadratic_stays_within_the_pass_bound() {
+    if gpu_or_skip().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().display().to_string();
+    let fixture = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/fixtures/hostile/unwarp_pass_flat_line.png"
+    );
+    let (result, stdout) = reparam::cli::run_captured([
+        "reparam",
+        "crosscheck",
+        "unwarp",
+        fixture,
+        "--sweeps",
+        "2",
+        "--out",
+        &out,
+        "--plots",
+        &out,
+        "--json",
+    ]);
+    let report: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
+    let row = &report["adapters"][0]["rows"][0];
+    assert_eq!(row["kernel"], "unwarp_pass: offset after one pass");
+    assert_eq!(row["verdict"], "pass", "{row}");
+    assert_eq!(result.unwrap(), std::process::ExitCode::SUCCESS);
 }

@@ -769,8 +769,8 @@ fn crosscheck_maps_refuses_f32_overflow_and_bounds_underflow() {
     let e = result.unwrap_err();
     assert!(matches!(e, Error::OutOfF32Range { vertex: 18, .. }), "{e}");
     one_line_naming(&e, &far);
-    let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/hostile/maps_vertex_at_4e9.obj");
+    let fixture =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/hostile/maps_vertex_at_4e9.obj");
     let (result, stdout) = run(&fixture);
     assert_eq!(result.unwrap(), std::process::ExitCode::SUCCESS);
     let report: serde_json::Value = serde_json::from_slice(&stdout).unwrap();

@@ -29,11 +29,19 @@ pub const ETA: f64 = 30.0 * U32;
 /// Errors are reported in texels of a texture this wide.
 pub const TEXTURE_SIZE: f64 = 4096.0;
 
+/// [`step_bound`] in one line, for the cross-check's table and the conformance vectors'
+/// manifest.
+pub const STEP_BOUND_FORMULA: &str =
+    "|Δt||g| (Δt: the interval where F ≤ F(t*) + 2ηF) + 2φs + guard s + 1e-6 hi|g|, η = 30 ε";
+
 /// The bound on |Δo| (texels of the map) between the f32 and f64 steps of texel (x, y), from
 /// the reference's quantities at its step t* along −g:
 ///
 /// 1. f32 cannot order F(t1), F(t2) once they differ by less than 2ηF, so the search may end
-///    anywhere with ½F''(t − t*)² ≤ 2ηF: |Δt| ≤ 2√(ηF/F''), |Δo| ≤ |Δt|·|g|;
+///    anywhere on the interval around t* where F(t) ≤ F(t*) + 2ηF (near a quadratic minimum
+///    ½F''(t − t*)² ≤ 2ηF, |Δt| ≤ 2√(ηF/F''); measured on F itself by
+///    [`indistinguishable_radius`], since a hostile height map's F need not be quadratic
+///    there), |Δo| ≤ |Δt|·|g|;
 /// 2. the f32 gradient's direction is off by φ ≤ η Σ|∇E_k|/|g| (the sum of the terms' sizes,
 ///    cancellation included), which moves the line's minimiser by ≤ 2φ·s, s = t*|g|;
 /// 3. when the f64 guard's margin F(0) − F(t*) is below 2ηF, f32 may decide the other way:
@@ -58,10 +66,8 @@ pub fn step_bound(problem: &Problem, offsets: &[[f64; 2]], x: usize, y: usize) -
     };
     let f = |t: f64| node_energy(&fan, w, r, line_point(o, g, t), theta);
     let t = step.search.t;
-    let d = 1e-3 * t.max(1e-12);
-    let f2 = ((f(t + d) - 2.0 * f(t) + f(t - d)) / (d * d)).max(1e-300);
     let ft = f(t);
-    let search = 2.0 * (ETA * ft / f2).sqrt() * gn;
+    let search = indistinguishable_radius(&f, t, hi, ft + 2.0 * ETA * ft.abs()) * gn;
     let u = fan.uv_edges(o);
     let terms: f64 = (0..6)
         .map(|k| {
@@ -82,6 +88,43 @@ pub fn step_bound(problem: &Problem, offsets: &[[f64; 2]], x: usize, y: usize) -
     };
     let texels = r[0].max(r[1]);
     (search + direction + guard + 1e-6 * hi * gn) * texels
+}
+
+/// The largest |t − t*| over the interval around t* within [0, hi] on which F(t) ≤ `level`
+/// (bound 1 of [`step_bound`]): on each side, distances 2⁻⁴⁰·span … span are tried in doubling
+/// steps until F exceeds the level, then bisection between the last point under it and the
+/// first above, keeping the outer end (so the radius is never underestimated by more than the
+/// first step, 2⁻⁴⁰ of the side's span).
+pub fn indistinguishable_radius(f: &impl Fn(f64) -> f64, t: f64, hi: f64, level: f64) -> f64 {
+    let side = |end: f64| -> f64 {
+        let span = end - t;
+        if span == 0.0 {
+            return 0.0;
+        }
+        let mut inside = 0.0;
+        let mut outside = None;
+        for k in (0..=40).rev() {
+            let d = span / f64::from(1u32 << (k / 2)) / f64::from(1u32 << (k - k / 2));
+            if f(t + d) > level {
+                outside = Some(d);
+                break;
+            }
+            inside = d;
+        }
+        let Some(mut outside) = outside else {
+            return span.abs();
+        };
+        for _ in 0..50 {
+            let mid = 0.5 * (inside + outside);
+            if f(t + mid) > level {
+                outside = mid;
+            } else {
+                inside = mid;
+            }
+        }
+        outside.abs()
+    };
+    side(0.0).max(side(hi))
 }
 
 /// The relative difference of the total energies after `p` passes, from the reference's totals
@@ -297,7 +340,7 @@ pub fn pass_row(
         &errors,
         &[],
         Bounds::PerElement(bounds),
-        "per texel: 2√(ηF/F'')|g| + 2φs + guard s + 1e-6 hi|g|, η = 30 ε (step_bound)",
+        &format!("per texel: {STEP_BOUND_FORMULA} (step_bound)"),
     )
     .with_note(&format!(
         "{total} texel updates, {} identical search paths, {} identical guard decisions",

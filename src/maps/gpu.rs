@@ -427,9 +427,7 @@ pub fn flatten_gpu(gpu: &Gpu, batch: &Rings) -> Result<(Vec<FlatRing>, Vec<FlatP
 pub fn theta_bound(theta: &[f64], edge_products: &[f64], k: usize) -> f64 {
     let underflow = length_underflow() + 3.0 * F32_FLUSH;
     let angles: f64 = (0..k)
-        .map(|m| {
-            10.0 * U32 + 8.0 * U32 * (theta[m + 1] - theta[m]) + underflow / edge_products[m]
-        })
+        .map(|m| 10.0 * U32 + 8.0 * U32 * (theta[m + 1] - theta[m]) + underflow / edge_products[m])
         .sum();
     angles + k as f64 * U32 * theta[k]
 }

@@ -191,7 +191,7 @@ pub fn vectors(
             scale: TEXTURE_SIZE,
             unit: "texels of a 4096² texture".into(),
         },
-        bound_formula: "2√(ηF/F'')|g| + 2φs + guard s + 1e-6 hi|g|, η = 30 ε".into(),
+        bound_formula: crate::crosscheck::unwarp::STEP_BOUND_FORMULA.into(),
         derivation: "crosscheck::unwarp::step_bound: the f32 search's resolution, the f32 \
             gradient's direction, the guard's decision"
             .into(),
