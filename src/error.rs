@@ -122,8 +122,8 @@ pub enum Error {
     /// ([`crate::crosscheck::F32_COORDINATE_MAX`]).
     #[error(
         "{mesh}: vertex {vertex} has a coordinate of {value:e}, beyond ±{limit:e}, the largest \
-         the f32 kernels can multiply and sum without overflow; rescale the mesh (a unit \
-         bounding box, say) to cross-check it"
+         the f32 kernels can multiply and sum without overflow; rescale the input (a mesh in a \
+         unit box, bone transforms of that size) to cross-check it"
     )]
     OutOfF32Range {
         mesh: String,

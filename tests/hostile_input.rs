@@ -780,6 +780,38 @@ fn crosscheck_maps_refuses_f32_overflow_and_bounds_underflow() {
     }
 }
 
+/// Found by the command fuzzer: a skinned tube whose animation (a mutated GLB) throws a vertex
+/// to 2.7e18 in the rest pose's unit box made `crosscheck skinsimp` compare overflowed f32
+/// quadrics (∞ against 1e31, exit 1): the posed positions are now held to the same f32 range,
+/// a typed error naming the vertex and the pose.
+#[test]
+fn crosscheck_skinsimp_refuses_poses_beyond_f32() {
+    if reparam_gpu::gpu_or_skip().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/hostile/skinsimp_pose_beyond_f32.glb");
+    let (result, _) = reparam::cli::run_captured([
+        "reparam",
+        "crosscheck",
+        "skinsimp",
+        &fixture.display().to_string(),
+        "--poses",
+        "2",
+        "--plots",
+        &dir.path().display().to_string(),
+        "--json",
+    ]);
+    let e = result.unwrap_err();
+    assert!(matches!(e, Error::OutOfF32Range { vertex: 2, .. }), "{e}");
+    let shown = one_line_naming(&e, &fixture);
+    assert!(
+        shown.contains("training pose 0 (skinned): vertex 2"),
+        "{shown}"
+    );
+}
+
 /// A .npy header whose shape multiplies past u64 (132 × 2⁶³ − 1) made npyz overflow (a panic in
 /// debug builds); a shape larger than the file is refused before npyz reads it.
 #[test]

@@ -758,6 +758,28 @@ fn relative(errors: &[f64], sizes: &[f64]) -> Vec<f64> {
 /// Run every kernel on the GPU and its reference from identical inputs (module docs,
 /// "Protocol") on the unit-box normalised `input`, with the constraint-plane weight
 /// `boundary_weight` and the position step's `max_condition`.
+/// Refuse posed positions (in the unit box of the rest pose) beyond
+/// ±[`crate::crosscheck::F32_COORDINATE_MAX`]: an animation that throws vertices that far makes
+/// the f32 quadrics overflow, and the comparison would measure overflow, not arithmetic.
+/// The error names the vertex and the pose.
+fn check_posed_range(input: &Input, posed: &[Point3<f64>]) -> Result<()> {
+    let poses = input.pose_count().max(1);
+    for (i, p) in posed.iter().enumerate() {
+        if let Some(&value) = p
+            .iter()
+            .find(|x| x.abs() > crate::crosscheck::F32_COORDINATE_MAX)
+        {
+            return Err(Error::OutOfF32Range {
+                mesh: format!("{}, training pose {} (skinned)", input.mesh.name, i % poses),
+                vertex: i / poses,
+                value,
+                limit: crate::crosscheck::F32_COORDINATE_MAX,
+            });
+        }
+    }
+    Ok(())
+}
+
 pub fn crosscheck(
     kernels: &SkinsimpKernels,
     input: &Input,
@@ -769,6 +791,7 @@ pub fn crosscheck(
     let poses = rounded.pose_count();
     // 1. Skinning.
     let posed_ref = skin_f64(&rounded)?;
+    check_posed_range(&rounded, &posed_ref)?;
     let posed_gpu = kernels.skin(&rounded)?;
     // 2. Quadrics from the reference's posed positions rounded to f32.
     let posed_rounded: Vec<Point3<f64>> = posed_ref.iter().map(round_point).collect();
