@@ -487,6 +487,83 @@ fn shuffled_order_and_collapse_error_priority_build_valid_hierarchies() {
     assert_ne!(shuffle_key(7, 3, 5), shuffle_key(7, 4, 5));
 }
 
+/// `Flattening::Polar` (issue #23, beyond the paper): |μ_k| = r_k with z^a's angles; the same
+/// map as z^a on a flat ring (a = 1), the same guard, and a valid hierarchy (Π bijective, exact
+/// round trip) that differs from the paper's.
+#[test]
+fn polar_flattening_keeps_the_radii_and_builds_a_valid_hierarchy() {
+    use reparam::maps::flatten::{flatten_ring, flatten_ring_with, Flattening, RingShape};
+    let centre = Point3::new(0.0, 0.0, 0.0);
+    // A flat ring of unequal spokes: a = 1, both maps the identity up to rounding of
+    // r^1 = exp(ln r) and the angle sums (a few ulps of O(1) coordinates).
+    let flat: Vec<Point3<f64>> = (0..7)
+        .map(|k| {
+            let t = std::f64::consts::TAU * k as f64 / 7.0 + 0.1 * (k as f64).sin();
+            let r = 0.5 + 0.3 * (k % 3) as f64;
+            Point3::new(r * t.cos(), r * t.sin(), 0.0)
+        })
+        .collect();
+    let c = flatten_ring(&centre, &flat, RingShape::Disk).unwrap();
+    let p = flatten_ring_with(&centre, &flat, RingShape::Disk, Flattening::Polar).unwrap();
+    for (a, b) in c.iter().zip(&p) {
+        assert!(
+            (a[0] - b[0]).abs() < 1e-14 && (a[1] - b[1]).abs() < 1e-14,
+            "{a:?} {b:?}"
+        );
+    }
+    // A sharp cone tip (θ_K ≈ 1.2 rad, a ≈ 5.2) with spokes of two lengths: polar keeps
+    // |μ_k| = r_k, z^a gives r_k^a, so the short spokes shrink against the long ones
+    // ((r_s/r_l)^a < r_s/r_l); the arguments are the same.
+    let cone: Vec<Point3<f64>> = (0..6)
+        .map(|k| {
+            let t = std::f64::consts::TAU * k as f64 / 6.0;
+            let r = 0.2 * (1.0 + 0.5 * (k % 2) as f64);
+            Point3::new(r * t.cos(), r * t.sin(), -1.0)
+        })
+        .collect();
+    let c = flatten_ring(&centre, &cone, RingShape::Disk).unwrap();
+    let p = flatten_ring_with(&centre, &cone, RingShape::Disk, Flattening::Polar).unwrap();
+    for k in 0..6 {
+        let r = (cone[k] - centre).norm();
+        let mp = p[k][0].hypot(p[k][1]);
+        assert!((mp - r).abs() < 4e-15, "{mp} vs {r}");
+        let (ac, ap) = (c[k][1].atan2(c[k][0]), p[k][1].atan2(p[k][0]));
+        assert!((ac - ap).abs() < 1e-12, "{ac} vs {ap}");
+    }
+    let modulus = |m: &[f64; 2]| m[0].hypot(m[1]);
+    let (ratio_c, ratio_p) = (
+        modulus(&c[0]) / modulus(&c[1]),
+        modulus(&p[0]) / modulus(&p[1]),
+    );
+    let theta = reparam::maps::flatten::cumulative_angles(&centre, &cone, true);
+    let a = std::f64::consts::TAU / theta[6];
+    assert!(a > 4.0, "{a}");
+    // (r_s/r_l)^a to the rounding of powf and hypot (a few ulps).
+    assert!(
+        (ratio_c - ratio_p.powf(a)).abs() < 1e-14,
+        "{ratio_c} vs {ratio_p}^{a}"
+    );
+    // The hierarchy: valid, exact, and another one than the paper's.
+    let g = procedural::genus_bumpy(2, 20);
+    let build_with = |flattening| {
+        let options = MapsOptions {
+            base_size: 96,
+            flattening,
+            ..MapsOptions::default()
+        };
+        build(&g, &Features::default(), &options).unwrap()
+    };
+    let polar = build_with(Flattening::Polar);
+    assert!(polar.base_faces.len() <= 96);
+    assert_eq!(polar.param.count_flipped(), 0);
+    // Round trip: the bound of `distortion_of_a_torus_grows_with_the_levels_and_does_not_fold`.
+    assert!(distortion(&polar).round_trip_max_relative < 1e-13);
+    assert_ne!(
+        polar.base_faces,
+        build_with(Flattening::Conformal).base_faces
+    );
+}
+
 /// Folds of an input: two triangles hinged on an edge count one fold when their normals make
 /// more than 90°, none when they are flat or bent less.
 #[test]

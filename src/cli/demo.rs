@@ -605,6 +605,7 @@ fn maps_demo(out: &Path, report: &mut Report) -> Result<()> {
         priority_quantile: 1.0,
         shuffle_seed: None,
         priority_error: false,
+        flattening: super::maps::FlatteningArg::Conformal,
         best_triangulation: false,
         no_retry_rejected: false,
         features: None,

@@ -45,6 +45,10 @@ pub struct MapsArgs {
     /// points a removal re-stores lie from its ring's plane) instead of the curvature.
     #[arg(long)]
     pub priority_error: bool,
+    /// How a removed vertex's ring is flattened: the paper's conformal z^a (|μ| = r^a), or,
+    /// beyond the paper, the polar map that keeps the radii (|μ| = r, angles scaled by a).
+    #[arg(long, value_enum, default_value_t = FlatteningArg::Conformal)]
+    pub flattening: FlatteningArg,
     /// Vertices of higher degree are not removed.
     #[arg(long, default_value_t = 12)]
     pub max_degree: usize,
@@ -102,6 +106,15 @@ pub fn parse_remesh(s: &str) -> Result<RemeshSpec> {
         Some(("adaptive", e)) => e.parse().map(RemeshSpec::Adaptive).map_err(|_| bad()),
         _ => Err(bad()),
     }
+}
+
+/// `--flattening`: [`crate::maps::flatten::Flattening`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FlatteningArg {
+    /// The paper's z^a.
+    Conformal,
+    /// |μ| = r, the angles scaled by a (beyond the paper).
+    Polar,
 }
 
 /// Summary of one remesh.
@@ -291,6 +304,10 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         priority_quantile: args.priority_quantile,
         shuffle_seed: args.shuffle_seed,
         priority_error: args.priority_error,
+        flattening: match args.flattening {
+            FlatteningArg::Conformal => crate::maps::flatten::Flattening::Conformal,
+            FlatteningArg::Polar => crate::maps::flatten::Flattening::Polar,
+        },
         best_triangulation: args.best_triangulation,
         retry_rejected: !args.no_retry_rejected,
         ..MapsOptions::default()

@@ -59,6 +59,30 @@ pub fn flatten_ring(
     ring: &[Point3<f64>],
     shape: RingShape,
 ) -> Result<Vec<[f64; 2]>, FlattenReject> {
+    flatten_ring_with(centre, ring, shape, Flattening::Conformal)
+}
+
+/// What a flattening does to the radii; the angles are scaled by a in both.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Flattening {
+    /// The paper's conformal map z^a: |μ_k| = r_k^a. Default.
+    #[default]
+    Conformal,
+    /// Beyond the paper (issue #23): |μ_k| = r_k, the angles scaled by a as in z^a (a polar map
+    /// that keeps distances from the removed vertex). Where a ≫ 1 (a sharp tip, θ_K ≪ 2π) z^a
+    /// shrinks the ring's short spokes against its long ones by (r_short/r_long)^{a−1}, and the
+    /// points re-stored near the tip with them; this map does not. The same guard (a·φ_k < π)
+    /// keeps the fan positive; on a flat ring (a = 1) the two are the same map.
+    Polar,
+}
+
+/// [`flatten_ring`] with the radii mapped by `map` ([`Flattening`]).
+pub fn flatten_ring_with(
+    centre: &Point3<f64>,
+    ring: &[Point3<f64>],
+    shape: RingShape,
+    map: Flattening,
+) -> Result<Vec<[f64; 2]>, FlattenReject> {
     let k = ring.len();
     let closed = !matches!(shape, RingShape::HalfDisk);
     let theta = cumulative_angles(centre, ring, closed);
@@ -68,8 +92,12 @@ pub fn flatten_ring(
     if !sane {
         return Err(FlattenReject::Degenerate);
     }
+    let modulus = |r: f64, a: f64| match map {
+        Flattening::Conformal => r.powf(a),
+        Flattening::Polar => r,
+    };
     let polar = |r: f64, a: f64, angle: f64| -> [f64; 2] {
-        let rho = r.powf(a);
+        let rho = modulus(r, a);
         [rho * angle.cos(), rho * angle.sin()]
     };
     let mut mu = vec![[0.0; 2]; k];
@@ -80,7 +108,7 @@ pub fn flatten_ring(
             for m in 0..k {
                 mu[m] = polar(radii[m], a, a * theta[m]);
             }
-            mu[0] = [radii[0].powf(a), 0.0];
+            mu[0] = [modulus(radii[0], a), 0.0];
         }
         RingShape::HalfDisk => {
             let a = std::f64::consts::PI / theta[k - 1];
@@ -88,8 +116,8 @@ pub fn flatten_ring(
             for m in 1..k - 1 {
                 mu[m] = polar(radii[m], a, a * theta[m]);
             }
-            mu[0] = [radii[0].powf(a), 0.0];
-            mu[k - 1] = [-radii[k - 1].powf(a), 0.0];
+            mu[0] = [modulus(radii[0], a), 0.0];
+            mu[k - 1] = [-modulus(radii[k - 1], a), 0.0];
         }
         RingShape::FeatureLine { s, t } => {
             let total = theta[k];
@@ -113,8 +141,8 @@ pub fn flatten_ring(
                 };
             }
             let a_mid = 0.5 * (a1 + a2);
-            mu[s] = [radii[s].powf(a_mid), 0.0];
-            mu[t] = [-radii[t].powf(a_mid), 0.0];
+            mu[s] = [modulus(radii[s], a_mid), 0.0];
+            mu[t] = [-modulus(radii[t], a_mid), 0.0];
         }
     }
     if mu.iter().any(|p| !(p[0].is_finite() && p[1].is_finite())) {

@@ -25,7 +25,7 @@ use nalgebra::{Point3, Vector3};
 use rayon::prelude::*;
 
 use super::features::{vertex_role, Features, VertexRole};
-use super::flatten::{flatten_ring, RingShape};
+use super::flatten::{flatten_ring_with, Flattening, RingShape};
 use super::priority::{curvature, priorities_quantile, ring_area, shuffle_key, star_normal};
 use super::quality::smallest_angle_deg;
 use super::retriangulate::{
@@ -124,6 +124,8 @@ pub(crate) struct Work<'a> {
     pub corner_turn: f64,
     /// [`MapsOptions::best_triangulation`] (false from [`Work::new`]; set by the caller).
     pub best_triangulation: bool,
+    /// [`MapsOptions::flattening`] (the paper's z^a from [`Work::new`]; set by the caller).
+    pub flattening: Flattening,
     /// Per face: the removal that created it (`u32::MAX` for an input face).
     pub created_by: Vec<u32>,
     /// Per face: the removal that deleted it (`u32::MAX` while alive).
@@ -289,6 +291,7 @@ impl<'a> Work<'a> {
             alive_faces: faces.len(),
             corner_turn,
             best_triangulation: false,
+            flattening: Flattening::Conformal,
             created_by: vec![u32::MAX; faces.len()],
             removed_by: vec![u32::MAX; faces.len()],
             records: Vec::new(),
@@ -365,7 +368,7 @@ impl<'a> Work<'a> {
             .iter()
             .map(|&v| self.positions[v as usize])
             .collect();
-        let Ok(mu) = flatten_ring(&centre, &pts, shape) else {
+        let Ok(mu) = flatten_ring_with(&centre, &pts, shape, self.flattening) else {
             return Planned::FlattenRejected(i);
         };
         let k = ring.verts.len();

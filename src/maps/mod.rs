@@ -112,6 +112,14 @@ pub struct MapsOptions {
     /// 1.51/0.059 → 3.84/0.087, genus-2 0.33/0.054 → 0.45/0.047, genus-3 0.65/0.062 →
     /// 0.78/0.055: better on the models with tips and fins, worse on bob, so not the default.
     pub priority_error: bool,
+    /// Beyond the paper (issue #23): how a removed vertex's ring is flattened
+    /// ([`flatten::Flattening`]): the paper's conformal z^a (default) or the polar map that
+    /// keeps the radii. The GPU cross-check's `maps_flatten` kernel and the smoothing's vertex
+    /// charts use z^a whatever this says. Measured at base 96, J = 3 (Hausdorff, % of the
+    /// diagonal), z^a → polar: spot 4.37 → 2.91, bob 1.51 → 1.35, nefertiti 2.09 → 1.80, blub
+    /// 13.8 → 11.4, genus-2 0.33 → 0.43, genus-3 0.65 → 0.53; the wrong-facing area higher on
+    /// spot, nefertiti and blub (README, with bases 64 to 250): not the default.
+    pub flattening: flatten::Flattening,
 }
 
 impl Default for MapsOptions {
@@ -128,6 +136,7 @@ impl Default for MapsOptions {
             priority_quantile: 1.0,
             shuffle_seed: None,
             priority_error: false,
+            flattening: flatten::Flattening::Conformal,
         }
     }
 }
@@ -215,6 +224,7 @@ pub fn build_with_progress(
     let t1 = Instant::now();
     let mut work = Work::new(&mesh.positions, &mesh.faces, features, options.corner_turn);
     work.best_triangulation = options.best_triangulation;
+    work.flattening = options.flattening;
     let mut rejects = RejectCounts::default();
     let (levels, stop) = decimate(&mut work, options, &mut rejects, progress);
     let hierarchy_time = t1.elapsed().as_secs_f64();
