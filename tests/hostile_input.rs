@@ -810,6 +810,41 @@ fn crosscheck_skinsimp_refuses_poses_beyond_f32() {
         shown.contains("training pose 0 (skinned): vertex 2"),
         "{shown}"
     );
+    let run = |name: &str| {
+        let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fixtures/hostile")
+            .join(name);
+        let (result, stdout) = reparam::cli::run_captured([
+            "reparam",
+            "crosscheck",
+            "skinsimp",
+            &fixture.display().to_string(),
+            "--poses",
+            "2",
+            "--plots",
+            &dir.path().display().to_string(),
+            "--json",
+        ]);
+        (fixture, result, stdout)
+    };
+    // A vertex at 2.2e7 of the unit box: within the meshes' ±2⁴⁸ but the quadrics (quartic) and
+    // costs (sextic) overflow f32 there: refused at skinsimp's own ±2¹⁶.
+    let (fixture, result, _) = run("skinsimp_pose_at_2e7.glb");
+    let e = result.unwrap_err();
+    assert!(
+        matches!(e, Error::OutOfF32Range { limit, .. } if limit == 65536.0),
+        "{e}"
+    );
+    one_line_naming(&e, &fixture);
+    // A joint matrix entry of 4.5e-44 (subnormal in f32): the skinning bound carries f32's
+    // flush of subnormals (2⁻¹²⁶ per operation); without it the row failed on an error of
+    // 1.1e-46 against a bound of 1.2e-51.
+    let (_, result, stdout) = run("skinsimp_subnormal_joint_entry.glb");
+    result.unwrap();
+    let report: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
+    let lbs = &report["adapters"][0]["rows"][0];
+    assert_eq!(lbs["kernel"], "skinsimp_lbs: posed positions");
+    assert_eq!(lbs["verdict"], "pass", "{lbs}");
 }
 
 /// A .npy header whose shape multiplies past u64 (132 × 2⁶³ − 1) made npyz overflow (a panic in

@@ -11,6 +11,12 @@
 
 use serde::Serialize;
 
+/// The smallest normal f32, 2⁻¹²⁶: a product, square or sum below it may be flushed to zero
+/// (GPUs flush subnormals), losing up to this much absolutely. Bounds that are relative to
+/// their terms' sizes add this per operation, so that inputs with subnormal entries (found by
+/// the command fuzzer: a joint matrix entry of 4e-44) are held to what f32 can do there.
+pub const F32_FLUSH: f64 = f32::MIN_POSITIVE as f64;
+
 /// The largest vertex coordinate a cross-checked mesh may have: 2⁴⁸ ≈ 2.8e14. The f32 kernels
 /// multiply coordinate differences (|Δ| ≤ 2|x| ≤ 2⁴⁹) and sum such products (a ring's areas
 /// and dot products, a quadric's entries): each is ≤ 2⁹⁸, so a sum of up to 2²⁹ of them (more

@@ -15,6 +15,7 @@ use reparam_gpu::Gpu;
 
 use super::run::{time_cpu, time_gpu_warm};
 use super::{Bounds, Row, Timing};
+use crate::crosscheck::F32_FLUSH;
 use crate::error::{Error, Result};
 use crate::skinsimp::gpu::{
     crosscheck, edge_cost_position, edge_cost_quadric, plane_quadrics_f64,
@@ -29,8 +30,10 @@ pub const U32: f64 = f32::EPSILON as f64 / 2.0;
 /// Per vertex i, pose j and coordinate r, the bound on |Δp_r| of f32 skinning:
 /// (M_k h)_r is a 4-term dot product, ≤ 4u Σ_c |M_rc h_c| (also with fused multiply-adds);
 /// scaling by w_k and summing K terms adds ≤ K u Σ_k w_k |(M_k h)_r|, so
-/// |Δp_r| ≤ (4 + K) u Σ_k w_k Σ_c |M_k,rc h_c| to first order (the reference on the same f32
-/// inputs is exact to 1e-16), times 1 + 1e-6 for the second-order terms. In the order of
+/// |Δp_r| ≤ (4 + K) u Σ_k |w_k| Σ_c |M_k,rc h_c| to first order (the reference on the same f32
+/// inputs is exact to 1e-16), times 1 + 1e-6 for the second-order terms; plus, for subnormal
+/// products and sums, 2⁻¹²⁶ per operation ([`crate::crosscheck::F32_FLUSH`]: 4 products, 3
+/// additions, a scaling and an addition per influence, 9K in all). In the order of
 /// `data.posed_ref` (vertex-major, then pose), three coordinates each.
 pub fn lbs_bound(data: &CrossCheckData) -> Result<Vec<f64>> {
     lbs_bound_of(&data.input)
@@ -55,10 +58,10 @@ pub fn lbs_bound_of(input: &Input) -> Result<Vec<f64>> {
                 .iter()
                 .map(|&(joint, w)| {
                     let m: &Matrix4<f64> = &joints[j][joint as usize];
-                    w * (0..4).map(|c| (m[(row, c)] * h[c]).abs()).sum::<f64>()
+                    w.abs() * (0..4).map(|c| (m[(row, c)] * h[c]).abs()).sum::<f64>()
                 })
                 .sum();
-            bounds.push((4.0 + k) * U32 * size * (1.0 + 1e-6));
+            bounds.push((4.0 + k) * U32 * size * (1.0 + 1e-6) + 9.0 * k * F32_FLUSH);
         }
     }
     Ok(bounds)

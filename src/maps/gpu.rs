@@ -37,7 +37,7 @@ use super::hierarchy::Work;
 use super::param::BasePoint;
 use super::priority::{curvature, ring_area, star_normal};
 use super::Maps;
-use crate::crosscheck::ErrorSummary;
+use crate::crosscheck::{ErrorSummary, F32_FLUSH};
 use crate::error::{Error, Result};
 
 /// f32 unit roundoff u = 2⁻²⁴.
@@ -220,10 +220,6 @@ pub fn priority_terms_gpu(gpu: &Gpu, batch: &Rings) -> Result<Vec<[f64; 2]>> {
         .map(|t| [t.area as f64, t.kappa as f64])
         .collect())
 }
-
-/// The smallest normal f32, 2⁻¹²⁶: a product or square below it may be flushed to zero (GPUs
-/// flush subnormals), losing up to this much absolutely.
-pub const F32_FLUSH: f64 = f32::MIN_POSITIVE as f64;
 
 /// Absolute error, from underflow alone, of an f32 length |a × b| = √(Σ c²) whose components
 /// c are differences of two products: each component loses ≤ 2·2⁻¹²⁶, the three squares

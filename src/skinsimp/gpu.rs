@@ -758,22 +758,26 @@ fn relative(errors: &[f64], sizes: &[f64]) -> Vec<f64> {
 /// Run every kernel on the GPU and its reference from identical inputs (module docs,
 /// "Protocol") on the unit-box normalised `input`, with the constraint-plane weight
 /// `boundary_weight` and the position step's `max_condition`.
-/// Refuse posed positions (in the unit box of the rest pose) beyond
-/// ±[`crate::crosscheck::F32_COORDINATE_MAX`]: an animation that throws vertices that far makes
-/// the f32 quadrics overflow, and the comparison would measure overflow, not arithmetic.
-/// The error names the vertex and the pose.
+/// The largest posed coordinate (in the unit box of the rest pose) the f32 skinsimp kernels
+/// are cross-checked on: 2¹⁶. With |x| ≤ 2¹⁶ a source quadric's weight (an area) is ≤ 2³³ and
+/// its plane's d² ≤ 3·2³², so its entries are ≤ 2⁶⁷; a vertex quadric sums ≤ 2¹⁴ of them, and a
+/// cost v̂ᵀQv̂ with |v̂|² ≤ 2³⁴ stays ≤ 2¹¹⁹ < f32::MAX ≈ 2¹²⁸. The quadrics are quartic and the
+/// costs sextic in the coordinates, so the meshes' bound ±2⁴⁸
+/// ([`crate::crosscheck::F32_COORDINATE_MAX`]) would let them overflow.
+pub const POSED_COORDINATE_MAX: f64 = 65_536.0;
+
+/// Refuse posed positions beyond ±[`POSED_COORDINATE_MAX`]: an animation that throws vertices
+/// that far makes the f32 quadrics or costs overflow, and the comparison would measure
+/// overflow, not arithmetic. The error names the vertex and the pose.
 fn check_posed_range(input: &Input, posed: &[Point3<f64>]) -> Result<()> {
     let poses = input.pose_count().max(1);
     for (i, p) in posed.iter().enumerate() {
-        if let Some(&value) = p
-            .iter()
-            .find(|x| x.abs() > crate::crosscheck::F32_COORDINATE_MAX)
-        {
+        if let Some(&value) = p.iter().find(|x| !(x.abs() <= POSED_COORDINATE_MAX)) {
             return Err(Error::OutOfF32Range {
                 mesh: format!("{}, training pose {} (skinned)", input.mesh.name, i % poses),
                 vertex: i / poses,
                 value,
-                limit: crate::crosscheck::F32_COORDINATE_MAX,
+                limit: POSED_COORDINATE_MAX,
             });
         }
     }
