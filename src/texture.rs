@@ -195,14 +195,25 @@ fn image_reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std
 }
 
 /// Decode a PNG or JPEG after reading its header alone: its declared size is checked against
-/// [`max_image_pixels`] first, and the decoder's own allocation limit is set to what that size
-/// needs (16 bytes a pixel, 16-bit RGBA), so the limit can be raised past the `image` crate's
-/// default of 512 MiB.
+/// [`max_image_pixels`] and against what the file's bytes can hold ([`MAX_EXPANSION`]) first,
+/// and the decoder's own allocation limit is set to what that size needs (16 bytes a pixel,
+/// 16-bit RGBA), so the limit can be raised past the `image` crate's default of 512 MiB.
 fn open_image(path: &Path) -> Result<image::DynamicImage> {
-    let (width, height) = image_reader(path)?
-        .into_dimensions()
+    use image::ImageDecoder;
+    let decoder = image_reader(path)?
+        .into_decoder()
         .map_err(|e| image_error(path, e))?;
+    let (width, height) = decoder.dimensions();
     check_image_size(path, "the header", width.into(), height.into())?;
+    check_expansion(
+        path,
+        "the header",
+        (width.into(), height.into()),
+        decoder.total_bytes(),
+        file_bytes(path)?,
+        "PNG or JPEG",
+    )?;
+    drop(decoder);
     let mut reader = image_reader(path)?;
     let mut limits = image::Limits::default();
     limits.max_alloc = Some(max_image_pixels().saturating_mul(16));
@@ -236,9 +247,7 @@ fn exr_error(path: &Path, error: exr::error::Error) -> Error {
 /// would reserve gigabytes from a few hundred bytes.
 fn check_exr_size(path: &Path) -> Result<()> {
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| exr_error(path, e))?;
-    let file_bytes = std::fs::metadata(path)
-        .map_err(|e| Error::io(path, e))?
-        .len();
+    let file_bytes = file_bytes(path)?;
     for (k, header) in meta.headers.iter().enumerate() {
         let window = header.data_window();
         let (width, height) = (window.size.width() as u64, window.size.height() as u64);
@@ -250,44 +259,52 @@ fn check_exr_size(path: &Path) -> Result<()> {
             .iter()
             .map(|c| c.sample_type.bytes_per_sample() as u64)
             .sum();
-        check_exr_expansion(path, &what, width, height, sample_bytes, file_bytes)?;
+        let decoded = width.saturating_mul(height).saturating_mul(sample_bytes);
+        check_expansion(path, &what, (width, height), decoded, file_bytes, "EXR")?;
     }
     Ok(())
 }
 
-/// The most an EXR's decoded samples can take per byte of the file, with 1 MiB of slack:
-/// deflate (ZIP, ZIPS, PXR24) compresses at most 1032:1 (1376:1 of PXR24's 24-bit samples
-/// read back as 32), PIZ's Huffman runs and RLE far less, B44 ≈ 10:1 at best; 2048 leaves a
-/// margin over all of them.
-pub const EXR_MAX_EXPANSION: u64 = 2048;
+/// The most an image's decoded samples can take per byte of the file, with 1 MiB of slack:
+/// deflate (PNG; EXR's ZIP, ZIPS, PXR24) compresses at most 1032:1 (1376:1 of PXR24's 24-bit
+/// samples read back as 32), baseline JPEG a flat 8×8 block to a few bits (≈ 1000:1), EXR's
+/// PIZ Huffman runs and RLE far less, B44 ≈ 10:1 at best; 2048 leaves a margin over all of them.
+pub const MAX_EXPANSION: u64 = 2048;
 
-/// Refuse a data window whose samples (`width × height × sample_bytes`) decode to more than
-/// [`EXR_MAX_EXPANSION`] times the file's bytes (plus 1 MiB): no compression reaches that, so
-/// the header is damaged or the file truncated, and the `exr` crate would reserve the whole
-/// image (256 MiB from an 806-byte file, found by `tests/fuzz_parsers.rs`) before it failed.
-fn check_exr_expansion(
+/// Refuse an image whose samples (`decoded` bytes, `width × height` pixels) are more than
+/// [`MAX_EXPANSION`] times the file's bytes (plus 1 MiB): no compression reaches that, so the
+/// header is damaged or the file truncated, and the decoders reserve the whole image before
+/// they fail (256 MiB from an 806-byte EXR and from a 54-byte PNG, found by
+/// `tests/fuzz_parsers.rs`). `format` names the compression in the message.
+fn check_expansion(
     path: &Path,
     what: &str,
-    width: u64,
-    height: u64,
-    sample_bytes: u64,
+    (width, height): (u64, u64),
+    decoded: u64,
     file_bytes: u64,
+    format: &str,
 ) -> Result<()> {
-    let decoded = width.saturating_mul(height).saturating_mul(sample_bytes);
     let holdable = file_bytes
-        .saturating_mul(EXR_MAX_EXPANSION)
+        .saturating_mul(MAX_EXPANSION)
         .saturating_add(1 << 20);
     if decoded > holdable {
         return Err(Error::Image {
             path: path.to_path_buf(),
             message: format!(
                 "{what} declares {width}x{height} pixels ({decoded} bytes of samples), more \
-                 than a {file_bytes}-byte file can hold at any EXR compression \
-                 ({EXR_MAX_EXPANSION}:1); the header is damaged or the file is truncated"
+                 than a {file_bytes}-byte file can hold at any {format} compression \
+                 ({MAX_EXPANSION}:1); the header is damaged or the file is truncated"
             ),
         });
     }
     Ok(())
+}
+
+/// The size of `path` in bytes.
+fn file_bytes(path: &Path) -> Result<u64> {
+    Ok(std::fs::metadata(path)
+        .map_err(|e| Error::io(path, e))?
+        .len())
 }
 
 /// Decode an EXR, containing a panic of the `exr` crate at this boundary.

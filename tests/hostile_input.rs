@@ -386,6 +386,39 @@ fn a_png_declaring_100000_by_100000_pixels_is_refused_from_its_header() {
     assert!(shown.contains("REPARAM_MAX_IMAGE_PIXELS"), "{shown}");
 }
 
+/// Found by the parser fuzzer once PNG checksums were repaired after mutation: a 54-byte PNG
+/// declaring 8 388 616 × 8 RGBA16 pixels (under the pixel limit) made the decoder reserve
+/// 256 MiB before it ran out of data. Refused from the header: no deflate stream expands past
+/// 1032:1 (`MAX_EXPANSION` 2048 with 1 MiB of slack). A real, highly compressible image (a
+/// constant 2048² grey map, 16 MiB of RGBA samples in ~86 KB) still loads.
+#[test]
+fn a_png_declaring_more_than_its_bytes_can_hold_is_refused() {
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/hostile/png_54_bytes_declaring_256_mib.png");
+    let error = within(Duration::from_secs(1), "decoding", || {
+        load_gray_f32(&fixture).unwrap_err()
+    });
+    let shown = one_line_naming(&error, &fixture);
+    assert!(
+        shown.contains("8388616x8") && shown.contains("54-byte file"),
+        "{shown}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("flat.png");
+    let n = 2048;
+    let image = reparam::texture::Image {
+        width: n,
+        height: n,
+        pixels: vec![[128, 128, 128, 255]; n * n],
+    };
+    reparam::texture::save_png(&image, &path).unwrap();
+    let bytes = std::fs::metadata(&path).unwrap().len();
+    // 16 MiB of RGBA samples in ~86 KB (the encoder's default level, ~200:1).
+    assert!(bytes < 256 << 10, "{bytes}");
+    let loaded = load_gray_f32(&path).unwrap();
+    assert_eq!((loaded.width, loaded.height), (n, n));
+}
+
 #[test]
 fn an_exr_data_window_with_ymin_above_ymax_is_refused_before_allocation() {
     let dir = tempfile::tempdir().unwrap();
