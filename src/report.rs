@@ -163,6 +163,27 @@ mod finite {
             self.index += 1;
             self.checker.nested(format_args!("[{i}]"), v)
         }
+
+        /// Restore the path to what it was before this value.
+        fn finish(self) -> R {
+            self.checker.path.truncate(self.len);
+            Ok(())
+        }
+    }
+
+    impl<'a> Checker {
+        /// A compound value at the current path, with `.variant` added when it is an enum's.
+        fn compound(&'a mut self, variant: Option<&str>) -> Compound<'a> {
+            let len = self.path.len();
+            if let Some(variant) = variant {
+                let _ = write!(self.path, ".{variant}");
+            }
+            Compound {
+                checker: self,
+                index: 0,
+                len,
+            }
+        }
     }
 
     impl<'a> ser::Serializer for &'a mut Checker {
@@ -246,12 +267,7 @@ mod finite {
             self.nested(format_args!(".{variant}"), v)
         }
         fn serialize_seq(self, _: Option<usize>) -> Result<Compound<'a>, Stop> {
-            let len = self.path.len();
-            Ok(Compound {
-                checker: self,
-                index: 0,
-                len,
-            })
+            Ok(self.compound(None))
         }
         fn serialize_tuple(self, _: usize) -> Result<Compound<'a>, Stop> {
             self.serialize_seq(None)
@@ -266,13 +282,7 @@ mod finite {
             variant: &'static str,
             _: usize,
         ) -> Result<Compound<'a>, Stop> {
-            let len = self.path.len();
-            let _ = write!(self.path, ".{variant}");
-            Ok(Compound {
-                checker: self,
-                index: 0,
-                len,
-            })
+            Ok(self.compound(Some(variant)))
         }
         fn serialize_map(self, _: Option<usize>) -> Result<Compound<'a>, Stop> {
             self.serialize_seq(None)
@@ -287,63 +297,31 @@ mod finite {
             variant: &'static str,
             _: usize,
         ) -> Result<Compound<'a>, Stop> {
-            let len = self.path.len();
-            let _ = write!(self.path, ".{variant}");
-            Ok(Compound {
-                checker: self,
-                index: 0,
-                len,
-            })
+            Ok(self.compound(Some(variant)))
         }
     }
 
-    impl ser::SerializeSeq for Compound<'_> {
-        type Ok = ();
-        type Error = Stop;
-        fn serialize_element<T: Serialize + ?Sized>(&mut self, v: &T) -> R {
-            self.element(v)
-        }
-        fn end(self) -> R {
-            self.checker.path.truncate(self.len);
-            Ok(())
-        }
+    /// The sequence-like compounds: each element numbered, `[i]`.
+    macro_rules! numbered {
+        ($($kind:ident :: $method:ident),*) => {$(
+            impl ser::$kind for Compound<'_> {
+                type Ok = ();
+                type Error = Stop;
+                fn $method<T: Serialize + ?Sized>(&mut self, v: &T) -> R {
+                    self.element(v)
+                }
+                fn end(self) -> R {
+                    self.finish()
+                }
+            }
+        )*};
     }
-
-    impl ser::SerializeTuple for Compound<'_> {
-        type Ok = ();
-        type Error = Stop;
-        fn serialize_element<T: Serialize + ?Sized>(&mut self, v: &T) -> R {
-            self.element(v)
-        }
-        fn end(self) -> R {
-            self.checker.path.truncate(self.len);
-            Ok(())
-        }
-    }
-
-    impl ser::SerializeTupleStruct for Compound<'_> {
-        type Ok = ();
-        type Error = Stop;
-        fn serialize_field<T: Serialize + ?Sized>(&mut self, v: &T) -> R {
-            self.element(v)
-        }
-        fn end(self) -> R {
-            self.checker.path.truncate(self.len);
-            Ok(())
-        }
-    }
-
-    impl ser::SerializeTupleVariant for Compound<'_> {
-        type Ok = ();
-        type Error = Stop;
-        fn serialize_field<T: Serialize + ?Sized>(&mut self, v: &T) -> R {
-            self.element(v)
-        }
-        fn end(self) -> R {
-            self.checker.path.truncate(self.len);
-            Ok(())
-        }
-    }
+    numbered!(
+        SerializeSeq::serialize_element,
+        SerializeTuple::serialize_element,
+        SerializeTupleStruct::serialize_field,
+        SerializeTupleVariant::serialize_field
+    );
 
     impl ser::SerializeMap for Compound<'_> {
         type Ok = ();
@@ -355,34 +333,30 @@ mod finite {
             self.element(v)
         }
         fn end(self) -> R {
-            self.checker.path.truncate(self.len);
-            Ok(())
+            self.finish()
         }
     }
 
-    impl ser::SerializeStruct for Compound<'_> {
-        type Ok = ();
-        type Error = Stop;
-        fn serialize_field<T: Serialize + ?Sized>(&mut self, key: &'static str, v: &T) -> R {
-            self.checker.nested(format_args!(".{key}"), v)
-        }
-        fn end(self) -> R {
-            self.checker.path.truncate(self.len);
-            Ok(())
-        }
+    /// The struct-like compounds: each field named, `.key`.
+    macro_rules! named {
+        ($($kind:ident),*) => {$(
+            impl ser::$kind for Compound<'_> {
+                type Ok = ();
+                type Error = Stop;
+                fn serialize_field<T: Serialize + ?Sized>(
+                    &mut self,
+                    key: &'static str,
+                    v: &T,
+                ) -> R {
+                    self.checker.nested(format_args!(".{key}"), v)
+                }
+                fn end(self) -> R {
+                    self.finish()
+                }
+            }
+        )*};
     }
-
-    impl ser::SerializeStructVariant for Compound<'_> {
-        type Ok = ();
-        type Error = Stop;
-        fn serialize_field<T: Serialize + ?Sized>(&mut self, key: &'static str, v: &T) -> R {
-            self.checker.nested(format_args!(".{key}"), v)
-        }
-        fn end(self) -> R {
-            self.checker.path.truncate(self.len);
-            Ok(())
-        }
-    }
+    named!(SerializeStruct, SerializeStructVariant);
 }
 
 #[cfg(test)]

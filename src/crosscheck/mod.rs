@@ -28,13 +28,27 @@ pub const F32_COORDINATE_MAX: f64 = 281_474_976_710_656.0; // 2^48
 /// Refuse a mesh with a coordinate beyond ±[`F32_COORDINATE_MAX`]
 /// ([`crate::Error::OutOfF32Range`], naming the first such vertex).
 pub fn check_f32_range(mesh: &str, positions: &[nalgebra::Point3<f64>]) -> crate::Result<()> {
-    for (vertex, p) in positions.iter().enumerate() {
-        if let Some(&value) = p.iter().find(|x| x.abs() > F32_COORDINATE_MAX) {
+    check_range(positions, F32_COORDINATE_MAX, |vertex| {
+        (mesh.to_string(), vertex)
+    })
+}
+
+/// Refuse points with a coordinate beyond ±`limit` (or not a number):
+/// [`crate::Error::OutOfF32Range`] for the first, named by `name_of(index)` = (what holds it,
+/// its vertex number there).
+pub fn check_range(
+    points: &[nalgebra::Point3<f64>],
+    limit: f64,
+    name_of: impl Fn(usize) -> (String, usize),
+) -> crate::Result<()> {
+    for (index, p) in points.iter().enumerate() {
+        if let Some(&value) = p.iter().find(|x| !(x.abs() <= limit)) {
+            let (mesh, vertex) = name_of(index);
             return Err(crate::Error::OutOfF32Range {
-                mesh: mesh.to_string(),
+                mesh,
                 vertex,
                 value,
-                limit: F32_COORDINATE_MAX,
+                limit,
             });
         }
     }

@@ -771,17 +771,12 @@ pub const POSED_COORDINATE_MAX: f64 = 65_536.0;
 /// overflow, not arithmetic. The error names the vertex and the pose.
 fn check_posed_range(input: &Input, posed: &[Point3<f64>]) -> Result<()> {
     let poses = input.pose_count().max(1);
-    for (i, p) in posed.iter().enumerate() {
-        if let Some(&value) = p.iter().find(|x| !(x.abs() <= POSED_COORDINATE_MAX)) {
-            return Err(Error::OutOfF32Range {
-                mesh: format!("{}, training pose {} (skinned)", input.mesh.name, i % poses),
-                vertex: i / poses,
-                value,
-                limit: POSED_COORDINATE_MAX,
-            });
-        }
-    }
-    Ok(())
+    crate::crosscheck::check_range(posed, POSED_COORDINATE_MAX, |i| {
+        (
+            format!("{}, training pose {} (skinned)", input.mesh.name, i % poses),
+            i / poses,
+        )
+    })
 }
 
 pub fn crosscheck(
