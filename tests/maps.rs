@@ -967,6 +967,43 @@ fn cli_writes_the_base_domain_remeshes_pictures_and_a_json_summary() {
 }
 
 #[test]
+fn cli_relax_adds_a_relaxed_remesh_and_the_warning_suggests_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_reparam"))
+            .args(["maps", "procedural:torus", "--remesh", "uniform:1"])
+            .args(extra)
+            .args(["--picture-size", "0", "--json", "--out"])
+            .arg(dir.path())
+            .output()
+            .unwrap()
+    };
+    let plain = run(&[]);
+    assert!(plain.status.success());
+    let stderr = String::from_utf8_lossy(&plain.stderr);
+    // uniform:1 of a torus misses the targets (16 faces per base face are not enough), so the
+    // warning names the option; once a relaxed remesh is made it does not.
+    assert!(stderr.contains("Try --relax"), "{stderr}");
+    let out = run(&["--relax"]);
+    assert!(out.status.success());
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("Try --relax"));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let remeshes = json["remeshes"].as_array().unwrap();
+    assert_eq!(remeshes.len(), 2);
+    assert_eq!(remeshes[1]["kind"], "uniform:1 relaxed");
+    assert_eq!(remeshes[1]["faces"], remeshes[0]["faces"]);
+    assert_eq!(
+        remeshes[1]["relaxation"]["iterations"].as_u64(),
+        Some(reparam::maps::relax::DEFAULT_SWEEPS as u64)
+    );
+    assert!(remeshes[0].get("relaxation").is_none());
+    assert!(dir.path().join("torus_uniform_1_relaxed.obj").exists());
+    let three = run(&["--relax", "3"]);
+    let json: serde_json::Value = serde_json::from_slice(&three.stdout).unwrap();
+    assert_eq!(json["remeshes"][1]["relaxation"]["iterations"], 3);
+}
+
+#[test]
 fn surface_tree_distance_equals_brute_force() {
     use reparam::mesh::distance::point_triangle_distance;
     let m = icosphere(2);

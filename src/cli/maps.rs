@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use crate::maps::distortion::{distortion, Distortion};
 use crate::maps::quality::{AngleStats, WrongFacing};
+use crate::maps::relax::{uniform_relaxed, RelaxOptions, RelaxStats};
 use crate::maps::remesh::{adaptive, uniform, AdaptiveOptions, Remesh};
 use crate::maps::smooth::{uniform_smoothed_with, SmoothOptions, SmoothStats};
 use crate::maps::{
@@ -75,6 +76,11 @@ pub struct MapsArgs {
     /// the parameter domain, same connectivity), with its own OBJ and Hausdorff distance.
     #[arg(long)]
     pub smooth: bool,
+    /// Also make, for every `uniform:J`, the remesh whose parameters are relaxed by N sweeps
+    /// towards the surface's area (`maps::relax`, beyond the paper; same connectivity).
+    /// `--relax` alone: 15 sweeps (`RelaxOptions::default`).
+    #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = RELAX_SWEEPS)]
+    pub relax: Option<usize>,
     /// Remeshes to make: `uniform:J` (quadrisect J times) or `adaptive:EPS` (EPS relative to
     /// the longest bounding-box side). May be repeated.
     #[arg(long)]
@@ -89,6 +95,9 @@ pub struct MapsArgs {
     #[arg(long)]
     pub json: bool,
 }
+
+/// `--relax` without a value: [`crate::maps::relax::DEFAULT_SWEEPS`] (a test checks they agree).
+pub const RELAX_SWEEPS: &str = "15";
 
 /// One requested remesh.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -138,6 +147,9 @@ pub struct RemeshSummary {
     pub wrong_facing: WrongFacing,
     /// The remesh's smallest angles (degrees): min, mean, fraction under 10°, histogram by 10°.
     pub smallest_angles: AngleStats,
+    /// p95 of |log(A_f / Ā)| over the remesh's faces: how unevenly it spends its triangles
+    /// (compare `distortion.input_area_spread`).
+    pub area_spread: f64,
     /// Whether it meets issue #23's targets (Hausdorff ≤ 1.5%, mean ≤ 0.1% of the diagonal,
     /// no wrong-facing area: `RemeshQuality::faithful`).
     pub faithful: bool,
@@ -149,6 +161,9 @@ pub struct RemeshSummary {
     /// For a smoothed remesh: its stencil counts.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub smoothing: Option<SmoothStats>,
+    /// For a relaxed remesh: its sweep counts.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub relaxation: Option<RelaxStats>,
 }
 
 /// The `--json` summary.
@@ -343,7 +358,7 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
     )?;
     let mut remeshes = Vec::new();
     let mut made: Vec<Remesh> = Vec::new();
-    let mut record = |r: Remesh, kind: String, seconds: f64, smoothing| -> Result<()> {
+    let mut record = |r: Remesh, kind: String, seconds: f64, smoothing, relaxation| -> Result<()> {
         let file = args
             .out
             .join(format!("{stem}_{}.obj", kind.replace([':', ' '], "_")));
@@ -359,11 +374,13 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
             wrong_facing_area: r.quality.wrong_facing_area,
             wrong_facing: r.quality.wrong_facing,
             smallest_angles: r.quality.angles,
+            area_spread: r.quality.area_spread,
             faithful: r.quality.faithful(),
             seconds,
             hausdorff_seconds: r.hausdorff_seconds,
             file: file.display().to_string(),
             smoothing,
+            relaxation,
         });
         made.push(r);
         Ok(())
@@ -383,12 +400,34 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
                 format!("adaptive:{eps}"),
             ),
         };
-        record(r, kind, t.elapsed().as_secs_f64(), None)?;
+        record(r, kind, t.elapsed().as_secs_f64(), None, None)?;
         if let (RemeshSpec::Uniform(j), true) = (spec, args.smooth) {
             let t = Instant::now();
             let s = uniform_smoothed_with(&maps, j, &SmoothOptions::default())?;
             let kind = format!("uniform:{j} smoothed");
-            record(s.remesh, kind, t.elapsed().as_secs_f64(), Some(s.stats))?;
+            record(
+                s.remesh,
+                kind,
+                t.elapsed().as_secs_f64(),
+                Some(s.stats),
+                None,
+            )?;
+        }
+        if let (RemeshSpec::Uniform(j), Some(n)) = (spec, args.relax) {
+            let t = Instant::now();
+            let options = RelaxOptions {
+                iterations: n,
+                ..RelaxOptions::default()
+            };
+            let s = uniform_relaxed(&maps, j, &options)?;
+            let kind = format!("uniform:{j} relaxed");
+            record(
+                s.remesh,
+                kind,
+                t.elapsed().as_secs_f64(),
+                None,
+                Some(s.stats),
+            )?;
         }
     }
     let t = Instant::now();
@@ -514,8 +553,8 @@ pub fn unfaithful_warning(
          of the diagonal, no wrong-facing area); worst {}: Hausdorff {}%, mean {}%, wrong-facing \
          area {}%. The base domain of {base_faces} faces does not represent the shape there \
          (Π: area distortion p95 {} against the input's spread {}, σmax/σmin p95 {}, {} folded \
-         images). Try a larger --base-size or --features auto; the picture *_area_distortion.png \
-         shows where.{}",
+         images). Try {}a larger --base-size or --features auto; the picture \
+         *_area_distortion.png shows where.{}",
         bad.len(),
         remeshes.len(),
         worst.kind,
@@ -526,8 +565,21 @@ pub fn unfaithful_warning(
         sig(distortion.input_area_spread, 3),
         sig(d.conformal_p95, 3),
         d.folded,
+        relax_hint(remeshes, &bad),
         wrong_facing_note(worst, folds)
     ))
+}
+
+/// `--relax, ` when a uniform remesh misses the targets and none was relaxed.
+fn relax_hint(remeshes: &[RemeshSummary], bad: &[&RemeshSummary]) -> &'static str {
+    let relaxed = remeshes.iter().any(|r| r.relaxation.is_some());
+    let uniform_missed = bad.iter().any(|r| r.kind.starts_with("uniform"));
+    if uniform_missed && !relaxed {
+        "--relax (the uniform remesh's parameters moved towards the surface's area, beyond the \
+         paper), "
+    } else {
+        ""
+    }
 }
 
 /// A table cell for a remesh's wrong-facing area: the fraction, and with some, its faces and
@@ -710,5 +762,16 @@ fn print_summary(s: &MapsSummary) {
     }
     for p in &s.pictures {
         outln!("wrote {p}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn relax_without_a_value_runs_the_default_sweeps() {
+        assert_eq!(
+            super::RELAX_SWEEPS.parse::<usize>(),
+            Ok(crate::maps::relax::DEFAULT_SWEEPS)
+        );
     }
 }

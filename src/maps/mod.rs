@@ -21,6 +21,7 @@
 //! | pictures: levels, base domain, iso-parameter lines, remeshes | issue #5 "Pictures" | [`picture`] |
 //! | uniform and adaptive remeshing | notes "Smoothing and remeshing"; seed "Remeshing" | [`remesh`] |
 //! | Loop smoothing of the parameterisation in the parameter domain (charts, crease rules), smoothed uniform remesh | notes "Smoothing and remeshing"; seed "Remeshing (2/5), (3/5)" | [`smooth`] |
+//! | relaxation of a uniform remesh's parameters towards the surface's area, u_c ← (1 − ω) u_c + ω Σ ρ_f g_f / Σ ρ_f (beyond the paper) | issue #23 | [`relax`] |
 //!
 //! Entry point: [`build`] (or [`build_with_progress`]), then [`Maps::param`] for Π / Π⁻¹ and
 //! [`remesh::uniform`] / [`remesh::adaptive`].
@@ -35,6 +36,7 @@ pub mod param;
 pub mod picture;
 pub mod priority;
 pub mod quality;
+pub mod relax;
 pub mod remesh;
 pub mod retriangulate;
 pub mod smooth;

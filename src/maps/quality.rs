@@ -6,6 +6,7 @@
 
 use nalgebra::Point3;
 
+use super::distortion::input_area_spread;
 use crate::mesh::distance::{compare_surfaces_per_face, FaceComparison, SurfaceComparison};
 
 /// Issue #23's target for a faithful remesh: two-sided Hausdorff distance at most 1.5% of the
@@ -96,6 +97,10 @@ pub struct RemeshQuality {
     pub wrong_facing: WrongFacing,
     /// The remesh's smallest angles.
     pub angles: AngleStats,
+    /// How unevenly the remesh spends its triangles: p95 of |log(A_f / Ā)| over its faces
+    /// ([`super::distortion::input_area_spread`] applied to the remesh; 0 when every face has
+    /// the same area). Compare with the input's own spread.
+    pub area_spread: f64,
     /// Wall-clock seconds of the distance figures (BVH builds and queries).
     pub distance_seconds: f64,
 }
@@ -173,6 +178,7 @@ pub fn remesh_quality(
         wrong_facing_area: distances.opposed_area_fraction,
         wrong_facing: wrong_facing(remesh_positions, remesh_faces, &per_face, diagonal),
         angles: angle_stats(remesh_positions, remesh_faces),
+        area_spread: input_area_spread(remesh_positions, remesh_faces),
         distance_seconds,
     }
 }

@@ -565,7 +565,7 @@ fn isometric_fan(centre: &Point3<f64>, ring: &[Point3<f64>], closed: bool) -> Ve
 
 /// A crease polyline laid out by arclength: base vertices `verts` at abscissae `s`.
 #[derive(Clone, Debug)]
-struct Chain {
+pub(super) struct Chain {
     verts: Vec<u32>,
     s: Vec<f64>,
 }
@@ -608,7 +608,7 @@ impl Chain {
     }
 
     /// Arclength of a point at a chain vertex or on a chain edge (`None` otherwise).
-    fn position(&self, base: &BaseDomain, p: &BasePoint) -> Option<f64> {
+    pub(super) fn position(&self, base: &BaseDomain, p: &BasePoint) -> Option<f64> {
         let at = |w: u32| self.verts.iter().position(|&x| x == w);
         match support(base, p) {
             Support::Vertex(w) => at(w).map(|i| self.s[i]),
@@ -630,7 +630,7 @@ impl Chain {
 
     /// The point at arclength `s` (clamped to the chain) on its chain edge, the third
     /// barycentric exactly 0.
-    fn locate(&self, base: &BaseDomain, s: f64) -> BasePoint {
+    pub(super) fn locate(&self, base: &BaseDomain, s: f64) -> BasePoint {
         let last = self.s.len() - 1;
         let s = s.clamp(self.s[0], self.s[last]);
         let i = (0..last).find(|&i| s <= self.s[i + 1]).unwrap_or(last - 1);
@@ -732,13 +732,13 @@ fn base_edge_of(base: &BaseDomain, a: VKey, b: VKey) -> Option<(u32, u32)> {
 
 /// What the even rule does with a net vertex.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum EvenKind {
+pub(super) enum EvenKind {
     Fixed,
     Crease,
     Interior,
 }
 
-fn even_kind(base: &BaseDomain, key: VKey) -> EvenKind {
+pub(super) fn even_kind(base: &BaseDomain, key: VKey) -> EvenKind {
     match key {
         VKey::Vertex(v) => match base.role(v) {
             VertexRole::Corner => EvenKind::Fixed,
@@ -751,17 +751,45 @@ fn even_kind(base: &BaseDomain, key: VKey) -> EvenKind {
 }
 
 /// One stencil point: its current parameter and its dyadic point (the fallback).
-type StencilPoint = (BasePoint, BasePoint);
+pub(super) type StencilPoint = (BasePoint, BasePoint);
 
 /// Σ w_i u_i of the stencil points in `chart` (grown as needed), located back (module docs).
 fn combine_2d(
     base: &BaseDomain,
-    mut chart: Chart,
+    chart: Chart,
     points: &[StencilPoint],
     weights: &[f64],
     options: &SmoothOptions,
     stats: &mut SmoothStats,
 ) -> BasePoint {
+    let mut placed = place_in_chart(base, chart, points, options, stats);
+    let mut u = [0.0; 2];
+    for (q, w) in placed.positions.iter().zip(weights) {
+        u[0] += w * q[0];
+        u[1] += w * q[1];
+    }
+    placed.locate(base, u, options, stats)
+}
+
+/// Stencil points laid out in one chart (grown as needed): what [`combine_2d`] combines, and
+/// what the relaxation ([`super::relax`]) weighs.
+pub(super) struct Placed {
+    pub chart: Chart,
+    /// Chart position of each point (its dyadic point's, counted as a fallback, when no grown
+    /// chart contained it).
+    pub positions: Vec<[f64; 2]>,
+    grown: usize,
+}
+
+/// Lay `points` out in `chart`, unfolding faces towards those outside it, then whole rings
+/// (at most [`SmoothOptions::grow_rounds`]); a point still outside uses its dyadic point.
+pub(super) fn place_in_chart(
+    base: &BaseDomain,
+    mut chart: Chart,
+    points: &[StencilPoint],
+    options: &SmoothOptions,
+    stats: &mut SmoothStats,
+) -> Placed {
     let mut grown = 0;
     let mut pos: Vec<Option<[f64; 2]>> =
         points.iter().map(|p| chart.position(base, &p.0)).collect();
@@ -785,32 +813,49 @@ fn combine_2d(
         }
         pos = points.iter().map(|p| chart.position(base, &p.0)).collect();
     }
-    let mut u = [0.0; 2];
-    for ((p, w), (_, dyadic)) in pos.iter().zip(weights).zip(points) {
-        let q = match p {
+    let positions = pos
+        .iter()
+        .zip(points)
+        .map(|(p, (_, dyadic))| match p {
             Some(q) => *q,
             None => {
                 stats.fallbacks += 1;
                 chart.position(base, dyadic).unwrap_or([0.0, 0.0])
             }
-        };
-        u[0] += w * q[0];
-        u[1] += w * q[1];
+        })
+        .collect();
+    Placed {
+        chart,
+        positions,
+        grown,
     }
-    loop {
-        if let Some(found) = chart.locate(u) {
-            return found;
+}
+
+impl Placed {
+    /// The chart point `u` as a parameter: the first chart face containing it, growing the
+    /// chart while the rounds allow, else the nearest face with clamped barycentrics.
+    pub fn locate(
+        &mut self,
+        base: &BaseDomain,
+        u: [f64; 2],
+        options: &SmoothOptions,
+        stats: &mut SmoothStats,
+    ) -> BasePoint {
+        loop {
+            if let Some(found) = self.chart.locate(u) {
+                return found;
+            }
+            if self.grown >= options.grow_rounds || !self.chart.grow(base) {
+                stats.clamped += 1;
+                return self.chart.nearest(u);
+            }
+            self.grown += 1;
         }
-        if grown >= options.grow_rounds || !chart.grow(base) {
-            stats.clamped += 1;
-            return chart.nearest(u);
-        }
-        grown += 1;
     }
 }
 
 /// Σ w_i s_i of the stencil points along the crease `chain`, located back on the chain.
-fn combine_1d(
+pub(super) fn combine_1d(
     base: &BaseDomain,
     chain: &Chain,
     points: &[StencilPoint],
@@ -829,13 +874,13 @@ fn combine_1d(
 }
 
 /// The coarse net's connectivity the rules need.
-struct Topology {
+pub(super) struct Topology {
     index: HashMap<VKey, u32>,
     edges: HashMap<VKey, NetEdge>,
-    neighbours: Vec<Vec<u32>>,
+    pub neighbours: Vec<Vec<u32>>,
 }
 
-fn topology(maps: &Maps, net: &ParamNet) -> Topology {
+pub(super) fn topology(maps: &Maps, net: &ParamNet) -> Topology {
     let index = net
         .keys
         .iter()
@@ -946,27 +991,10 @@ fn even_rule(
     match even_kind(base, key) {
         EvenKind::Fixed => coarse.params[c as usize],
         EvenKind::Crease => {
-            let along: Vec<u32> = ring
-                .iter()
-                .copied()
-                .filter(|&n| {
-                    base_edge_of(base, key, coarse.keys[n as usize])
-                        .is_some_and(|(p, q)| base.is_crease(p, q))
-                })
-                .collect();
-            let [prev, next] = along[..] else {
+            let Some((chain, [prev, next])) = crease_chain(base, coarse, topo, c) else {
                 stats.fallbacks += 1;
                 return coarse.params[c as usize];
             };
-            let middle = match key {
-                VKey::Vertex(v) => {
-                    let cn = &base.crease_neighbours[v as usize];
-                    vec![cn[0], v, cn[1]]
-                }
-                VKey::Edge { lo, hi, .. } => vec![lo, hi],
-                VKey::Face { .. } => unreachable!("face points are interior"),
-            };
-            let chain = Chain::through(base, &middle);
             combine_1d(
                 base,
                 &chain,
@@ -976,19 +1004,54 @@ fn even_rule(
             )
         }
         EvenKind::Interior => {
-            let root = match key {
-                VKey::Vertex(v) => Chart::vertex(base, v, base.star[v as usize][0]),
-                VKey::Edge { lo, hi, .. } => Chart::edge(base, lo, hi),
-                VKey::Face { t, .. } => Chart::face(base, t),
-            };
             let (w0, beta) = even_weights(ring.len(), options.beta);
             let mut pts = vec![point(c)];
             pts.extend(ring.iter().map(|&n| point(n)));
             let mut weights = vec![w0];
             weights.extend(std::iter::repeat_n(beta, ring.len()));
-            combine_2d(base, root, &pts, &weights, options, stats)
+            combine_2d(base, root_chart(base, key), &pts, &weights, options, stats)
         }
     }
+}
+
+/// The root chart of a net vertex's stencil, from its dyadic place (module docs): its base
+/// vertex's flattened ring, its base edge's hinge, or its base face.
+pub(super) fn root_chart(base: &BaseDomain, key: VKey) -> Chart {
+    match key {
+        VKey::Vertex(v) => Chart::vertex(base, v, base.star[v as usize][0]),
+        VKey::Edge { lo, hi, .. } => Chart::edge(base, lo, hi),
+        VKey::Face { t, .. } => Chart::face(base, t),
+    }
+}
+
+/// For net vertex `c` on a crease: the crease polyline through it and its two neighbours along
+/// the crease (`None` when it does not have exactly two).
+pub(super) fn crease_chain(
+    base: &BaseDomain,
+    net: &ParamNet,
+    topo: &Topology,
+    c: u32,
+) -> Option<(Chain, [u32; 2])> {
+    let key = net.keys[c as usize];
+    let along: Vec<u32> = topo.neighbours[c as usize]
+        .iter()
+        .copied()
+        .filter(|&n| {
+            base_edge_of(base, key, net.keys[n as usize]).is_some_and(|(p, q)| base.is_crease(p, q))
+        })
+        .collect();
+    let [prev, next] = along[..] else {
+        return None;
+    };
+    let middle = match key {
+        VKey::Vertex(v) => {
+            let cn = &base.crease_neighbours[v as usize];
+            vec![cn[0], v, cn[1]]
+        }
+        VKey::Edge { lo, hi, .. } => vec![lo, hi],
+        VKey::Face { .. } => return None,
+    };
+    Some((Chain::through(base, &middle), [prev, next]))
 }
 
 /// One round: quadrisect the net and give every vertex of the finer net its Loop parameter.
