@@ -14,7 +14,9 @@ use std::path::Path;
 use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use reparam::maps::relax::{relax_net, uniform_relaxed, RelaxOptions};
 use reparam::maps::remesh::{adaptive, uniform, AdaptiveOptions};
+use reparam::maps::smooth::dyadic_net;
 use reparam::maps::{build, Features, MapsOptions};
 use reparam::mesh::{load_obj, procedural, TriMesh};
 
@@ -89,6 +91,19 @@ fn print_figures(cases: &[(String, TriMesh)]) {
                     u.quality.mean_relative,
                     u.quality.wrong_facing_area
                 );
+                let t = Instant::now();
+                let r = uniform_relaxed(&maps, 3, &RelaxOptions::default()).expect("relaxed");
+                let tr = t.elapsed().as_secs_f64();
+                let q = r.remesh.quality;
+                println!(
+                    "  uniform j=3 relaxed ({} sweeps): {tr:.3} s (of which distance figures \
+                     {:.3} s), Hausdorff/diag {:.2e}, mean/diag {:.2e}, wrong-facing area {:.2e}",
+                    r.stats.iterations,
+                    r.remesh.hausdorff_seconds,
+                    q.hausdorff_relative,
+                    q.mean_relative,
+                    q.wrong_facing_area
+                );
                 for eps in [0.01, 0.005] {
                     let t = Instant::now();
                     let a = adaptive(
@@ -122,6 +137,28 @@ fn bench_hierarchy(c: &mut Criterion) {
             b.iter(|| black_box(build(mesh, &Features::default(), &options()).expect("builds")))
         });
     }
+    group.finish();
+}
+
+/// The relaxation (issue #23, `maps::relax`): its sweeps alone (no distance figures) on the
+/// uniform:3 net of the genus-2 100k model at base size 200, beside the unrelaxed remesh.
+fn bench_relax(c: &mut Criterion) {
+    let mesh = procedural::genus_bumpy(2, 110);
+    let opts = MapsOptions {
+        base_size: 200,
+        ..options()
+    };
+    let maps = build(&mesh, &Features::default(), &opts).expect("builds");
+    let net = dyadic_net(&maps, 3).expect("net");
+    let mut group = c.benchmark_group("maps_relax");
+    group.sample_size(10);
+    group.bench_function("genus-2 100k base 200 uniform:3, 15 sweeps", |b| {
+        b.iter(|| black_box(relax_net(&maps, &net, &RelaxOptions::default())))
+    });
+    group.bench_function(
+        "genus-2 100k base 200 uniform:3 remesh with its distance figures",
+        |b| b.iter(|| black_box(uniform(&maps, 3).expect("uniform"))),
+    );
     group.finish();
 }
 
@@ -227,5 +264,5 @@ fn bench_gpu(c: &mut Criterion) {
 #[cfg(not(feature = "gpu"))]
 fn bench_gpu(_: &mut Criterion) {}
 
-criterion_group!(benches, bench_hierarchy, bench_gpu);
+criterion_group!(benches, bench_hierarchy, bench_relax, bench_gpu);
 criterion_main!(benches);
