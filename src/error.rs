@@ -131,6 +131,21 @@ pub enum Error {
         value: f64,
         limit: f64,
     },
+    /// A vertex coordinate too large for a remesh's distance figures in f64: area-weighted
+    /// distances are cubic in the coordinates and summed over the samples
+    /// ([`crate::maps::quality::DISTANCE_COORDINATE_MAX`]).
+    #[error(
+        "{mesh}: vertex {vertex} has a coordinate of {value:e}, beyond ±{limit:e}, the largest \
+         for which a remesh's distance figures (distances × areas, summed) stay finite in f64; \
+         rescale the input (e.g. into a unit box) to remesh it, or build the hierarchy alone \
+         (no --remesh)"
+    )]
+    OutOfDistanceRange {
+        mesh: String,
+        vertex: usize,
+        value: f64,
+        limit: f64,
+    },
     /// `bpm qc --subdiv` would measure more sub-triangles (`faces · 4^subdiv`) than the limit
     /// (`REPARAM_MAX_QC_SUB_TRIANGLES`, default 2²⁵), each kept for the quantiles.
     #[error(

@@ -219,6 +219,29 @@ fn fuzz_maps() {
     fuzz::assert_clean(&[obj, off]);
 }
 
+/// The remeshes on mutated meshes: uniform, Loop-smoothed and relaxed (`maps::relax`), each
+/// with its distance figures.
+#[test]
+fn fuzz_maps_remesh() {
+    let meshes = [torus(6, 4, 1.0, 0.3), wavy_grid(4)];
+    let args = [
+        "maps",
+        "{case}",
+        "--remesh",
+        "uniform:1",
+        "--smooth",
+        "--relax",
+        "3",
+        "--picture-size",
+        "0",
+        "--out",
+        "{out}",
+        "--json",
+    ];
+    let obj: Vec<Vec<u8>> = meshes.iter().map(obj_bytes).collect();
+    fuzz::assert_clean(&[fuzz_command("maps-remesh", "obj", &obj, &args, true)]);
+}
+
 #[test]
 fn fuzz_skinsimp() {
     fuzz::assert_clean(&[fuzz_command(

@@ -887,3 +887,74 @@ fn a_npy_shape_that_overflows_or_exceeds_the_file_is_refused() {
         assert!(shown.contains("declares more elements"), "{shown}");
     }
 }
+
+/// Found by the remesh fuzzer (`fuzz_maps_remesh`): a wavy grid with one z of 1e307 built its
+/// hierarchy, but its remesh's distance figures overflowed to a NaN Hausdorff distance (the
+/// command then refused to write the NaN, a failure without a cause). A mesh with a coordinate
+/// beyond ±2²⁰⁰ (`maps::quality::DISTANCE_COORDINATE_MAX`) is now refused when a remesh is
+/// asked for, naming the vertex and the file; the hierarchy alone still runs; and a mesh whose
+/// largest coordinate is the limit itself gets finite figures.
+#[test]
+fn maps_remesh_refuses_coordinates_whose_distance_figures_overflow() {
+    use reparam::maps::quality::DISTANCE_COORDINATE_MAX;
+    assert_eq!(DISTANCE_COORDINATE_MAX, 2f64.powi(200));
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/hostile/maps_remesh_z_at_1e307.obj");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().display().to_string();
+    let run = |path: &Path, remesh: bool| {
+        let path = path.display().to_string();
+        let mut args = vec![
+            "reparam",
+            "maps",
+            &path,
+            "--picture-size",
+            "0",
+            "--out",
+            &out,
+        ];
+        if remesh {
+            args.extend(["--remesh", "uniform:1", "--relax", "2", "--json"]);
+        }
+        reparam::cli::run_captured(args)
+    };
+    let (result, _) = run(&fixture, true);
+    let e = result.unwrap_err();
+    assert!(
+        matches!(e, Error::OutOfDistanceRange { vertex: 22, .. }),
+        "{e}"
+    );
+    let shown = one_line_naming(&e, &fixture);
+    assert!(
+        shown.contains("vertex 22 has a coordinate of 1e307"),
+        "{shown}"
+    );
+    let (result, _) = run(&fixture, false);
+    assert_eq!(result.unwrap(), std::process::ExitCode::SUCCESS);
+    // At the limit: a torus scaled so that its largest coordinate is 2²⁰⁰ (a power of two
+    // times the torus's, so every coordinate stays ≤ the limit): every figure is finite.
+    let mut torus = reparam::mesh::procedural::torus(12, 6, 1.0, 0.35);
+    let largest = torus
+        .positions
+        .iter()
+        .flat_map(|p| p.iter().map(|x| x.abs()))
+        .fold(0.0, f64::max);
+    let scale = DISTANCE_COORDINATE_MAX / 2f64.powi(largest.log2().ceil() as i32);
+    for p in &mut torus.positions {
+        *p = Point3::from(p.coords * scale);
+    }
+    let at_limit = dir.path().join("at_limit.obj");
+    reparam::mesh::write_obj(&torus, &at_limit).unwrap();
+    let (result, stdout) = run(&at_limit, true);
+    assert_eq!(result.unwrap(), std::process::ExitCode::SUCCESS);
+    let json: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
+    for r in json["remeshes"].as_array().unwrap() {
+        for key in [
+            "hausdorff_relative",
+            "mean_distance_relative",
+            "area_spread",
+        ] {
+            assert!(r[key].as_f64().is_some_and(f64::is_finite), "{key}: {r}");
+        }
+    }
+}

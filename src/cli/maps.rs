@@ -311,6 +311,9 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         .iter()
         .map(|s| parse_remesh(s))
         .collect::<Result<_>>()?;
+    if !specs.is_empty() {
+        crate::maps::quality::check_distance_range(&args.mesh, &mesh.positions)?;
+    }
     let features = features_of(&mesh, args)?;
     let options = MapsOptions {
         lambda: args.lambda,

@@ -41,18 +41,18 @@ pub fn check_range(
     limit: f64,
     name_of: impl Fn(usize) -> (String, usize),
 ) -> crate::Result<()> {
-    for (index, p) in points.iter().enumerate() {
-        if let Some(&value) = p.iter().find(|x| !(x.abs() <= limit)) {
+    match crate::mesh::first_beyond(points, limit) {
+        Some((index, value)) => {
             let (mesh, vertex) = name_of(index);
-            return Err(crate::Error::OutOfF32Range {
+            Err(crate::Error::OutOfF32Range {
                 mesh,
                 vertex,
                 value,
                 limit,
-            });
+            })
         }
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// Differences between a GPU result and the f64 reference over many samples.

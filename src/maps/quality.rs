@@ -16,6 +16,29 @@ pub const FAITHFUL_HAUSDORFF: f64 = 0.015;
 /// Issue #23's target for a faithful remesh: mean distance at most 0.1% of the diagonal.
 pub const FAITHFUL_MEAN: f64 = 0.001;
 
+/// The largest coordinate magnitude a mesh may have for its remeshes' distance figures:
+/// 2²⁰⁰. A coordinate difference is at most 2·2²⁰⁰·√3 < 2²⁰²; the figures go up to degree four
+/// in such differences (the closest point on a triangle solves with determinants of dot
+/// products, d₀₀d₁₁ − d₀₁², below 2⁸⁰⁸ · 2) and sum degree-three terms (a distance times a
+/// triangle area, for the area-weighted mean, below 2⁶⁰⁶) over at most 2⁶⁰ samples: everything
+/// stays far below f64's overflow at 2¹⁰²⁴. A wavy grid with one z of 1e307 (found by the
+/// remesh fuzzer) gave a NaN Hausdorff distance.
+pub const DISTANCE_COORDINATE_MAX: f64 = 1.606_938_044_258_990_3e60; // 2^200
+
+/// Refuse a mesh whose remeshes' distance figures would overflow
+/// ([`crate::Error::OutOfDistanceRange`], naming the first vertex beyond ±[`DISTANCE_COORDINATE_MAX`]).
+pub fn check_distance_range(mesh: &str, positions: &[Point3<f64>]) -> crate::Result<()> {
+    match crate::mesh::first_beyond(positions, DISTANCE_COORDINATE_MAX) {
+        Some((vertex, value)) => Err(crate::Error::OutOfDistanceRange {
+            mesh: mesh.to_string(),
+            vertex,
+            value,
+            limit: DISTANCE_COORDINATE_MAX,
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Upper ends (degrees) of the bins of [`AngleStats::histogram`]: [0, 10), [10, 20), [20, 30),
 /// [30, 40), [40, 50), [50, 60]. The smallest angle of a triangle is at most 60°.
 pub const ANGLE_BINS_DEG: [f64; 6] = [10.0, 20.0, 30.0, 40.0, 50.0, 60.0];
