@@ -866,6 +866,17 @@ fn crosscheck_skinsimp_refuses_poses_beyond_f32() {
     let lbs = &report["adapters"][0]["rows"][0];
     assert_eq!(lbs["kernel"], "skinsimp_lbs: posed positions");
     assert_eq!(lbs["verdict"], "pass", "{lbs}");
+    // Joint matrices with large entries give collapse quadrics with B entries near 1e10: the
+    // kernel's cofactors (≈ 1e20) squared overflowed f32 in ‖B⁻¹‖_F, so it took cond = ∞,
+    // refused well-conditioned solutions (cond 36 in f64) and kept an endpoint whose value
+    // was 1.8e8 above the reference's: the near-tie row failed at 2590× its bound. The kernel
+    // now scales B and b by 2^−e (exact) before the solve: every row passes.
+    let (_, result, stdout) = run("skinsimp_cofactors_overflow_f32.glb");
+    assert_eq!(result.unwrap(), std::process::ExitCode::SUCCESS);
+    let report: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
+    for row in report["adapters"][0]["rows"].as_array().unwrap() {
+        assert_eq!(row["verdict"], "pass", "{row}");
+    }
 }
 
 /// A .npy header whose shape multiplies past u64 (132 × 2⁶³ − 1) made npyz overflow (a panic in

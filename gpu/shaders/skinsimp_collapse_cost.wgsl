@@ -135,6 +135,11 @@ fn is_finite(x: f32) -> bool {
     return abs(x) <= 3.4028235e38;
 }
 
+fn max_abs3(x: vec3<f32>) -> f32 {
+    let a = abs(x);
+    return max(max(a.x, a.y), a.z);
+}
+
 struct Solution {
     found: bool,
     v: vec3<f32>,
@@ -145,11 +150,17 @@ struct Solution {
 // (rows of B⁻¹ = (c1 × c2, c2 × c0, c0 × c1) / det for the columns c of B, the cofactor formula
 // nalgebra's 3×3 `try_inverse` uses); none when det = 0, when cond_F = ‖B‖_F ‖B⁻¹‖_F exceeds
 // max_condition (or is not a number), or when v is not finite.
+// B and b are first scaled by 2^−e, 2^e the binary exponent of B's largest entry: exact in
+// f32, and cond_F and v are unchanged by a common scale, but the cofactors (degree 2) and det
+// (degree 3) stay in f32's range. Unscaled, entries of 1e10 gave cofactors whose squares
+// overflowed, cond = ∞, and the solution was wrongly refused (found by the command fuzzer).
 fn solve_position(q: mat4x4<f32>) -> Solution {
-    let c0 = q[0].xyz;
-    let c1 = q[1].xyz;
-    let c2 = q[2].xyz;
-    let b = q[3].xyz;
+    let largest = max(max(max_abs3(q[0].xyz), max_abs3(q[1].xyz)), max_abs3(q[2].xyz));
+    let shift = vec3<i32>(-frexp(largest).exp);
+    let c0 = ldexp(q[0].xyz, shift);
+    let c1 = ldexp(q[1].xyz, shift);
+    let c2 = ldexp(q[2].xyz, shift);
+    let b = ldexp(q[3].xyz, shift);
     let r0 = cross(c1, c2);
     let r1 = cross(c2, c0);
     let r2 = cross(c0, c1);
