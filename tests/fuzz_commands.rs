@@ -223,7 +223,6 @@ fn fuzz_maps() {
 /// with its distance figures.
 #[test]
 fn fuzz_maps_remesh() {
-    let meshes = [torus(6, 4, 1.0, 0.3), wavy_grid(4)];
     let args = [
         "maps",
         "{case}",
@@ -238,8 +237,13 @@ fn fuzz_maps_remesh() {
         "{out}",
         "--json",
     ];
-    let obj: Vec<Vec<u8>> = meshes.iter().map(obj_bytes).collect();
-    fuzz::assert_clean(&[fuzz_command("maps-remesh", "obj", &obj, &args, true)]);
+    fuzz::assert_clean(&[fuzz_command(
+        "maps-remesh",
+        "obj",
+        &maps_seeds(),
+        &args,
+        true,
+    )]);
 }
 
 #[test]

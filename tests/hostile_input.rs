@@ -37,6 +37,13 @@ fn one_line_naming(error: &Error, path: &Path) -> String {
     shown
 }
 
+/// A fixture of tests/fixtures/hostile.
+fn hostile(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/hostile")
+        .join(name)
+}
+
 /// Run `f`, asserting it takes less than `limit`.
 fn within<T>(limit: Duration, what: &str, f: impl FnOnce() -> T) -> T {
     let start = Instant::now();
@@ -393,8 +400,7 @@ fn a_png_declaring_100000_by_100000_pixels_is_refused_from_its_header() {
 /// constant 2048² grey map, 16 MiB of RGBA samples in ~86 KB) still loads.
 #[test]
 fn a_png_declaring_more_than_its_bytes_can_hold_is_refused() {
-    let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/hostile/png_54_bytes_declaring_256_mib.png");
+    let fixture = hostile("png_54_bytes_declaring_256_mib.png");
     let error = within(Duration::from_secs(1), "decoding", || {
         load_gray_f32(&fixture).unwrap_err()
     });
@@ -448,8 +454,7 @@ fn an_exr_data_window_with_ymin_above_ymax_is_refused_before_allocation() {
 fn an_exr_that_makes_the_exr_crate_assert_is_an_error_naming_the_file() {
     // Found by tests/fuzz_parsers.rs: exr 1.74 panics ("line should have been filtered") on
     // this mutated 8x8 EXR instead of returning an error; contained at the loader boundary.
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/hostile/exr_line_not_filtered.exr");
+    let path = hostile("exr_line_not_filtered.exr");
     let error = load_gray_f32(&path).unwrap_err();
     let shown = one_line_naming(&error, &path);
     assert!(shown.contains("malformed block data"), "{shown}");
@@ -461,8 +466,7 @@ fn an_exr_that_makes_the_exr_crate_assert_is_an_error_naming_the_file() {
 /// against the harness's 67 MiB for that size) before failing. Refused from the header.
 #[test]
 fn an_exr_declaring_more_samples_than_its_bytes_can_hold_is_refused() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/hostile/exr_window_beyond_the_file.exr");
+    let path = hostile("exr_window_beyond_the_file.exr");
     let error = within(Duration::from_secs(1), "decoding", || {
         load_gray_f32(&path).unwrap_err()
     });
@@ -802,8 +806,7 @@ fn crosscheck_maps_refuses_f32_overflow_and_bounds_underflow() {
     let e = result.unwrap_err();
     assert!(matches!(e, Error::OutOfF32Range { vertex: 18, .. }), "{e}");
     one_line_naming(&e, &far);
-    let fixture =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/hostile/maps_vertex_at_4e9.obj");
+    let fixture = hostile("maps_vertex_at_4e9.obj");
     let (result, stdout) = run(&fixture);
     assert_eq!(result.unwrap(), std::process::ExitCode::SUCCESS);
     let report: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
@@ -824,9 +827,7 @@ fn crosscheck_skinsimp_refuses_poses_beyond_f32() {
     }
     let dir = tempfile::tempdir().unwrap();
     let run = |name: &str| {
-        let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("tests/fixtures/hostile")
-            .join(name);
+        let fixture = hostile(name);
         let (result, stdout) = reparam::cli::run_captured([
             "reparam",
             "crosscheck",
@@ -909,8 +910,7 @@ fn a_npy_shape_that_overflows_or_exceeds_the_file_is_refused() {
 fn maps_remesh_refuses_coordinates_whose_distance_figures_overflow() {
     use reparam::maps::quality::DISTANCE_COORDINATE_MAX;
     assert_eq!(DISTANCE_COORDINATE_MAX, 2f64.powi(200));
-    let fixture = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/hostile/maps_remesh_z_at_1e307.obj");
+    let fixture = hostile("maps_remesh_z_at_1e307.obj");
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().display().to_string();
     let run = |path: &Path, remesh: bool| {

@@ -95,6 +95,15 @@ pub struct RelaxStats {
     pub charts: SmoothStats,
 }
 
+impl RelaxStats {
+    /// Add another's counts (not its sweeps).
+    fn add(&mut self, o: &RelaxStats) {
+        self.halved += o.halved;
+        self.refused += o.refused;
+        self.charts.add(&o.charts);
+    }
+}
+
 /// The faces around each net vertex.
 fn vertex_faces(net: &ParamNet) -> Vec<Vec<u32>> {
     let mut stars = vec![Vec::new(); net.keys.len()];
@@ -272,15 +281,13 @@ pub fn relax_net(maps: &Maps, net: &ParamNet, options: &RelaxOptions) -> (ParamN
                 (p, s)
             })
             .collect();
-        let mut params = Vec::with_capacity(moved.len());
-        for (p, s) in moved {
-            stats.halved += s.halved;
-            stats.refused += s.refused;
-            stats.charts.fallbacks += s.charts.fallbacks;
-            stats.charts.clamped += s.charts.clamped;
-            params.push(p);
-        }
-        net.params = params;
+        net.params = moved
+            .into_iter()
+            .map(|(p, s)| {
+                stats.add(&s);
+                p
+            })
+            .collect();
         stats.iterations += 1;
     }
     (net, stats)

@@ -148,7 +148,8 @@ pub struct SmoothStats {
 }
 
 impl SmoothStats {
-    fn add(&mut self, o: &SmoothStats) {
+    /// Add another's counts.
+    pub fn add(&mut self, o: &SmoothStats) {
         self.stencils += o.stencils;
         self.fallbacks += o.fallbacks;
         self.clamped += o.clamped;
