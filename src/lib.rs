@@ -35,6 +35,7 @@ pub mod reference_data;
 pub mod report;
 pub mod skinsimp;
 pub mod texture;
+pub mod twin;
 pub mod unwarp;
 #[cfg(feature = "gpu")]
 pub mod vectors;

@@ -271,24 +271,32 @@ fn bad_inputs_exit_2_with_the_typed_message() {
 #[test]
 fn the_cli_holds_kernels_to_the_bounds_the_tests_use() {
     let Some(gpu) = gpu_or_skip() else { return };
-    // BPM eval: the CLI's bound is `eval_kernel_tolerance` of the mesh's largest UV.
+    // BPM: the CLI's per-sample bounds are the library's (`crosscheck::bpm_bound`), the
+    // twins' over the same f32 mesh and samples: the rows show their median and largest.
     let (code, stdout, stderr) =
         reparam(&["crosscheck", "bpm", "--mesh", "procedural:star", "--json"]);
     assert_eq!(code, 0, "{stderr}");
     let rows = rows(&stdout);
-    let star = reparam::mesh::procedural::flat_star(12);
-    let uv_max = star
-        .uvs
-        .iter()
-        .map(|t| (t.coords.map(|x| x as f32 as f64)).norm())
-        .fold(0.0, f64::max);
-    let expected = reparam::crosscheck::bpm::eval_kernel_tolerance(uv_max);
-    let shown = row(&rows, "bpm_eval: BPM uv")["bound"].as_f64().unwrap();
-    assert_eq!(shown, reparam::crosscheck::round_significant(expected, 3));
-    assert_eq!(
-        row(&rows, "bpm_precompute (local fit) → bpm_eval: uv")["bound"],
-        reparam::crosscheck::bpm::LOCAL_PIPELINE_MAX
-    );
+    {
+        use reparam::bpm::{precompute, BpmOptions, Interp};
+        use reparam::crosscheck::bpm::{crosscheck_samples, round_mesh_to_f32};
+        use reparam::crosscheck::bpm_bound::{eval_bounds, pipeline_bounds};
+        let mesh = round_mesh_to_f32(&reparam::mesh::procedural::flat_star(12));
+        let reference = precompute(&mesh, BpmOptions::default()).unwrap();
+        let samples = crosscheck_samples(mesh.face_count());
+        let expected = reference.eval_many(&samples, Interp::Bpm);
+        let largest = |b: Vec<f64>| b.into_iter().fold(0.0, f64::max);
+        let eval = largest(eval_bounds(&reference, &samples, Interp::Bpm, &expected));
+        let stars = reparam::bpm::gpu::stars(&mesh).unwrap();
+        let pipeline = largest(pipeline_bounds(&stars, &samples, &expected));
+        let shown = |kernel: &str| row(&rows, kernel)["bound_max"].as_f64().unwrap();
+        let r = |x: f64| reparam::crosscheck::round_significant(x, 3);
+        assert_eq!(shown("bpm_eval: BPM uv"), r(eval));
+        assert_eq!(
+            shown("bpm_precompute (local fit) → bpm_eval: uv"),
+            r(pipeline)
+        );
+    }
     // maps: Π⁻¹'s limit.
     let (code, stdout, stderr) = reparam(&["crosscheck", "maps", "--json"]);
     assert_eq!(code, 0, "{stderr}");
@@ -352,8 +360,28 @@ fn the_bpm_sweep_writes_its_table_and_plot() {
     assert_eq!(code, 0, "{stderr}");
     let v: Value = serde_json::from_str(&stdout).unwrap();
     let sweeps = v["sweeps"].as_array().unwrap();
-    assert_eq!(sweeps.len(), 2, "UV offset and triangle size");
-    for (sweep, plot) in sweeps.iter().zip(v["plots"].as_array().unwrap()) {
+    assert_eq!(
+        sweeps.len(),
+        3,
+        "UV offset, triangle size, arithmetic models"
+    );
+    // The arithmetic models: seven, each within the bound (the ratio ≤ 1) and none exactly 0
+    // (a bound that every model meets by a factor 10⁶ would be a bound to tighten).
+    let models = &sweeps[2]["series"];
+    for s in models
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| s["bound"] == false)
+    {
+        let points = s["points"].as_array().unwrap();
+        assert_eq!(points.len(), 7, "{s}");
+        for p in points {
+            let ratio = p[1].as_f64().unwrap();
+            assert!(ratio <= 1.0 && ratio > 1e-6, "{s}");
+        }
+    }
+    for (sweep, plot) in sweeps.iter().zip(v["plots"].as_array().unwrap()).take(2) {
         let series = sweep["series"].as_array().unwrap();
         let points = |label: &str| -> Vec<(f64, f64)> {
             let s = series.iter().find(|s| s["label"] == label).unwrap();
@@ -367,10 +395,10 @@ fn the_bpm_sweep_writes_its_table_and_plot() {
         let (local, det) = (points("local fit"), points("determinant fit"));
         assert_eq!(local.len(), det.len());
         // Where the UVs are far from their triangles' size, the determinant fit speckles (> 1
-        // texel) and the local fit stays within the eval kernel's bound.
+        // texel) and the local fit stays within its own derived bound.
         let last = local.len() - 1;
         assert!(det[last].1 > 1.0, "{}: {det:?}", sweep["name"]);
-        let bound = points("eval bound 122u·max(|uv|,1)·4096");
+        let bound = points("local pipeline bound (largest)");
         assert!(local[last].1 <= bound[last].1, "{local:?} vs {bound:?}");
         let image =
             reparam::texture::load_rgba8(std::path::Path::new(plot.as_str().unwrap())).unwrap();

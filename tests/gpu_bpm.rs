@@ -6,7 +6,7 @@
 use nalgebra::Vector3;
 use reparam::bpm::render::{render_cpu, RenderOptions};
 use reparam::bpm::{precompute, BpmOptions, Interp};
-use reparam::crosscheck::bpm::{crosscheck_bpm, BpmCrosscheck, LOCAL_PIPELINE_MAX};
+use reparam::crosscheck::bpm::{crosscheck_bpm, BpmCrosscheck};
 use reparam::mesh::procedural;
 use reparam::raster::image_diff;
 use reparam::texture::checker;
@@ -23,7 +23,8 @@ fn crosscheck_all(gpu: &Gpu) -> Vec<BpmCrosscheck> {
 fn eval_kernel_matches_the_reference_within_the_derived_tolerance() {
     let Some(gpu) = gpu_or_skip() else { return };
     for r in crosscheck_all(&gpu) {
-        // Tolerance derived in `eval_kernel_tolerance` (f32 roundoff over ≈ 60 operations).
+        // The largest of the per-sample bounds derived by the eval twin over balls
+        // (`crosscheck::bpm_bound::eval_bounds`).
         for s in [&r.eval_kernel, &r.linear_kernel] {
             assert_eq!(s.non_finite, 0, "{}: {s:?}", r.mesh);
             assert_eq!(s.over_tolerance, 0, "{}: {s:?}", r.mesh);
@@ -38,12 +39,10 @@ fn local_fit_pipeline_meets_the_texel_targets() {
         // Issue #2 targets for the local-frame fit: p99 ≤ 0.01 texel, max ≤ 0.1 texel of a 4096²
         // texture. The GPU also lays out the star and fits the maps in f32 here.
         assert_eq!(r.local.non_finite, 0, "{}: {:?}", r.mesh, r.local);
-        assert!(
-            r.local.max_abs <= LOCAL_PIPELINE_MAX,
-            "{}: {:?}",
-            r.mesh,
-            r.local
-        );
+        // The derived bound (`crosscheck::bpm_bound::pipeline_bounds`, largest over the
+        // samples) holds, and the issue's product target is met below it.
+        assert_eq!(r.local.over_tolerance, 0, "{}: {:?}", r.mesh, r.local);
+        assert!(r.local.max_abs <= 0.1, "{}: {:?}", r.mesh, r.local);
         assert!(r.local.p99 <= 0.01, "{}: {:?}", r.mesh, r.local);
     }
 }

@@ -326,7 +326,7 @@ fn a_precompute_candidate_of_the_samples_shape_is_refused() {
     let e = verify(dir.path(), &wrong, Some("bpm_precompute"))
         .unwrap_err()
         .to_string();
-    assert!(e.contains("[12, 45]"), "{e}");
+    assert!(e.contains("[32, 45]"), "{e}");
 }
 
 /// The worked example's failing candidate: the seed's determinant fit in f32, as per-triangle

@@ -79,21 +79,6 @@ fn c_sqrt(z: vec2<f32>) -> vec2<f32> {
     return vec2<f32>(abs(z.y) / (2.0 * t), select(t, -t, sign_bit(z.y)));
 }
 
-// Principal log: (ln |z|, arg z)
-fn c_ln(z: vec2<f32>) -> vec2<f32> {
-    return vec2<f32>(log(length(z)), atan2(z.y, z.x));
-}
-
-// cosh z = (cosh x cos y, sinh x sin y)
-fn c_cosh(z: vec2<f32>) -> vec2<f32> {
-    return vec2<f32>(cosh(z.x) * cos(z.y), sinh(z.x) * sin(z.y));
-}
-
-// sinh z = (sinh x cos y, cosh x sin y)
-fn c_sinh(z: vec2<f32>) -> vec2<f32> {
-    return vec2<f32>(sinh(z.x) * cos(z.y), cosh(z.x) * sin(z.y));
-}
-
 // ---------------------------------------------------------------------------------------------
 // SL(2,C) and sl(2,C) (reference: src/bpm/moebius.rs)
 
@@ -216,54 +201,67 @@ fn det3(c0: array<vec2<f32>, 3>, c1: array<vec2<f32>, 3>, c2: array<vec2<f32>, 3
 }
 
 // Series threshold and length for C(p), S(p): for |p| < 1, six terms leave a remainder below
-// 1/12! ≈ 2e-9 (the reference uses ten in f64).
+// 1/12! ≈ 2e-9 (the reference uses ten in f64). p is quartered at most 64 times (|p| < 4⁶⁴
+// covers every finite f32).
 const EXP_SERIES_RADIUS: f32 = 1.0;
 const EXP_SERIES_TERMS: i32 = 6;
+const EXP_MAX_QUARTERINGS: i32 = 64;
 
 struct CoshSinhc {
     c: vec2<f32>,
     s: vec2<f32>,
 }
 
-// (C(p), S(p)) = (cosh √p, sinh √p / √p) = (Σ pⁿ/(2n)!, Σ pⁿ/(2n+1)!): entire in p, series
-// (Horner from the highest term) for |p| < 1, closed form with the principal √p beyond.
+// (C(p), S(p)) = (cosh √p, sinh √p / √p) = (Σ pⁿ/(2n)!, Σ pⁿ/(2n+1)!) by scaling and squaring
+// (reference: cosh_sinhc_squaring): p is quartered k times until |p/4ᵏ| < 1, the series is
+// summed there, then k doublings of √p: C(4p) = 2 C(p)² − 1, S(4p) = S(p) C(p). Only + − ×:
+// WGSL's cos, sin and cosh may err by 2⁻¹¹ absolutely, which the closed form would pass on.
 fn cosh_sinhc(p: vec2<f32>) -> CoshSinhc {
-    if length(p) < EXP_SERIES_RADIUS {
-        var inv_fact_even = array<f32, 6>(1.0, 1.0 / 2.0, 1.0 / 24.0, 1.0 / 720.0, 1.0 / 40320.0, 1.0 / 3628800.0);
-        var inv_fact_odd = array<f32, 6>(1.0, 1.0 / 6.0, 1.0 / 120.0, 1.0 / 5040.0, 1.0 / 362880.0, 1.0 / 39916800.0);
-        var c = C_ZERO;
-        var s = C_ZERO;
-        for (var n = EXP_SERIES_TERMS - 1; n >= 0; n--) {
-            c = c_mul(c, p) + vec2<f32>(inv_fact_even[n], 0.0);
-            s = c_mul(s, p) + vec2<f32>(inv_fact_odd[n], 0.0);
-        }
-        return CoshSinhc(c, s);
+    var q = p;
+    var k = 0;
+    while length(q) >= EXP_SERIES_RADIUS && k < EXP_MAX_QUARTERINGS {
+        q = q * 0.25;
+        k++;
     }
-    let r = c_sqrt(p);
-    return CoshSinhc(c_cosh(r), c_div(c_sinh(r), r));
+    var cs = cosh_sinhc_series(q);
+    for (var n = 0; n < k; n++) {
+        cs = CoshSinhc(c_mul(cs.c, cs.c) * 2.0 - C_ONE, c_mul(cs.s, cs.c));
+    }
+    return cs;
+}
+
+// The series of C and S at |p| < 1, Horner from the highest term.
+fn cosh_sinhc_series(p: vec2<f32>) -> CoshSinhc {
+    var inv_fact_even = array<f32, 6>(1.0, 1.0 / 2.0, 1.0 / 24.0, 1.0 / 720.0, 1.0 / 40320.0, 1.0 / 3628800.0);
+    var inv_fact_odd = array<f32, 6>(1.0, 1.0 / 6.0, 1.0 / 120.0, 1.0 / 5040.0, 1.0 / 362880.0, 1.0 / 39916800.0);
+    var c = C_ZERO;
+    var s = C_ZERO;
+    for (var n = EXP_SERIES_TERMS - 1; n >= 0; n--) {
+        c = c_mul(c, p) + vec2<f32>(inv_fact_even[n], 0.0);
+        s = c_mul(s, p) + vec2<f32>(inv_fact_odd[n], 0.0);
+    }
+    return CoshSinhc(c, s);
 }
 
 // Series threshold and length for asinhc: for |q| < 0.1, eight terms leave a remainder below
-// 0.1⁸ · 0.013 ≈ 1.3e-10 (the reference uses sixteen in f64).
+// 0.1⁸ · 0.013 ≈ 1.3e-10 (the reference uses sixteen in f64). At most 160 square roots (each
+// at least halves |q|).
 const LOG_SERIES_RADIUS: f32 = 0.1;
 const LOG_SERIES_TERMS: i32 = 8;
+const LOG_MAX_ROOTS: i32 = 160;
 
 // asinhc(q) = asinh(√q)/√q = Σ (−1)ⁿ (2n)! / (4ⁿ (n!)² (2n+1)) qⁿ = 1 − q/6 + 3q²/40 − …
-// (even in √q): series for |q| < 0.1, else r = √q, asinh(r) = ln(r + √(q + 1)), divided by r.
-fn asinhc(q: vec2<f32>) -> vec2<f32> {
-    if length(q) < LOG_SERIES_RADIUS {
-        var coefficient = array<f32, 8>(
-            1.0, -1.0 / 6.0, 3.0 / 40.0, -5.0 / 112.0, 35.0 / 1152.0, -63.0 / 2816.0,
-            231.0 / 13312.0, -143.0 / 10240.0,
-        );
-        var h = C_ZERO;
-        for (var n = LOG_SERIES_TERMS - 1; n >= 0; n--) {
-            h = c_mul(h, q) + vec2<f32>(coefficient[n], 0.0);
-        }
-        return h;
+// for |q| < 0.1 (Horner).
+fn asinhc_series(q: vec2<f32>) -> vec2<f32> {
+    var coefficient = array<f32, 8>(
+        1.0, -1.0 / 6.0, 3.0 / 40.0, -5.0 / 112.0, 35.0 / 1152.0, -63.0 / 2816.0,
+        231.0 / 13312.0, -143.0 / 10240.0,
+    );
+    var h = C_ZERO;
+    for (var n = LOG_SERIES_TERMS - 1; n >= 0; n--) {
+        h = c_mul(h, q) + vec2<f32>(coefficient[n], 0.0);
     }
-    let r = c_sqrt(q);
-    return c_div(c_ln(r + c_sqrt(q + C_ONE)), r);
+    return h;
 }
 
 // exp Y for Y = [[a, b], [c, −a]]: p = a² + b c, (C, S) = cosh_sinhc(p),
@@ -274,13 +272,26 @@ fn exp_sl2(y: Sl2) -> Mobius {
     return Mobius(cs.c + c_mul(cs.s, y.a), c_mul(cs.s, y.b), c_mul(cs.s, y.c), cs.c - c_mul(cs.s, y.a));
 }
 
-// Principal log of A ∈ SL(2,C) after the sign fix: X = [[(a−d)/2, b], [c, −(a−d)/2]],
-// q = ((a−d)/2)² + b c, log A = asinhc(q) · X.
+// Principal log of A ∈ SL(2,C) after the sign fix, by inverse scaling and squaring (reference:
+// log_sl2_roots): t = Tr A / 2, X = [[(a−d)/2, b], [c, −(a−d)/2]], q = ((a−d)/2)² + b c
+// (= t² − 1); while |q| ≥ 0.1, A ← √A = (A + I)/s with s = √(2t + 2) (X ← X/s, t ← s/2) and
+// the log doubles: log A = 2ᵏ asinhc(q_k) X_k. No log or atan2 (4096 ULP in WGSL).
 fn log_sl2(m: Mobius) -> Sl2 {
     let n = sign_fix(m);
-    let x = Sl2((n.a - n.d) * 0.5, n.b, n.c);
-    let q = c_mul(x.a, x.a) + c_mul(x.b, x.c);
-    return sl2_scale(x, asinhc(q));
+    var x = Sl2((n.a - n.d) * 0.5, n.b, n.c);
+    var t = (n.a + n.d) * 0.5;
+    var q = c_mul(x.a, x.a) + c_mul(x.b, x.c);
+    var scale = 1.0;
+    var k = 0;
+    while length(q) >= LOG_SERIES_RADIUS && k < LOG_MAX_ROOTS {
+        let s = c_sqrt(t * 2.0 + vec2<f32>(2.0, 0.0));
+        x = sl2_scale(x, c_inv(s));
+        t = s * 0.5;
+        q = c_mul(x.a, x.a) + c_mul(x.b, x.c);
+        scale = scale * 2.0;
+        k++;
+    }
+    return sl2_scale(x, asinhc_series(q) * scale);
 }
 
 // A or −A, whichever has Re Tr ≥ 0 (a comparison, never a sign function that returns 0).

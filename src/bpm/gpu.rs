@@ -9,8 +9,7 @@ use reparam_gpu::bpm::{self as kernels, GpuFit, GpuInterp, GpuSample, GpuTriangl
 use reparam_gpu::Gpu;
 
 use super::eval::{Interp, Sample};
-use super::moebius::Sl2;
-use super::precompute::{gather_stars, Bpm, Fit, Star};
+use super::precompute::{gather_stars, Bpm, Fit, Star, TriangleMaps};
 use super::render::{camera_for, RenderOptions};
 use crate::error::{Error, Result};
 use crate::mesh::{Adjacency, TriMesh};
@@ -54,46 +53,47 @@ pub fn star_to_gpu(star: &Star) -> StarInput {
     }
 }
 
-fn sl2_to_gpu(l: &Sl2) -> [[f32; 4]; 2] {
-    [
-        [l.a.re as f32, l.a.im as f32, l.b.re as f32, l.b.im as f32],
-        [l.c.re as f32, l.c.im as f32, 0.0, 0.0],
-    ]
+/// A face's per-triangle data as the 44 values of the kernels' `TriangleMaps` (f64, before
+/// rounding): z_j, z_k; uv_i, uv_j; uv_k, w_origin; M_t's a, b, c, d; per edge ij, jk, ki its
+/// log ratio's a, b, then c, 0 — each complex as (re, im).
+pub fn triangle_values(t: &TriangleMaps) -> [f64; 44] {
+    let m = &t.m_t;
+    let complexes = [t.z[1], t.z[2], t.uv[0], t.uv[1], t.uv[2], t.w_origin]
+        .into_iter()
+        .chain([m.a, m.b, m.c, m.d])
+        .chain(
+            t.logs
+                .iter()
+                .flat_map(|l| [l.a, l.b, l.c, C::new(0.0, 0.0)]),
+        );
+    let mut v = [0.0; 44];
+    for (k, z) in complexes.enumerate() {
+        v[2 * k] = z.re;
+        v[2 * k + 1] = z.im;
+    }
+    v
+}
+
+/// The kernels' flags of a face: [`kernels::FLAG_LINEAR_FALLBACK`] | [`kernels::FLAG_MIRRORED`].
+pub fn triangle_flags(t: &TriangleMaps) -> u32 {
+    (t.fallback_linear as u32) | ((t.mirrored as u32) << 1)
 }
 
 /// The reference's per-triangle data rounded to the GPU layout (input of `bpm_eval` when the
-/// evaluation kernel is checked alone).
+/// eval kernel is checked alone).
 pub fn maps_to_gpu(bpm: &Bpm) -> Vec<GpuTriangleMaps> {
     bpm.maps
         .par_iter()
         .map(|t| {
-            let [l0, l1, l2] = t.logs.map(|l| sl2_to_gpu(&l));
-            let m = &t.m_t;
+            let v = triangle_values(t).map(|x| x as f32);
+            let v4 = |k: usize| [v[k], v[k + 1], v[k + 2], v[k + 3]];
             GpuTriangleMaps {
-                z: [
-                    t.z[1].re as f32,
-                    t.z[1].im as f32,
-                    t.z[2].re as f32,
-                    t.z[2].im as f32,
-                ],
-                uv_ij: [
-                    t.uv[0].re as f32,
-                    t.uv[0].im as f32,
-                    t.uv[1].re as f32,
-                    t.uv[1].im as f32,
-                ],
-                uv_k_origin: [
-                    t.uv[2].re as f32,
-                    t.uv[2].im as f32,
-                    t.w_origin.re as f32,
-                    t.w_origin.im as f32,
-                ],
-                m: [
-                    [m.a.re as f32, m.a.im as f32, m.b.re as f32, m.b.im as f32],
-                    [m.c.re as f32, m.c.im as f32, m.d.re as f32, m.d.im as f32],
-                ],
-                logs: [l0[0], l0[1], l1[0], l1[1], l2[0], l2[1]],
-                flags: (t.fallback_linear as u32) | ((t.mirrored as u32) << 1),
+                z: v4(0),
+                uv_ij: v4(4),
+                uv_k_origin: v4(8),
+                m: [v4(12), v4(16)],
+                logs: std::array::from_fn(|e| v4(20 + 4 * e)),
+                flags: triangle_flags(t),
                 _pad: [0; 3],
             }
         })

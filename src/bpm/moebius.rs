@@ -251,6 +251,60 @@ pub fn cosh_sinhc_closed(p: C) -> (C, C) {
     (r.cosh(), r.sinh() / r)
 }
 
+/// (C(p), S(p)) of [`cosh_sinhc`] by scaling and squaring, the form the f32 kernel uses
+/// (`cosh_sinhc` in `bpm_common.wgsl`, twin [`crate::twin::bpm_common::cosh_sinhc`]):
+/// p is quartered k times until |p/4ᵏ| < 1, the series is summed there, and k doublings of
+/// r = √p follow: C(4p) = 2 C(p)² − 1, S(4p) = S(p) C(p) (cosh 2r = 2 cosh² r − 1,
+/// sinh 2r / 2r = (sinh r / r) cosh r).
+///
+/// Only + − × are used. The closed form's `cos`, `sin` and `cosh` may each err by 2⁻¹¹ in
+/// absolute terms under the WGSL accuracy table, which puts a map 1 unit from its corner
+/// several texels off at 4096²; this form keeps the error a few units of f32 rounding per
+/// doubling (`tests/twin.rs` shows both at the spec's edge).
+pub fn cosh_sinhc_squaring(p: C) -> (C, C) {
+    let mut q = p;
+    let mut k = 0;
+    while c_abs(q) >= EXP_SERIES_RADIUS && k < 64 {
+        q *= 0.25;
+        k += 1;
+    }
+    let (mut c, mut s) = cosh_sinhc_series(q);
+    for _ in 0..k {
+        (c, s) = (2.0 * c * c - 1.0, s * c);
+    }
+    (c, s)
+}
+
+/// The principal log of A ∈ SL(2,C) by inverse scaling and squaring, the form the f32 kernel
+/// uses (`log_sl2` in `bpm_common.wgsl`, twin [`crate::twin::bpm_common::log_sl2`]).
+///
+/// After the sign fix, with t = Tr A / 2, X = A − t I and q = t² − 1: while |q| ≥ 0.1, A is
+/// replaced by its principal square root √A = (A + I)/s, s = √(2t + 2) (Re t ≥ 0, so
+/// |2t + 2| ≥ 2 and √A's eigenvalues have positive real part), i.e. X ← X/s, t ← s/2; the
+/// log doubles each time: log A = 2ᵏ asinhc(q_k) X_k with the series of asinhc. No `log` or
+/// `atan2` (4096 ULP in WGSL: 1.5e-3 radians on a half turn) is needed.
+pub fn log_sl2_roots(m: &Mobius) -> Sl2 {
+    let m = sign_fix(m);
+    let mut x = Sl2 {
+        a: (m.a - m.d) * 0.5,
+        b: m.b,
+        c: m.c,
+    };
+    let mut t = (m.a + m.d) * 0.5;
+    let mut q = x.a * x.a + x.b * x.c;
+    let mut scale = 1.0;
+    let mut k = 0;
+    while c_abs(q) >= LOG_SERIES_RADIUS && k < 160 {
+        let s = c_sqrt(2.0 * t + 2.0);
+        x = x.scale(s.inv());
+        t = s * 0.5;
+        q = x.a * x.a + x.b * x.c;
+        scale *= 2.0;
+        k += 1;
+    }
+    x.scale(asinhc_series(q) * scale)
+}
+
 /// Series threshold and length for asinhc: for |q| < 0.1, sixteen terms leave a remainder
 /// below 0.1¹⁶·0.02 ≈ 2e-18 (f64). The f32 twin uses eight.
 const LOG_SERIES_RADIUS: f64 = 0.1;

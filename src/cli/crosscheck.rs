@@ -6,7 +6,6 @@
 //! stderr), 2 on bad input or without an adapter.
 
 use std::path::PathBuf;
-use std::process::ExitCode;
 
 use crate::{Error, Result};
 use clap::{Args, Subcommand};
@@ -32,6 +31,13 @@ pub struct CrosscheckArgs {
     /// Folder for the `--sweep` plots.
     #[arg(long, global = true, default_value = "out/crosscheck")]
     pub plots: PathBuf,
+}
+
+impl CrosscheckArgs {
+    /// Whether `--json` was given (to its algorithm).
+    pub fn json(&self) -> bool {
+        self.algorithm.as_ref().is_some_and(|a| a.common().json)
+    }
 }
 
 #[derive(Subcommand)]
@@ -130,7 +136,7 @@ pub struct SkinsimpInput {
 /// Run the command; the exit code says whether every kernel passed (`main` gives an error
 /// status 2).
 #[cfg(not(feature = "gpu"))]
-pub fn try_run(_: CrosscheckArgs) -> Result<ExitCode> {
+pub fn try_run(_: CrosscheckArgs) -> Result<u8> {
     Err(Error::Gpu(
         "this build has no GPU support (feature `gpu` is off)".into(),
     ))
@@ -139,7 +145,7 @@ pub fn try_run(_: CrosscheckArgs) -> Result<ExitCode> {
 /// Run the command; the exit code says whether every kernel passed (`main` gives an error
 /// status 2).
 #[cfg(feature = "gpu")]
-pub fn try_run(args: CrosscheckArgs) -> Result<ExitCode> {
+pub fn try_run(args: CrosscheckArgs) -> Result<u8> {
     use crate::crosscheck::run::{AdapterRows, CrosscheckReport};
     use reparam_gpu::Gpu;
 
@@ -196,7 +202,17 @@ pub fn try_run(args: CrosscheckArgs) -> Result<ExitCode> {
     for f in &report.failures {
         eprintln!("over its bound: {f}");
     }
-    Ok(ExitCode::from(report.exit_code))
+    if super::stdout_gone() {
+        eprintln!(
+            "crosscheck: {} (stdout closed)",
+            if report.exit_code == 0 {
+                "pass"
+            } else {
+                "FAIL"
+            }
+        );
+    }
+    Ok(report.exit_code)
 }
 
 impl Algorithm {
@@ -222,7 +238,7 @@ impl Algorithm {
 }
 
 #[cfg(feature = "gpu")]
-fn list_adapters() -> Result<ExitCode> {
+fn list_adapters() -> Result<u8> {
     let adapters = reparam_gpu::list_adapters();
     if adapters.is_empty() {
         return Err(Error::Gpu(reparam_gpu::GpuError::NoAdapter.to_string()));
@@ -251,7 +267,7 @@ fn list_adapters() -> Result<ExitCode> {
         })
         .collect();
     outln!("{}", super::text_table(&header, &rows));
-    Ok(ExitCode::SUCCESS)
+    Ok(0)
 }
 
 #[cfg(feature = "gpu")]

@@ -58,7 +58,7 @@ pub fn parse_direction(s: &str) -> std::result::Result<Vector3<f64>, String> {
 }
 
 /// Names accepted after `procedural:`.
-pub const BUILTIN_MESHES: [&str; 10] = [
+pub const BUILTIN_MESHES: [&str; 11] = [
     "star",
     "star_affine",
     "cone",
@@ -69,6 +69,7 @@ pub const BUILTIN_MESHES: [&str; 10] = [
     "wavy",
     "big_torus",
     "folded_star",
+    "bpm_conformance",
 ];
 
 /// The built-in mesh called `name` (see [`BUILTIN_MESHES`]), at the size the demo uses.
@@ -85,6 +86,7 @@ pub fn builtin_mesh(name: &str) -> Option<TriMesh> {
         "big_torus" => procedural::big_torus(),
         // One neighbour folded by 150°, past the 135° where the authors' unfolding flips it.
         "folded_star" => procedural::folded_star(150f64.to_radians()),
+        "bpm_conformance" => procedural::bpm_conformance(),
         _ => return None,
     })
 }

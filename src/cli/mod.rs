@@ -2,15 +2,17 @@
 //! only glues the library together: parse, call, print (or `--json`), save.
 //!
 //! Everything meant for stdout goes through [`outln!`] / [`out!`] ([`write_out`]): on a closed
-//! stdout (`reparam verify … | head`) the process ends quietly with status 0 instead of
-//! panicking in `println!`, and [`run_captured`] collects it in a buffer to run a command
-//! in-process (the command fuzzer, `tests/fuzz_commands.rs`). `println!` is denied here by
-//! clippy's `print_stdout`.
+//! stdout (`reparam verify … | head`) the rest of the output is dropped and the command runs to
+//! its verdict, whose exit status is kept (a closed pipe may make a run quiet, never make a
+//! failing one succeed); [`run_captured`] collects it in a buffer to run a command in-process
+//! (the command fuzzer, `tests/fuzz_commands.rs`). `println!` is denied here by clippy's
+//! `print_stdout`.
 
 #![deny(clippy::print_stdout)]
 
 use std::cell::RefCell;
 use std::io::Write as _;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// `println!` for the command line's output: through [`write_out`].
 macro_rules! outln {
@@ -35,12 +37,19 @@ thread_local! {
     static CAPTURE: RefCell<Option<Vec<u8>>> = const { RefCell::new(None) };
 }
 
+/// Set once a write to stdout has failed: later output is dropped.
+static STDOUT_GONE: AtomicBool = AtomicBool::new(false);
+/// Set when that failure was not a closed pipe (a full disk, say): the run cannot succeed.
+static STDOUT_FAILED: AtomicBool = AtomicBool::new(false);
+
 /// Write command output: into [`run_captured`]'s buffer when one is active on this thread, else
-/// to stdout. A reader that has gone away (`BrokenPipe`, e.g. `| head`) ends the process
-/// quietly with status 0, as ripgrep does: the reader asked for no more, and the Rust runtime
-/// ignores SIGPIPE, so `println!` would panic instead. This is portable (Windows reports a
-/// closed pipe the same way) and needs no `unsafe` signal handling; any other write error is
-/// one line on stderr and status 1.
+/// to stdout (flushed, so that a failure shows here and not at exit). Once a write fails, later
+/// output is dropped and the command goes on to its verdict: a reader that has gone away
+/// (`BrokenPipe`, e.g. `| head`) asked for no more output, not for another exit status. The
+/// Rust runtime ignores SIGPIPE, so the write returns the error instead of killing the process;
+/// this is portable (Windows reports a closed pipe the same way) and needs no `unsafe` signal
+/// handling. Any other write error is one line on stderr and makes the exit status at least 1
+/// ([`main`]).
 #[doc(hidden)]
 pub fn write_out(args: std::fmt::Arguments) {
     let captured = CAPTURE.with(|c| match c.borrow_mut().as_mut() {
@@ -51,16 +60,23 @@ pub fn write_out(args: std::fmt::Arguments) {
         }
         None => false,
     });
-    if captured {
+    if captured || STDOUT_GONE.load(Ordering::Relaxed) {
         return;
     }
-    if let Err(e) = std::io::stdout().lock().write_fmt(args) {
-        if e.kind() == std::io::ErrorKind::BrokenPipe {
-            std::process::exit(0);
+    let mut stdout = std::io::stdout().lock();
+    if let Err(e) = stdout.write_fmt(args).and_then(|()| stdout.flush()) {
+        STDOUT_GONE.store(true, Ordering::Relaxed);
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            STDOUT_FAILED.store(true, Ordering::Relaxed);
+            eprintln!("error: cannot write to stdout: {e}");
         }
-        eprintln!("error: cannot write to stdout: {e}");
-        std::process::exit(1);
     }
+}
+
+/// Whether standard output has gone away (a closed pipe, a write error): a command whose
+/// verdict matters then also writes it to stderr.
+pub fn stdout_gone() -> bool {
+    STDOUT_GONE.load(Ordering::Relaxed)
 }
 
 mod bpm;
@@ -124,12 +140,51 @@ enum Command {
 }
 
 pub fn main() -> ExitCode {
-    match dispatch(Cli::parse()) {
+    let cli = Cli::parse();
+    let json = cli.json_errors();
+    let code = match dispatch(cli) {
         Ok(code) => code,
         Err((e, code)) => {
-            eprintln!("error: {e}");
-            ExitCode::from(code)
+            report_error(&e, code, json);
+            code
         }
+    };
+    // Output lost to a failed write (not a closed pipe) is a failure, whatever the verdict.
+    if code == 0 && STDOUT_FAILED.load(Ordering::Relaxed) {
+        return ExitCode::from(1);
+    }
+    ExitCode::from(code)
+}
+
+impl Cli {
+    /// Whether an error should also be written to stdout as JSON: `crosscheck` and `verify`
+    /// with `--json`, whose output scripts parse.
+    fn json_errors(&self) -> bool {
+        match &self.command {
+            Command::Crosscheck(args) => args.json(),
+            #[cfg(feature = "gpu")]
+            Command::Verify(args) => args.json,
+            _ => false,
+        }
+    }
+}
+
+/// The JSON a script reads when a `--json` command fails on bad input.
+#[derive(serde::Serialize)]
+struct JsonError {
+    error: String,
+    exit_code: u8,
+}
+
+/// An error: `error: …` on stderr and, under `--json`, `{"error": …, "exit_code": …}` on stdout.
+fn report_error(e: &crate::Error, code: u8, json: bool) {
+    eprintln!("error: {e}");
+    if json {
+        // The error object has no floats, so this cannot fail on a non-finite figure.
+        let _ = print_json(&JsonError {
+            error: e.to_string(),
+            exit_code: code,
+        });
     }
 }
 
@@ -146,14 +201,14 @@ where
     let previous = CAPTURE.with(|c| c.borrow_mut().replace(Vec::new()));
     let result = Cli::try_parse_from(args)
         .map_err(|e| crate::Error::InvalidArgument(e.to_string().trim().to_string()))
-        .and_then(|cli| dispatch(cli).map_err(|(e, _)| e));
+        .and_then(|cli| dispatch(cli).map(ExitCode::from).map_err(|(e, _)| e));
     let output = CAPTURE.with(|c| std::mem::replace(&mut *c.borrow_mut(), previous));
     (result, output.unwrap_or_default())
 }
 
-/// Run a parsed command line: its exit code, or its error and the exit status `main` gives it
+/// Run a parsed command line: its exit status, or its error and the exit status `main` gives it
 /// (1; 2 for `crosscheck` and `verify`, whose 1 means a bound exceeded).
-fn dispatch(cli: Cli) -> Result<ExitCode, (crate::Error, u8)> {
+fn dispatch(cli: Cli) -> Result<u8, (crate::Error, u8)> {
     let result = match cli.command {
         Command::Demo(args) => demo::run(args),
         Command::Bpm(cmd) => bpm::run(cmd),
@@ -163,8 +218,8 @@ fn dispatch(cli: Cli) -> Result<ExitCode, (crate::Error, u8)> {
         #[cfg(feature = "gpu")]
         Command::Verify(args) => {
             return match vectors::try_verify(&args) {
-                Ok(true) => Ok(ExitCode::SUCCESS),
-                Ok(false) => Ok(ExitCode::from(1)),
+                Ok(true) => Ok(0),
+                Ok(false) => Ok(1),
                 Err(e) => Err((e, 2)),
             }
         }
@@ -178,7 +233,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode, (crate::Error, u8)> {
             }
         }),
     };
-    result.map(|()| ExitCode::SUCCESS).map_err(|e| (e, 1))
+    result.map(|()| 0).map_err(|e| (e, 1))
 }
 
 /// Print `value` as pretty JSON on stdout. A NaN or infinite number anywhere in it (which

@@ -25,8 +25,8 @@ pub struct VectorsArgs {
 pub enum VectorsAlgorithm {
     /// bpm_eval (BPM and linear): per-triangle data, samples, f64 UVs.
     Bpm {
-        /// Mesh (OBJ with `vt`, or `procedural:<name>`). Default: procedural:star.
-        #[arg(long, default_value = "procedural:star")]
+        /// Mesh (OBJ with `vt`, or `procedural:<name>`). Default: procedural:bpm_conformance.
+        #[arg(long, default_value = "procedural:bpm_conformance")]
         mesh: String,
     },
     /// gridwarp_aa: cell energies, F, JᵀJ, Jᵀr at one grid of the scene's last frame.
@@ -251,8 +251,25 @@ pub fn try_verify(args: &VerifyArgs) -> Result<bool> {
     let r = crate::vectors::verify::verify(&args.dir, &args.candidate, args.kernel.as_deref())?;
     if args.json {
         super::print_json(&r)?;
-        return Ok(r.pass);
+    } else {
+        print_verify(&r);
     }
+    if super::stdout_gone() {
+        eprintln!(
+            "verify {}: {} (over {}, NaN/∞ {}, worst error/bound {}) (stdout closed)",
+            r.kernel,
+            if r.pass { "pass" } else { "FAIL" },
+            r.over,
+            r.non_finite,
+            sig(r.worst_ratio, 3)
+        );
+    }
+    Ok(r.pass)
+}
+
+/// The verify report as text: the summary table, the bound's formula and the worst elements.
+fn print_verify(r: &crate::vectors::verify::VerifyReport) {
+    use crate::report::sig;
     let e = &r.errors;
     outln!(
         "kernel {} · candidate {} ({:?})",
@@ -306,5 +323,4 @@ pub fn try_verify(args: &VerifyArgs) -> Result<bool> {
             inputs.join("; ")
         );
     }
-    Ok(r.pass)
 }

@@ -15,7 +15,7 @@ use serde::Serialize;
 use super::run::{time_cpu, time_gpu_warm};
 use super::{to_f32_precision, Bounds, ErrorSummary, Row, Timing};
 use crate::bpm::gpu::{
-    eval_gpu, maps_to_gpu, precompute_gpu, sample_as_gpu_sees_it, samples_to_gpu,
+    eval_gpu, maps_to_gpu, precompute_gpu, sample_as_gpu_sees_it, samples_to_gpu, stars,
 };
 use crate::bpm::render::{render_cpu, RenderOptions};
 use crate::bpm::{face_samples, precompute, Bpm, BpmOptions, Fit, Interp, Sample, Unfold};
@@ -29,24 +29,17 @@ pub const TEXTURE_SIZE: f64 = 4096.0;
 /// Unit string of the summaries.
 pub const UNIT: &str = "texels of a 4096² texture";
 
-/// f32 unit roundoff u = 2⁻²⁴.
-const U32: f64 = 5.960_464_477_539_063e-8;
+/// The bounds of the eval kernel and of the local-fit pipeline are per sample, derived from the
+/// WGSL accuracy table by the kernels' f32 twins (over balls for the eval, to first order on a
+/// tape for the pipeline): [`super::bpm_bound`].
+pub use super::bpm_bound::{eval_bounds, pipeline_bounds};
 
-/// Tolerance of the evaluation kernel alone, in texels, for UVs of magnitude up to `uv_max`.
-///
-/// Derivation: the GPU evaluates f = w_origin + M_t(E(z)) from data rounded to f32. The final
-/// sum rounds to ½ulp(|f|) ≤ u|f| and w_origin carries its own rounding u|w_origin|. The Möbius
-/// part Δ = M_t(E(z)) is a chain of ≈ 60 dependent operations (weights, blend, the 6-term exp
-/// series, two Möbius applications) whose relative errors add up to at most ≈ 60u|Δ| when the
-/// maps are well conditioned; |Δ| ≤ |f| + |w_origin| ≤ 2 uv_max. Hence
-/// |δf| ≤ (2 + 120) u · uv_max, and in texels × 4096. For UVs in [0, 1] this is 0.03 texel.
-pub fn eval_kernel_tolerance(uv_max: f64) -> f64 {
-    122.0 * U32 * uv_max.max(1.0) * TEXTURE_SIZE
-}
-
-/// Target of the whole local-fit GPU pipeline (issue #2): max ≤ 0.1 texel (p99 ≤ 0.01 texel is
-/// checked by the tests on the summary).
-pub const LOCAL_PIPELINE_MAX: f64 = 0.1;
+/// What the eval rows' bound says (one line for the table and the manifests).
+pub const EVAL_BOUND_FORMULA: &str = "per sample: the bpm_eval twin over balls (WGSL table, \
+    f32 inputs) · 4096 (crosscheck::bpm_bound)";
+/// What the pipeline row's bound says.
+pub const PIPELINE_BOUND_FORMULA: &str = "per sample: 2 × the first-order bound of the \
+    bpm_precompute → bpm_eval twins on a tape (WGSL table) · 4096 (crosscheck::bpm_bound)";
 
 /// `bpm_render` against `render_cpu` on the same mesh and maps: at most this fraction of the
 /// pixels may differ by more than 1/255 in a channel. Inside triangles the UVs agree to ≈ 1e-3
@@ -125,19 +118,26 @@ pub fn crosscheck_bpm(gpu: &Gpu, mesh: &TriMesh) -> Result<BpmCrosscheck> {
     let gpu_samples = samples_to_gpu(&samples);
     let cpu_bpm = reference.eval_many(&samples, Interp::Bpm);
     let cpu_linear = reference.eval_many(&samples, Interp::Linear);
-    let uv_max = mesh.uvs.iter().map(|t| t.coords.norm()).fold(0.0, f64::max);
-    let tol = eval_kernel_tolerance(uv_max);
+    let largest = |b: Vec<f64>| b.into_iter().fold(0.0, f64::max);
+    let eval_bound = largest(eval_bounds(&reference, &samples, Interp::Bpm, &cpu_bpm));
+    let linear_bound = largest(eval_bounds(
+        &reference,
+        &samples,
+        Interp::Linear,
+        &cpu_linear,
+    ));
+    let pipeline_bound = largest(pipeline_bounds(&stars(&mesh)?, &samples, &cpu_bpm));
 
     let rounded = maps_to_gpu(&reference);
     let (eval_kernel, _) = summary(
         &cpu_bpm,
         &eval_gpu(gpu, &rounded, &gpu_samples, Interp::Bpm)?,
-        tol,
+        eval_bound,
     );
     let (linear_kernel, _) = summary(
         &cpu_linear,
         &eval_gpu(gpu, &rounded, &gpu_samples, Interp::Linear)?,
-        tol,
+        linear_bound,
     );
 
     let pipeline = |fit: Fit, tolerance: f64| -> Result<(ErrorSummary, f64)> {
@@ -148,7 +148,7 @@ pub fn crosscheck_bpm(gpu: &Gpu, mesh: &TriMesh) -> Result<BpmCrosscheck> {
             tolerance,
         ))
     };
-    let (local, speckle_local) = pipeline(Fit::Local, LOCAL_PIPELINE_MAX)?;
+    let (local, speckle_local) = pipeline(Fit::Local, pipeline_bound)?;
     let (det, speckle_det) = pipeline(Fit::Determinant, SPECKLE_THRESHOLD)?;
     Ok(BpmCrosscheck {
         mesh: mesh.name.clone(),
@@ -206,9 +206,8 @@ pub fn bpm_rows_with_options(
     let gpu_samples = samples_to_gpu(&samples);
     let (cpu_bpm, eval_cpu) = time_cpu(|| reference.eval_many(&samples, Interp::Bpm));
     let cpu_linear = reference.eval_many(&samples, Interp::Linear);
-    let uv_max = mesh.uvs.iter().map(|t| t.coords.norm()).fold(0.0, f64::max);
-    let tol = eval_kernel_tolerance(uv_max);
-    let eval_formula = "122 u · max(max|uv|, 1) · 4096 (≈ 60 dependent operations)";
+    let bpm_bounds = eval_bounds(&reference, &samples, Interp::Bpm, &cpu_bpm);
+    let linear_bounds = eval_bounds(&reference, &samples, Interp::Linear, &cpu_linear);
     let compare = |kernel: &str, cpu: &[C], gpu: &[C], bounds: Bounds, formula: &str| {
         let (errors, magnitudes) = texel_errors(cpu, gpu);
         Row::compare(
@@ -234,17 +233,23 @@ pub fn bpm_rows_with_options(
             "bpm_eval: BPM uv",
             &cpu_bpm,
             &gpu_bpm,
-            Bounds::Uniform(tol),
-            eval_formula,
+            Bounds::PerElement(bpm_bounds.clone()),
+            EVAL_BOUND_FORMULA,
         )
         .with_note(&match options.unfold {
-            Unfold::Correct => format!("{} faces, {} samples", mesh.face_count(), samples.len()),
+            Unfold::Correct => format!(
+                "{} faces, {} samples{}",
+                mesh.face_count(),
+                samples.len(),
+                unbounded_note(&bpm_bounds)
+            ),
             Unfold::Authors => format!(
-                "{} faces, {} samples; --unfold authors: maps laid out as the authors' code does \
+                "{} faces, {} samples{}; --unfold authors: maps laid out as the authors' code does \
                  ({} neighbours folded past 90°); bpm_precompute and bpm_render rows left out \
                  (the GPU precompute implements only the correct unfolding)",
                 mesh.face_count(),
                 samples.len(),
+                unbounded_note(&bpm_bounds),
                 reference.report.neighbours_folded_past_90
             ),
         })
@@ -256,13 +261,14 @@ pub fn bpm_rows_with_options(
             "bpm_eval: linear uv",
             &cpu_linear,
             &gpu_linear,
-            Bounds::Uniform(tol),
-            eval_formula,
+            Bounds::PerElement(linear_bounds),
+            EVAL_BOUND_FORMULA,
         ),
     ];
     if options.unfold == Unfold::Authors {
         return Ok(rows);
     }
+    let local_bounds = pipeline_bounds(&stars(&mesh)?, &samples, &cpu_bpm);
     for fit in [Fit::Local, Fit::Determinant] {
         let (maps, t) = time_gpu_warm(gpu, || precompute_gpu(gpu, &mesh, fit))?;
         let uv = eval_gpu(gpu, &maps, &gpu_samples, Interp::Bpm)?;
@@ -275,9 +281,10 @@ pub fn bpm_rows_with_options(
                 "bpm_precompute (local fit) → bpm_eval: uv",
                 &cpu_bpm,
                 &uv,
-                Bounds::Uniform(LOCAL_PIPELINE_MAX),
-                "0.1 texel (issue #2 target; measured p99 ≤ 0.01)",
+                Bounds::PerElement(local_bounds.clone()),
+                PIPELINE_BOUND_FORMULA,
             )
+            .with_note(unbounded_note(&local_bounds).trim_start_matches("; "))
             .with_timing(timing),
             Fit::Determinant => {
                 let (errors, _) = texel_errors(&cpu_bpm, &uv);
@@ -339,6 +346,14 @@ fn render_row(
         row.verdict = super::Verdict::Fail;
     }
     Ok(row)
+}
+
+/// "; n samples without a bound from the WGSL table" when there are any.
+fn unbounded_note(bounds: &[f64]) -> String {
+    match super::bpm_bound::unbounded(bounds) {
+        0 => String::new(),
+        n => format!("; {n} samples without a bound from the WGSL table (a pole or a branch within rounding)"),
+    }
 }
 
 /// The UV coefficients of `maps` × (1 + 1e-3) (see [`bpm_rows_with`]): uv_i, uv_j, uv_k and

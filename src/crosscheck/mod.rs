@@ -171,6 +171,8 @@ pub fn to_f32_precision(x: f64) -> f64 {
 
 #[cfg(feature = "gpu")]
 pub mod bpm;
+pub mod bpm_bound;
+pub mod bpm_models;
 
 pub mod row;
 pub use row::{Bounds, Row, Timing, Verdict};

@@ -92,6 +92,8 @@ pub struct Row {
     pub bound_max: f64,
     /// Elements over their own bound (NaN/∞ included).
     pub over: usize,
+    /// Elements the GPU returned as NaN or ∞ where the reference is finite (= `errors.non_finite`).
+    pub non_finite: usize,
     /// max error / bound over the elements (≤ 1 when all pass); `f64::MAX` when an error is
     /// NaN or ∞ or exceeds a zero bound (JSON has no ∞; the verdict is a fail either way).
     pub worst_ratio: f64,
@@ -150,7 +152,8 @@ impl Row {
             over_tolerance: over,
             ..summary
         };
-        let verdict = if over == 0 && errors.non_finite == 0 {
+        let non_finite = errors.non_finite;
+        let verdict = if over == 0 && non_finite == 0 {
             Verdict::Pass
         } else {
             Verdict::Fail
@@ -165,6 +168,7 @@ impl Row {
             bound_per_element: matches!(bounds, Bounds::PerElement(_)),
             bound_max: largest,
             over,
+            non_finite,
             worst_ratio: worst,
             verdict,
             note: String::new(),
@@ -202,6 +206,7 @@ impl Row {
             bound_per_element: false,
             bound_max: summary.tolerance,
             over,
+            non_finite: summary.non_finite,
             worst_ratio: if worst_ratio.is_nan() {
                 f64::MAX
             } else {
@@ -226,6 +231,7 @@ impl Row {
             bound_per_element: false,
             bound_max: 0.0,
             over: 0,
+            non_finite: 0,
             worst_ratio: 0.0,
             verdict: Verdict::Missing,
             note: why.into(),

@@ -5,6 +5,7 @@
 //! | algorithm | parameter | what is measured |
 //! |---|---|---|
 //! | bpm | UV offset from the origin; triangle size | local and determinant fit pipelines, max error in texels |
+//! | bpm | arithmetic model (f32 twins: nearest, FMA, reordered, edge of the WGSL table) | worst error / bound of the eval kernel and the local-fit pipeline |
 //! | gridwarp | grid resolution (unknowns) | JᵀJ and Jᵀr, worst relative error |
 //! | unwarp | height scale s | one pass's offsets, max and p99 in texels |
 //! | maps | triangle aspect ratio | Π⁻¹ position, max and p99 of the diagonal |
@@ -13,12 +14,14 @@
 use reparam_gpu::Gpu;
 use serde::Serialize;
 
+use super::bpm_models::{bpm_model_ratios, ModelRatios};
 use super::{bpm, gridwarp, maps as maps_check, skinsimp as skinsimp_check, unwarp};
 use crate::error::Result;
 use crate::mesh::{procedural, TriMesh};
 use crate::plot::{self, LogLogPlot, Style, PALETTE};
 use crate::report::sig;
 use crate::texture::{Image, Rgba8};
+use crate::twin::Model;
 
 /// Dashed bound lines: dark grey, red, purple.
 const BOUND_COLOURS: [Rgba8; 3] = [[90, 90, 90, 255], [214, 39, 40, 255], [148, 103, 189, 255]];
@@ -131,6 +134,13 @@ fn max_of(rows: &[super::Row], kernel: &str) -> f64 {
         .map_or(f64::NAN, |r| r.errors.max_abs)
 }
 
+/// The largest per-element bound of the row named `kernel`.
+fn bound_of(rows: &[super::Row], kernel: &str) -> f64 {
+    rows.iter()
+        .find(|r| r.kernel == kernel)
+        .map_or(f64::NAN, |r| r.bound_max)
+}
+
 /// `mesh` with every UV mapped by uv ↦ c + s (uv − centre of the UVs).
 fn moved_uvs(mesh: &TriMesh, c: [f64; 2], s: f64) -> TriMesh {
     let mut m = mesh.clone();
@@ -148,17 +158,18 @@ fn moved_uvs(mesh: &TriMesh, c: [f64; 2], s: f64) -> TriMesh {
 
 /// BPM: the local-fit and determinant-fit pipelines (precompute → eval on the GPU) against the
 /// reference, on the wavy grid (8 × 8) with its UVs moved away from the origin (offset sweep)
-/// and shrunk about (0.5, 0.5) (size sweep). The eval kernel's bound 122 u max(|uv|, 1)·4096
-/// grows with the offset; the local fit stays near it, the determinant fit (the seed's) does
-/// not: where its error passes one texel, speckles begin.
+/// and shrunk about (0.5, 0.5) (size sweep). The local pipeline's largest derived bound
+/// (crosscheck::bpm_bound) is drawn beside them; the local fit stays below it, the determinant
+/// fit (the seed's) does not: where its error passes one texel, speckles begin.
 pub fn bpm_sweeps(gpu: &Gpu) -> Result<Vec<Sweep>> {
     let base = procedural::wavy_grid(8);
     let texture = crate::texture::checker(64, 4);
-    let pipelines = |mesh: &TriMesh| -> Result<(f64, f64)> {
+    let pipelines = |mesh: &TriMesh| -> Result<(f64, f64, f64)> {
         let rows = bpm::bpm_rows_with(gpu, mesh, &texture, false)?;
         Ok((
             max_of(&rows, "bpm_precompute (local fit) → bpm_eval: uv"),
             max_of(&rows, "bpm_precompute (determinant fit) → bpm_eval: uv"),
+            bound_of(&rows, "bpm_precompute (local fit) → bpm_eval: uv"),
         ))
     };
     let mut offset = Sweep::new(
@@ -172,15 +183,15 @@ pub fn bpm_sweeps(gpu: &Gpu) -> Result<Vec<Sweep>> {
     for d in [0.5, 2.0, 8.0, 32.0, 128.0, 512.0] {
         let mesh = moved_uvs(&base, [d, d], 1.0);
         let uv_max = mesh.uvs.iter().map(|t| t.coords.norm()).fold(0.0, f64::max);
-        let (l, dt) = pipelines(&mesh)?;
+        let (l, dt, b) = pipelines(&mesh)?;
         local.push((uv_max, l));
         det.push((uv_max, dt));
-        bound.push((uv_max, bpm::eval_kernel_tolerance(uv_max)));
+        bound.push((uv_max, b));
         speckle.push((uv_max, bpm::SPECKLE_THRESHOLD));
     }
     offset.add("local fit", false, local);
     offset.add("determinant fit", false, det);
-    offset.add("eval bound 122u·max(|uv|,1)·4096", true, bound);
+    offset.add("local pipeline bound (largest)", true, bound);
     offset.add("1 texel (speckle)", true, speckle);
 
     let mut size = Sweep::new(
@@ -195,18 +206,51 @@ pub fn bpm_sweeps(gpu: &Gpu) -> Result<Vec<Sweep>> {
         let mesh = moved_uvs(&base, [0.5, 0.5], s);
         // The grid's UV cells are 1/8 wide before scaling.
         let texels = s / 8.0 * bpm::TEXTURE_SIZE;
-        let uv_max = mesh.uvs.iter().map(|t| t.coords.norm()).fold(0.0, f64::max);
-        let (l, dt) = pipelines(&mesh)?;
+        let (l, dt, b) = pipelines(&mesh)?;
         local.push((texels, l));
         det.push((texels, dt));
-        bound.push((texels, bpm::eval_kernel_tolerance(uv_max)));
+        bound.push((texels, b));
         speckle.push((texels, bpm::SPECKLE_THRESHOLD));
     }
     size.add("local fit", false, local);
     size.add("determinant fit", false, det);
-    size.add("eval bound 122u·max(|uv|,1)·4096", true, bound);
+    size.add("local pipeline bound (largest)", true, bound);
     size.add("1 texel (speckle)", true, speckle);
-    Ok(vec![offset, size])
+    let models = bpm_model_sweep(&procedural::bpm_conformance())?;
+    Ok(vec![offset, size, models])
+}
+
+/// The x of each model in [`bpm_model_sweep`] (1 … 7, the order of [`Model::CHECKED`]).
+pub const MODEL_AXIS: &str =
+    "arithmetic model: 1 nearest, 2 fma, 3 reordered, 4–5 edge-of-spec, 6–7 worst";
+
+/// BPM under every arithmetic model a conforming GPU may use (`crosscheck::bpm_models`): per
+/// model the worst error / bound of the eval kernel (BPM, linear) and of the local-fit
+/// pipeline, from the kernels' f32 twins on `mesh`; the bound is the line at 1.
+pub fn bpm_model_sweep(mesh: &TriMesh) -> Result<Sweep> {
+    let mut sweep = Sweep::new(
+        "bpm",
+        "bpm_arithmetic_models",
+        "BPM: worst error / bound under each conforming arithmetic",
+        MODEL_AXIS,
+        "worst error / derived bound",
+    );
+    let ratios = Model::CHECKED
+        .iter()
+        .map(|&m| bpm_model_ratios(mesh, m))
+        .collect::<Result<Vec<_>>>()?;
+    let series = |f: &dyn Fn(&ModelRatios) -> f64| -> Vec<(f64, f64)> {
+        ratios
+            .iter()
+            .enumerate()
+            .map(|(k, r)| ((k + 1) as f64, f(r)))
+            .collect()
+    };
+    sweep.add("bpm_eval: BPM uv", false, series(&|r| r.eval_bpm));
+    sweep.add("bpm_eval: linear uv", false, series(&|r| r.eval_linear));
+    sweep.add("bpm_precompute → bpm_eval", false, series(&|r| r.pipeline));
+    sweep.add("bound (ratio 1)", true, series(&|_| 1.0));
+    Ok(sweep)
 }
 
 /// gridwarp: the normal equations of the plane-stretch scene (128² fields, 4 × 4 samples per

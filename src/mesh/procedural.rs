@@ -312,6 +312,65 @@ pub fn folded_star(fold: f64) -> TriMesh {
     )
 }
 
+/// The BPM conformance mesh: three components chosen so that every term and branch of
+/// `bpm_precompute` and `bpm_eval` shows in their outputs (the canonical vectors,
+/// `reference_data/vectors/bpm`):
+/// - a cone fan of 8 faces (apex at height 1), UVs `(0.27 + 0.2 u, 0.3 + 0.2 v)` of
+///   [`cone_fan`]'s: the UV fan closes a full turn where the cone's angle is smaller, so the
+///   log ratios are far from 0 (real blending); its rim is a boundary;
+/// - a cone fan of 6 faces (height 0.6), moved by (3, 0, 0), its UVs mirrored
+///   `(0.75 − 0.2 u, 0.3 + 0.2 v)`: every face has a clockwise UV triangle (mirrored layout);
+/// - a 3 × 3 wavy grid moved by (0, 3, 0) with the non-conformal UVs
+///   `(0.1 + 0.8 x + 0.1 sin πy, 0.62 + 0.3 y + 0.05 x²)`, where face 4 has UVs of its own on
+///   one line (a UV island of zero area: the linear fallback, and seams on its three edges;
+///   dyadic UVs, so that the area is exactly 0 in f32 as in f64 and every arithmetic agrees
+///   that the face is degenerate).
+pub fn bpm_conformance() -> TriMesh {
+    let mut mesh = TriMesh {
+        name: name("bpm_conformance"),
+        ..Default::default()
+    };
+    let mut add = |part: TriMesh, offset: [f64; 3], uv: &dyn Fn(f64, f64) -> (f64, f64)| {
+        let (p0, t0) = (mesh.positions.len() as u32, mesh.uvs.len() as u32);
+        mesh.positions.extend(
+            part.positions
+                .iter()
+                .map(|p| Point3::new(p.x + offset[0], p.y + offset[1], p.z + offset[2])),
+        );
+        mesh.uvs.extend(part.uvs.iter().map(|t| {
+            let (u, v) = uv(t.x, t.y);
+            Point2::new(u, v)
+        }));
+        mesh.faces
+            .extend(part.faces.iter().map(|f| f.map(|i| i + p0)));
+        mesh.uv_faces
+            .extend(part.uv_faces.iter().map(|f| f.map(|i| i + t0)));
+    };
+    add(cone_fan(8, 1.0), [0.0; 3], &|u, v| {
+        (0.27 + 0.2 * u, 0.3 + 0.2 * v)
+    });
+    add(cone_fan(6, 0.6), [3.0, 0.0, 0.0], &|u, v| {
+        (0.75 - 0.2 * u, 0.3 + 0.2 * v)
+    });
+    // The cone fans' 8 + 6 faces come first, so the grid's face 4 is face 18.
+    let grid_face = 8 + 6 + 4;
+    add(wavy_grid(3), [0.0, 3.0, 0.0], &|x, y| {
+        (
+            0.1 + 0.8 * x + 0.1 * (std::f64::consts::PI * y).sin(),
+            0.62 + 0.3 * y + 0.05 * x * x,
+        )
+    });
+    // Face 4 of the grid gets three UVs of its own on one line.
+    let t0 = mesh.uvs.len() as u32;
+    mesh.uvs.extend([
+        Point2::new(0.375, 0.6875),
+        Point2::new(0.5, 0.75),
+        Point2::new(0.625, 0.8125),
+    ]);
+    mesh.uv_faces[grid_face] = [t0, t0 + 1, t0 + 2];
+    mesh
+}
+
 /// The small built-in meshes (each under a few thousand triangles), for cross-check loops.
 pub fn all_small() -> Vec<TriMesh> {
     vec![

@@ -134,6 +134,7 @@ pub fn vectors(
             size), f32 sums of 2KL terms per cell; cross-cell sums in f64"
                     .into(),
             per_element: Vec::new(),
+            covers: Vec::new(),
         };
     let c = crate::crosscheck::gridwarp::normal_equations_factor(k, l);
     let (residuals, residual_bounds) = per_sample_residuals(&rest, &rest_grid, (k, l), &mg);
@@ -367,6 +368,7 @@ pub fn run_vectors(
             2δ/h_min) G δ)/O_min (crosscheck::gridwarp::stretch_bound)"
             .into(),
         per_element: vec![],
+        covers: Vec::new(),
     };
     let mut candidates = Vec::new();
     if let Some(gpu) = gpu {

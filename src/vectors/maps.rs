@@ -103,6 +103,7 @@ pub fn vectors(
             replayed removal, √L of them in a random walk"
             .into(),
         per_element: vec!["query_face".into(), "query_bary".into()],
+        covers: Vec::new(),
     };
     let mut candidates = Vec::new();
     if let Some(gpu) = gpu {
@@ -230,6 +231,7 @@ pub fn run_vectors(
             d = 1e-5 of the diagonal (maps_inverse's bound)"
             .into(),
         per_element: vec![],
+        covers: Vec::new(),
     };
     let mut candidates = Vec::new();
     if let Some(gpu) = gpu {

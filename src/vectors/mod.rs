@@ -83,6 +83,22 @@ impl Metric {
         }
     }
 
+    /// The magnitude of each expected element in the errors' unit, for the summary's relative
+    /// error: scale · ‖expected‖₂ per vector, |expected| per value; 1 for [`Metric::Relative`],
+    /// whose errors are already relative (so `max_rel` is the largest of them).
+    pub fn magnitudes(&self, expected: &[f64], last: usize) -> Vec<f64> {
+        match self {
+            Metric::NormOfLastAxis { scale, .. } | Metric::BpmMapsAtSamples { scale, .. } => {
+                expected
+                    .chunks(last.max(1))
+                    .map(|e| scale * e.iter().map(|x| x * x).sum::<f64>().sqrt())
+                    .collect()
+            }
+            Metric::Absolute { .. } => expected.iter().map(|e| e.abs()).collect(),
+            Metric::Relative { .. } => vec![1.0; expected.len()],
+        }
+    }
+
     /// The element errors of `candidate` against `expected` (same length; flat C order with
     /// `last` values along the last axis); `None` for [`Metric::BpmMapsAtSamples`], whose errors
     /// need the samples ([`bpm::errors_at_samples`]). NaN or ∞ where a value is; an error of
@@ -171,6 +187,10 @@ pub struct KernelVectors {
     /// The bound's formula, and why it holds.
     pub bound_formula: String,
     pub derivation: String,
+    /// The branches and terms of the kernel these vectors exercise (empty in manifests written
+    /// before reparam listed them).
+    #[serde(default)]
+    pub covers: Vec<String>,
 }
 
 /// `manifest.json`.
@@ -201,6 +221,9 @@ pub struct KernelData {
     pub derivation: String,
     /// The inputs indexed like the elements (see [`ArrayInfo::indexed_by_element`]).
     pub per_element: Vec<String>,
+    /// The branches and terms of the kernel its vectors exercise, each with the elements that
+    /// show it (e.g. "mirrored layout (flags bit 1): faces 8–13").
+    pub covers: Vec<String>,
 }
 
 impl KernelData {
@@ -243,6 +266,7 @@ impl KernelData {
             metric: self.metric.clone(),
             bound_formula: self.bound_formula.clone(),
             derivation: self.derivation.clone(),
+            covers: self.covers.clone(),
         })
     }
 }
@@ -289,7 +313,8 @@ pub const ALGORITHMS: [&str; 5] = ["bpm", "gridwarp", "unwarp", "maps", "skinsim
 /// The canonical small vectors of `algorithm` (what `reference_data/vectors/<algorithm>` holds):
 /// its input's name and the kernels, computed on the CPU alone.
 ///
-/// - bpm: the flat star of 12 faces (`procedural:star`), 132 samples;
+/// - bpm: the conformance mesh (`procedural:bpm_conformance`: a curved cone fan, a mirrored
+///   one, a non-conformal grid with a zero-area UV island), 32 faces, 352 samples;
 /// - gridwarp: the plane stretched by 2 on 32² fields, disc rigidity, a 5 × 5 uniform grid,
 ///   4 × 4 samples per cell;
 /// - unwarp: the cones height map at 16², s = 0.05, periodic;
@@ -298,8 +323,8 @@ pub const ALGORITHMS: [&str; 5] = ["bpm", "gridwarp", "unwarp", "maps", "skinsim
 pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
     match algorithm {
         "bpm" => {
-            let mesh = crate::mesh::procedural::flat_star(12);
-            Ok(("procedural:star".into(), bpm::vectors(&mesh)?))
+            let mesh = crate::mesh::procedural::bpm_conformance();
+            Ok(("procedural:bpm_conformance".into(), bpm::vectors(&mesh)?))
         }
         "gridwarp" => {
             use crate::gridwarp::scene::{disc_rigidity, plane_stretch};

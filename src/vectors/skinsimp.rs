@@ -131,6 +131,7 @@ pub fn vectors(input: &Input, kernels: Option<&SkinsimpKernels>) -> Result<Vecto
             summing K terms adds ≤ K u Σ_k w_k |(M_k h)_r| (crosscheck::skinsimp::lbs_bound)"
             .into(),
         per_element: vec!["rest".into(), "joints".into(), "weights".into()],
+        covers: Vec::new(),
     };
     let s = &data.sources;
     let n = s.sources.len();
@@ -175,6 +176,7 @@ pub fn vectors(input: &Input, kernels: Option<&SkinsimpKernels>) -> Result<Vecto
             −n·p₀ in f32 from f32 corners, κ = |e1||e2|/|e1 × e2|"
             .into(),
         per_element: vec!["corners".into(), "kind".into()],
+        covers: Vec::new(),
     };
     let offsets = Array::u32(&[s.vertex_offsets.len()], s.vertex_offsets.clone());
     let members = Array::u32(&[s.vertex_sources.len()], s.vertex_sources.clone());
@@ -210,6 +212,7 @@ pub fn vectors(input: &Input, kernels: Option<&SkinsimpKernels>) -> Result<Vecto
         derivation: "recursive summation from zero of n source quadrics, each with its own bound"
             .into(),
         per_element: Vec::new(),
+        covers: Vec::new(),
     };
     let candidates = if kernels.is_none() {
         Vec::new()
@@ -424,6 +427,7 @@ pub fn run_vectors(
             own must make the same collapses (same costs, ties to the lower edge)"
             .into(),
         per_element: vec![],
+        covers: Vec::new(),
     };
     let mut candidates = Vec::new();
     if let Some(k) = kernels {

@@ -94,6 +94,7 @@ pub fn run_vectors(
             order): |ΔE_p| ≤ 2η Σ_{q<p} E_q"
             .into(),
         per_element: vec![],
+        covers: Vec::new(),
     };
     let mut candidates = Vec::new();
     if let Some(gpu) = gpu {
@@ -196,6 +197,7 @@ pub fn vectors(
             gradient's direction, the guard's decision"
             .into(),
         per_element: vec!["active".into()],
+        covers: Vec::new(),
     };
     let mut candidates = Vec::new();
     if let Some(gpu) = gpu {

@@ -45,6 +45,15 @@ pub struct VerifyReport {
     pub worst: Vec<WorstElement>,
     /// `true` when every element is finite and within its bound.
     pub pass: bool,
+    /// `"pass"` or `"fail"`: [`pass`](Self::pass) as the word scripts compare.
+    pub verdict: &'static str,
+    /// The largest error / bound over the elements (> 1 fails); `f64::MAX` when an error is NaN
+    /// or ∞, or a non-zero error meets a zero bound.
+    pub worst_ratio: f64,
+    /// Elements over their own bound, NaN/∞ included (= `errors.over_tolerance`).
+    pub over: usize,
+    /// Elements whose candidate value is NaN or ∞ (= `errors.non_finite`).
+    pub non_finite: usize,
 }
 
 /// The kernel of `manifest` a candidate is for: `--kernel NAME`, else the only one, else the one
@@ -98,10 +107,21 @@ fn choose<'a>(
 pub fn verify(dir: &Path, candidate: &Path, kernel: Option<&str>) -> Result<VerifyReport> {
     let manifest = read_manifest(dir)?;
     let k = choose(&manifest.kernels, kernel, candidate, dir)?;
+    let cand = Array::load(candidate)?;
+    verify_array(dir, k, &cand, &candidate.display().to_string())
+}
+
+/// [`verify`] of a candidate already in memory (`file` names it in errors and the report), for
+/// kernel `k` of the vectors in `dir`: what the mutation tests and the twins' model checks use.
+pub fn verify_array(
+    dir: &Path,
+    k: &KernelVectors,
+    cand: &Array,
+    file: &str,
+) -> Result<VerifyReport> {
     let expected = Array::load(&dir.join(&k.expected.file))?;
     let bound = Array::load(&dir.join(&k.bound.file))?.to_f64();
-    let cand = Array::load(candidate)?;
-    let file = candidate.display().to_string();
+    let file = file.to_string();
     if !matches!(cand.dtype(), Dtype::F32 | Dtype::F64) {
         return Err(Error::Vectors {
             file,
@@ -142,7 +162,8 @@ pub fn verify(dir: &Path, candidate: &Path, kernel: Option<&str>) -> Result<Veri
         .filter(|(e, b)| !(**e <= **b))
         .count();
     let bound_max = bound.iter().copied().fold(0.0, f64::max);
-    let mut summary = ErrorSummary::from_errors(k.metric.unit(), &errors, &[], bound_max);
+    let magnitudes = k.metric.magnitudes(&expected.to_f64(), last);
+    let mut summary = ErrorSummary::from_errors(k.metric.unit(), &errors, &magnitudes, bound_max);
     summary.over_tolerance = over;
     // Worst first: non-finite errors, then by error / bound.
     let ratio = |n: usize| {
@@ -154,6 +175,9 @@ pub fn verify(dir: &Path, candidate: &Path, kernel: Option<&str>) -> Result<Veri
             errors[n] / bound[n]
         }
     };
+    let worst_ratio = (0..errors.len())
+        .map(|n| ratio(n).min(f64::MAX))
+        .fold(0.0, f64::max);
     let mut order: Vec<usize> = (0..errors.len()).collect();
     order.sort_by(|&a, &b| ratio(b).total_cmp(&ratio(a)).then(a.cmp(&b)));
     let inputs: Vec<(String, Array)> = k
@@ -191,6 +215,14 @@ pub fn verify(dir: &Path, candidate: &Path, kernel: Option<&str>) -> Result<Veri
         candidate_dtype: cand.dtype(),
         bound_formula: k.bound_formula.clone(),
         pass: over == 0 && summary.non_finite == 0,
+        verdict: if over == 0 && summary.non_finite == 0 {
+            "pass"
+        } else {
+            "fail"
+        },
+        worst_ratio,
+        over,
+        non_finite: summary.non_finite,
         errors: summary,
         bound_max,
         worst,

@@ -1,0 +1,39 @@
+//! # f32 CPU twins of the WGSL kernels
+//!
+//! One file per WGSL file (`src/twin/<shader>.rs` beside `gpu/shaders/<shader>.wgsl`), function
+//! for function and operation for operation, written over a number type [`Real`] so that the
+//! same lines serve two purposes:
+//!
+//! - over [`F`] (an f32 under an arithmetic [`Model`]: correctly rounded, fused multiply-adds,
+//!   reordered sums, or every operation and builtin at the edge of the WGSL accuracy table),
+//!   a twin *is* a conforming GPU: it shows that the bounds hold for every GPU the spec allows,
+//!   not only for lavapipe's accurate CPU math;
+//! - over [`Ball`] (f64 value and radius), a twin *derives* the bound: the radius of its output
+//!   bounds the error of any conforming f32 evaluation, from the table and the magnitudes of
+//!   that very element;
+//! - over [`Lin`] (f64 values on a tape), a twin derives a bound correct to first order, with
+//!   the cancellations a ball cannot see (a long kernel such as `bpm_precompute`, whose Möbius
+//!   maps are defined up to a common scale).
+//!
+//! The twins also make the conformance vectors' mutants (tests/mutants.rs): a mutant is a
+//! porting mistake (a term dropped, slots swapped, the wrong multiplication order, a branch
+//! ignored) built from a twin's functions, and the canonical vectors must reject every one.
+//!
+//! | twin | WGSL | f64 reference |
+//! |---|---|---|
+//! | [`bpm_common`] | `bpm_common.wgsl` | `bpm::moebius`, `bpm::eval` |
+//! | [`bpm_eval`] | `bpm_eval.wgsl` | [`crate::bpm::Bpm::eval`] |
+//! | [`bpm_precompute`] | `bpm_precompute.wgsl` | [`crate::bpm::precompute()`] |
+
+pub mod ball;
+pub mod bpm_common;
+pub mod bpm_eval;
+pub mod bpm_precompute;
+pub mod lin;
+pub mod model;
+pub mod real;
+
+pub use ball::Ball;
+pub use lin::Lin;
+pub use model::{with_model, Model, F};
+pub use real::{Real, V2, V3, V4};
