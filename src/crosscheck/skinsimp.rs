@@ -85,8 +85,11 @@ pub fn lbs_errors(data: &CrossCheckData) -> Vec<f64> {
 /// - constraint of edge e in a face of normal n_f (error δ_f as above): m = e × n_f has
 ///   |m| = |e| (e ⊥ n_f) and |Δm| ≤ |e| (√3 δ_f + 4√3 u), so the plane normal errs by
 ///   δ_c = √3 δ_f + 4√3 u + 3u, d by (δ_c + 3u)|p0|₁, the weight W|e|² by 5u;
-/// - an entry `w q_r q_c` (2 products) then errs by ≤ w (Δq_r |q_c| + |q_r| Δq_c +
-///   |q_r q_c| (δ_w + 2u)), with q the reference's plane.
+/// - an entry `w q_r q_c` (2 products) then errs by ≤ w (Δq_r |q_c| + |q_r| Δq_c + Δq_r Δq_c
+///   + |q_r q_c| (δ_w + 2u)), with q the reference's plane (the product of the errors keeps
+///   the bound above 0 where q_r = q_c = 0, which a fused multiply-add does not leave exact);
+/// - a face that is degenerate in f64: ≤ 2√3 u |e1||e2| (1 + |p0|₁)² per entry (the area f32
+///   may leave, times the largest entry of a unit plane through p0).
 pub fn source_bound(s: &PlaneSource, corners: [Point3<f64>; 3], weight: f64) -> [f64; 10] {
     let e1 = corners[1] - corners[0];
     let e2 = corners[2] - corners[0];
@@ -94,7 +97,12 @@ pub fn source_bound(s: &PlaneSource, corners: [Point3<f64>; 3], weight: f64) -> 
     let twice = cross.norm();
     let mut out = [0.0; 10];
     if twice == 0.0 {
-        return out;
+        // Degenerate in f64, but f32 (rounded or fused) may leave a cross product of up to
+        // 4√3 u |e1||e2|: a plane of any direction with weight (area) ≤ 2√3 u |e1||e2|, whose
+        // entries are ≤ that weight times (1 + |p0|₁)² (|n_r| ≤ 1, |d| ≤ |p0|₁).
+        let reach = 1.0 + corners[0].coords.abs().sum();
+        let w = 2.0 * 3f64.sqrt() * U32 * e1.norm() * e2.norm();
+        return [w * reach * reach; 10];
     }
     let kappa = e1.norm() * e2.norm() / twice;
     let delta_face = (4.0 * 3f64.sqrt() * kappa + 3.0) * U32;
@@ -123,9 +131,13 @@ pub fn source_bound(s: &PlaneSource, corners: [Point3<f64>; 3], weight: f64) -> 
     let mut k = 0;
     for r in 0..4 {
         for c in r..4 {
+            // The product of the two errors, Δq_r Δq_c, is second order, but it is all there
+            // is where q_r = q_c = 0 (an axis-aligned plane): a fused or reordered f32
+            // computation leaves ≈ u-sized components there, never exactly 0.
             out[k] = w
                 * (dq[r] * q[c].abs()
                     + q[r].abs() * dq[c]
+                    + dq[r] * dq[c]
                     + (q[r] * q[c]).abs() * (dw + 2.0 * U32));
             k += 1;
         }
@@ -461,7 +473,7 @@ pub fn crosscheck_skinsimp(gpu: &Gpu, input_name: &str, input: &Input) -> Result
         input_name,
         "unit box² (entries)",
         &plane_checks,
-        "per entry: w(Δq_r|q_c| + |q_r|Δq_c + |q_r q_c|(δ_w + 2u)), δ = 4√3κu + 3u (source_bound)",
+        "per entry: w(Δq_r|q_c| + |q_r|Δq_c + Δq_rΔq_c + |q_r q_c|(δ_w + 2u)), δ = 4√3κu + 3u (source_bound)",
     )
     .with_note(&format!(
         "{} sources × {} poses; relative to the largest entry: max {}, within the notes' {QUADRIC_TOLERANCE:e}: {}",

@@ -24,6 +24,7 @@
 //! | [`bpm_common`] | `bpm_common.wgsl` | `bpm::moebius`, `bpm::eval` |
 //! | [`bpm_eval`] | `bpm_eval.wgsl` | [`crate::bpm::Bpm::eval`] |
 //! | [`bpm_precompute`] | `bpm_precompute.wgsl` | [`crate::bpm::precompute()`] |
+//! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` (`skinsimp_plane_quadrics`) | `skinsimp::quadric` |
 
 pub mod ball;
 pub mod bpm_common;
@@ -32,6 +33,7 @@ pub mod bpm_precompute;
 pub mod lin;
 pub mod model;
 pub mod real;
+pub mod skinsimp_quadrics;
 
 pub use ball::Ball;
 pub use lin::Lin;

@@ -171,7 +171,8 @@ pub fn vectors(input: &Input, kernels: Option<&SkinsimpKernels>) -> Result<Vecto
         metric: Metric::Absolute {
             unit: "unit box²".into(),
         },
-        bound_formula: "w(Δq_r|q_c| + |q_r|Δq_c + |q_r q_c|(δ_w + 2u)), δ = 4√3κu + 3u".into(),
+        bound_formula: "w(Δq_r|q_c| + |q_r|Δq_c + Δq_rΔq_c + |q_r q_c|(δ_w + 2u)), δ = 4√3κu + 3u"
+            .into(),
         derivation: "crosscheck::skinsimp::source_bound: the cross product, normalisation and d = \
             −n·p₀ in f32 from f32 corners, κ = |e1||e2|/|e1 × e2|"
             .into(),
