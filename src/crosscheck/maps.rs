@@ -36,10 +36,6 @@ use crate::maps::{Maps, MapsOptions};
 pub const INVERSE_POSITION_MAX: f64 = 1e-5;
 /// Π⁻¹: the 99th percentile of the position error.
 pub const INVERSE_POSITION_P99: f64 = 1e-6;
-/// Π⁻¹: barycentrics in the final face, where its smallest altitude exceeds 1e-3 of the
-/// diagonal: |Δb| ≤ |Δp|/h asks |Δp| ≤ 1e-8 diagonal, met because the last steps' errors are
-/// those of small (input-sized) stars.
-pub const INVERSE_BARY_MAX: f64 = 1e-5;
 /// Π⁻¹: a point may land in another input face only within the kernel's position error of that
 /// face's edge, min b_c ≤ |Δp|/h ≤ 1e-5/1e-3.
 pub const INVERSE_MISMATCH_MIN_BARY: f64 = 1e-2;
@@ -49,8 +45,19 @@ pub fn inverse_within_bounds(r: &InverseCrosscheck) -> bool {
     r.position.non_finite == 0
         && r.position.max_abs <= INVERSE_POSITION_MAX
         && r.position.p99 <= INVERSE_POSITION_P99
-        && r.bary.max_abs <= INVERSE_BARY_MAX
+        && bary_over(r) == 0
         && r.mismatch_max_min_bary <= INVERSE_MISMATCH_MIN_BARY
+}
+
+/// Π⁻¹'s barycentrics in the final input face over their per-point bound
+/// ([`InverseCrosscheck::bary_bounds`]: |Δb| ≤ [`INVERSE_POSITION_MAX`] / h, h the face's
+/// smallest altitude, NaN counted over).
+pub fn bary_over(r: &InverseCrosscheck) -> usize {
+    r.bary_errors
+        .iter()
+        .zip(&r.bary_bounds)
+        .filter(|(e, b)| !(e <= b))
+        .count()
 }
 
 /// The rings compared: every flattenable ring of the input level (level 0) and of the middle
@@ -198,7 +205,7 @@ pub fn crosscheck_maps(
             .map(|q| maps.param.inverse(q).map(|c| c.position))
             .collect::<Vec<Option<Point3<f64>>>>()
     });
-    let r = crosscheck_inverse(gpu, maps, &points)?;
+    let r = crosscheck_inverse(gpu, maps, &points, INVERSE_POSITION_MAX)?;
     let position_row = Row::compare(
         algorithm,
         "maps_inverse: position Π⁻¹(p)",
@@ -227,19 +234,58 @@ pub fn crosscheck_maps(
         cpu_ms: Some(inverse_cpu),
         ..inverse_t
     });
-    let bary_over = r.bary.over_tolerance
-        + usize::from(!(r.mismatch_max_min_bary <= INVERSE_MISMATCH_MIN_BARY));
-    let bary_row = Row::from_summary(
+    let mismatch_over = usize::from(!(r.mismatch_max_min_bary <= INVERSE_MISMATCH_MIN_BARY));
+    let bary_row = Row::compare(
         algorithm,
         "maps_inverse: barycentrics in the input face",
         input,
-        &r.bary,
-        bary_over,
-        r.bary.max_abs / INVERSE_BARY_MAX,
-        "1e-5 where the face's smallest altitude > 1e-3 diagonal (|Δb| ≤ |Δp|/h)",
-    )
+        "barycentric",
+        &r.bary_errors,
+        &[],
+        Bounds::PerElement(r.bary_bounds.clone()),
+        "per point: 1e-5 / h, h the face's smallest altitude (|Δb| ≤ |Δp|/h, Δp the position bound)",
+    );
+    let bary_row = Row {
+        over: bary_row.over + mismatch_over,
+        verdict: if bary_row.over + mismatch_over > 0 {
+            super::Verdict::Fail
+        } else {
+            bary_row.verdict
+        },
+        ..bary_row
+    }
     .with_note(&format!("{} thin faces not compared", r.thin));
     rows.push(position_row);
     rows.push(bary_row);
     Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::crosscheck::ErrorSummary;
+
+    fn with_bary(errors: Vec<f64>, altitudes: &[f64]) -> InverseCrosscheck {
+        let summary = ErrorSummary::from_errors("barycentric", &errors, &[], 0.0);
+        InverseCrosscheck {
+            points: errors.len(),
+            position: ErrorSummary::from_errors("fraction of the diagonal", &[], &[], 0.0),
+            bary: summary,
+            bary_bounds: altitudes.iter().map(|h| INVERSE_POSITION_MAX / h).collect(),
+            bary_errors: errors,
+            face_mismatches: 0,
+            mismatch_max_min_bary: 0.0,
+            thin: 0,
+        }
+    }
+
+    /// The real-scan case of issue #34: 3.9e-5 in a face of altitude 0.05 is within
+    /// 1e-5/0.05 = 2e-4, which the former constant 1e-5 rejected; the same error in a
+    /// well-shaped face (altitude 0.5: bound 2e-5) fails, and so does a NaN.
+    #[test]
+    fn the_barycentric_bound_follows_the_faces_altitude() {
+        assert_eq!(bary_over(&with_bary(vec![3.9e-5], &[0.05])), 0);
+        assert_eq!(bary_over(&with_bary(vec![3.9e-5], &[0.5])), 1);
+        assert_eq!(bary_over(&with_bary(vec![f64::NAN], &[0.5])), 1);
+    }
 }

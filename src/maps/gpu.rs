@@ -692,8 +692,14 @@ pub struct InverseCrosscheck {
     /// |Δp| as a fraction of the bounding box diagonal (tolerance 1e-5, the issue's).
     pub position: ErrorSummary,
     /// max_c |Δb_c| over the points that reached the same input face, whose smallest altitude
-    /// exceeds 1e-3 of the diagonal (tolerance 1e-5, the issue's).
+    /// exceeds 1e-3 of the diagonal (its tolerance the largest of `bary_bounds`).
     pub bary: ErrorSummary,
+    /// Per compared point (the order of `bary`'s errors): max_c |Δb_c| …
+    pub bary_errors: Vec<f64>,
+    /// … and its bound, `position_bound / h` with h the face's smallest altitude (fraction of
+    /// the diagonal): |∇b_c| = 1/h_c, so a point moved by |Δp| in the face's plane moves each
+    /// barycentric by at most |Δp|/h.
+    pub bary_bounds: Vec<f64>,
     /// Points the kernel took to another input face than the reference.
     pub face_mismatches: usize,
     /// The largest reference barycentric distance to an edge, min_c b_c, among those points
@@ -705,15 +711,20 @@ pub struct InverseCrosscheck {
 
 /// Run `maps_inverse` on `points` and compare with [`super::Param::inverse`] (module docs).
 /// [`Error::InvalidArgument`] for a base point the reference cannot map (face out of range).
+///
+/// `position_bound` is the bound on |Δp| (fraction of the diagonal) from which each compared
+/// point's barycentric bound follows (`bary_bounds`).
 pub fn crosscheck_inverse(
     gpu: &Gpu,
     maps: &Maps,
     points: &[BasePoint],
+    position_bound: f64,
 ) -> Result<InverseCrosscheck> {
     let norm = normalise(&maps.positions)?;
     let tables = inverse_tables(maps, &norm);
     let gpu_points = inverse_gpu(gpu, &tables, points)?;
     let (mut pos_err, mut pos_mag, mut bary_err, mut bary_mag) = (vec![], vec![], vec![], vec![]);
+    let mut bary_bound = vec![];
     let (mut mismatches, mut mismatch_min, mut thin) = (0, 0.0f64, 0);
     for (p, g) in points.iter().zip(&gpu_points) {
         let c = maps.param.inverse(p).ok_or_else(|| {
@@ -738,10 +749,12 @@ pub fn crosscheck_inverse(
         }
         let [a, b, d] =
             maps.input_faces[c.face as usize].map(|v| norm.apply(&maps.positions[v as usize]));
-        if smallest_altitude(&a, &b, &d) <= 1e-3 {
+        let h = smallest_altitude(&a, &b, &d);
+        if h <= 1e-3 {
             thin += 1;
             continue;
         }
+        bary_bound.push(position_bound / h);
         let e = (0..3)
             .map(|k| (g.bary[k] as f64 - c.bary[k]).abs())
             .fold(0.0, f64::max);
@@ -751,7 +764,14 @@ pub fn crosscheck_inverse(
     Ok(InverseCrosscheck {
         points: points.len(),
         position: ErrorSummary::from_errors("fraction of the diagonal", &pos_err, &pos_mag, 1e-5),
-        bary: ErrorSummary::from_errors("barycentric", &bary_err, &bary_mag, 1e-5),
+        bary: ErrorSummary::from_errors(
+            "barycentric",
+            &bary_err,
+            &bary_mag,
+            bary_bound.iter().copied().fold(0.0, f64::max),
+        ),
+        bary_errors: bary_err,
+        bary_bounds: bary_bound,
         face_mismatches: mismatches,
         mismatch_max_min_bary: mismatch_min,
         thin,
