@@ -85,8 +85,8 @@ pub fn lbs_errors(data: &CrossCheckData) -> Vec<f64> {
 /// - constraint of edge e in a face of normal n_f (error δ_f as above): m = e × n_f has
 ///   |m| = |e| (e ⊥ n_f) and |Δm| ≤ |e| (√3 δ_f + 4√3 u), so the plane normal errs by
 ///   δ_c = √3 δ_f + 4√3 u + 3u, d by (δ_c + 3u)|p0|₁, the weight W|e|² by 5u;
-/// - an entry `w q_r q_c` (2 products) then errs by ≤ w (Δq_r |q_c| + |q_r| Δq_c + Δq_r Δq_c
-///   + |q_r q_c| (δ_w + 2u)), with q the reference's plane (the product of the errors keeps
+/// - an entry `w q_r q_c` (2 products) then errs by ≤ w (Δq_r |q_c| + |q_r| Δq_c +
+///   Δq_r Δq_c + |q_r q_c| (δ_w + 2u)), with q the reference's plane (the product of the errors keeps
 ///   the bound above 0 where q_r = q_c = 0, which a fused multiply-add does not leave exact);
 /// - a face that is degenerate in f64: ≤ 2√3 u |e1||e2| (1 + |p0|₁)² per entry (the area f32
 ///   may leave, times the largest entry of a unit plane through p0).
