@@ -14,6 +14,26 @@ use crate::gridwarp::merit::rigid_stretch;
 use crate::gridwarp::{solve_sequence, Grid, SolveOptions};
 use crate::lm::Residuals;
 
+/// The formula of `gridwarp_aa` for the manifests, every symbol defined (issue #33).
+const AA_FORMULA: &str = "the axis-aligned energy F = Σ_cells Σ_samples (r^s)² + (r^t)² \
+    (seed 000 §5.1). Lines s_0 … s_{M−1} (vertical), t_0 … t_{N−1} (horizontal); cell \
+    c = i·(N − 1) + j spans [s_i, s_{i+1}] × [t_j, t_{j+1}] with rest size h_i × k_j. Per \
+    sample (α, β, σ, o_s, o_t) of cell c: slopes a = (s_{i+1} − s_i)/h_i, \
+    b = (t_{j+1} − t_j)/k_j; warped point p = (s_i + α(s_{i+1} − s_i), t_j + β(t_{j+1} − t_j)); \
+    stretches c_s = D_s(p), c_t = D_t(p) by bilinear lookup; residuals r^s = σ(c_s a − o_s), \
+    r^t = σ(c_t b − o_t). Bilinear lookup of a W × H field at (s, t): u = s W − ½; if W = 1 \
+    or not u > 0 then x0 = 0, f = 0; else if u ≥ W − 1 then x0 = W − 1, f = 0; else \
+    x0 = ⌊u⌋, f = u − x0; x1 = min(x0 + 1, W − 1); likewise y0, y1, g from v = t H − ½; \
+    value = (1 − g)(D[y0][x0] + f(D[y0][x1] − D[y0][x0])) + g(D[y1][x0] + f(D[y1][x1] − \
+    D[y1][x0])) (clamped to the edge texels); ∂/∂s = W·((D[y0][x1] − D[y0][x0]) + \
+    g((D[y1][x1] − D[y1][x0]) − (D[y0][x1] − D[y0][x0]))), ∂/∂t = H·(row1 − row0), each 0 \
+    on an axis where the lookup is clamped. Derivatives of r^s with respect to \
+    (s_i, s_{i+1}, t_j, t_{j+1}): (σ a ∂c_s/∂s (1 − α) − σ c_s/h_i, σ a ∂c_s/∂s α + \
+    σ c_s/h_i, σ a ∂c_s/∂t (1 − β), σ a ∂c_s/∂t β); of r^t with respect to (t_j, t_{j+1}, \
+    s_i, s_{i+1}): the same with (b, c_t, k_j, β, ∂/∂t) along and (α, ∂/∂s) across. J's \
+    columns are the unknowns (s_index, t_index ≥ 0; −1 marks a fixed line, left out), s \
+    unknowns first, then t";
+
 /// The four kernels' vectors (`gridwarp_aa.cell_energy`, `.energy`, `.jtj`, `.jtr`) and, with a
 /// GPU, reparam's own kernel's outputs as candidates.
 pub fn vectors(
@@ -44,8 +64,9 @@ pub fn vectors(
     let inputs: Vec<(String, String, Array)> = vec![
         (
             "samples".into(),
-            "per sample, f32: α, β (position in the cell), σ = √w R, ‖O_s‖, ‖O_t‖; K·L samples \
-             per cell, cells in the order column i, row j"
+            "per sample, f32: α, β (position in the cell, in [0, 1]), σ = √w R, o_s = ‖O_s‖, \
+             o_t = ‖O_t‖; rows c·K·L … (c + 1)·K·L − 1 belong to cell c = i·(N − 1) + j \
+             (column i of M − 1, row j of N − 1)"
                 .into(),
             Array::f32(
                 &[input.samples.len(), 5],
@@ -93,12 +114,14 @@ pub fn vectors(
         ),
         (
             "d_s".into(),
-            "f32, rows × columns: ‖D_s‖ per texel (texel centres at (x + ½)/W)".into(),
+            "f32, H rows × W columns: ‖D_s‖ per texel; row y, column x has its centre at \
+             ((x + ½)/W, (y + ½)/H), row 0 at t = 0; sampled bilinearly as the description says"
+                .into(),
             field(&input.d_s),
         ),
         (
             "d_t".into(),
-            "f32, rows × columns: ‖D_t‖ per texel".into(),
+            "f32, H rows × W columns: ‖D_t‖ per texel, laid out as d_s (its own W, H)".into(),
             field(&input.d_t),
         ),
     ];
@@ -118,10 +141,7 @@ pub fn vectors(
     let kernel =
         |name: &str, what: &str, expected: Array, bound: Array, formula: &str| KernelData {
             name: format!("gridwarp_aa.{name}"),
-            description: format!(
-                "{what} of the axis-aligned energy F = Σ_cells Σ_samples (r^s)² + (r^t)², \
-             r = σ(c·a − o) (seed §5.1), at the given lines"
-            ),
+            description: format!("{what} of {AA_FORMULA}"),
             inputs: inputs.clone(),
             expected: (format!("f64: {what}"), expected),
             bound: ("per element, absolute (F's units)".into(), bound),
@@ -149,7 +169,7 @@ pub fn vectors(
         ),
         kernel(
             "cell_energy",
-            "per cell (column i, row j), Σ r²",
+            "per cell c = i·(N − 1) + j (column i, row j), Σ r² over its samples",
             Array::f64(&[cells], cell_energy),
             Array::f64(&[cells], cell_bound),
             "2·10 ε Σ|r_k| m_k + 2KL ε F_c over the cell's residuals",
