@@ -4,6 +4,9 @@
 //! bounds, and the other reading of the cell order ("column i, row j" as c = j·(M − 1) + i),
 //! which an implementer once took, must not (issue #33).
 
+// `!(x > y)` is meant: a NaN fails, as in the manifest's "not u > 0".
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use std::path::{Path, PathBuf};
 
 use reparam::vectors::{read_manifest, Array};
