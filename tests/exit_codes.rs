@@ -33,19 +33,28 @@ const ALL: [Stdout; 3] = [
 
 /// Run the binary with `args` and `stdout` handled as asked: (exit code, stdout read, stderr).
 fn reparam(args: &[&str], stdout: Stdout) -> (i32, String, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_reparam"))
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let pipe = child.stdout.take().unwrap();
+    let mut command = Command::new(env!("CARGO_BIN_EXE_reparam"));
+    command.args(args).stderr(Stdio::piped());
     let mut read = String::new();
+    if let Stdout::ClosedAtOnce = stdout {
+        // A pipe whose read end is closed before the command starts: its first write fails
+        // (EPIPE), whatever the scheduling (closing after the spawn would race the write).
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        let out = command.stdout(writer).output().unwrap();
+        return (
+            out.status.code().unwrap_or(-1),
+            read,
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        );
+    }
+    let mut child = command.stdout(Stdio::piped()).spawn().unwrap();
+    let pipe = child.stdout.take().unwrap();
     match stdout {
         Stdout::Read => {
             std::io::Read::read_to_string(&mut BufReader::new(pipe), &mut read).unwrap();
         }
-        Stdout::ClosedAtOnce => drop(pipe),
+        Stdout::ClosedAtOnce => unreachable!(),
         Stdout::ClosedAfterOneLine => {
             BufReader::new(pipe).read_line(&mut read).unwrap();
         }

@@ -1,4 +1,5 @@
-//! `skinsimp_quadrics.source` through its f32 twin (`src/twin/skinsimp_quadrics.rs`):
+//! `skinsimp_quadrics.source` and `skinsimp_lbs` through their f32 twins
+//! (`src/twin/skinsimp_quadrics.rs`, `src/twin/skinsimp_lbs.rs`):
 //! - under every arithmetic model a conforming GPU may use (correctly rounded, FMA-contracted,
 //!   reordered, at the edge of the WGSL table) the canonical vectors accept it (issue #34: an
 //!   FMA port once failed 42 elements whose bound was exactly 0);
@@ -8,26 +9,32 @@
 use std::path::{Path, PathBuf};
 
 use reparam::twin::real::{cross, dot, length};
+use reparam::twin::skinsimp_lbs::{joint_times, skin};
 use reparam::twin::skinsimp_quadrics::{
     edge_constraint, from_plane, from_triangle, plane_quadric, unit_normal, zero_quadric, Quadric,
     SOURCE_FACE,
 };
-use reparam::twin::{with_model, Model, Real, F, V3};
+use reparam::twin::{with_model, Model, Real, F, V3, V4};
 use reparam::vectors::verify::{verify_array, VerifyReport};
 use reparam::vectors::{read_manifest, Array, KernelVectors};
 
 const KERNEL: &str = "skinsimp_quadrics.source";
+const LBS: &str = "skinsimp_lbs";
 
 fn dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("reference_data/vectors/skinsimp")
 }
 
 fn kernel() -> KernelVectors {
+    named(KERNEL)
+}
+
+fn named(name: &str) -> KernelVectors {
     read_manifest(&dir())
         .unwrap()
         .kernels
         .into_iter()
-        .find(|k| k.name == KERNEL)
+        .find(|k| k.name == name)
         .unwrap()
 }
 
@@ -216,6 +223,176 @@ fn every_model_passes_every_mutant_fails_and_no_bound_is_zero() {
     }
     for (name, mistake, body) in MUTANTS {
         let r = judge(&k, body, Model::Nearest);
+        table.push(line(name, mistake, &r));
+        if r.pass {
+            wrong.push(format!("mutant {name} survives"));
+        }
+    }
+    println!("{}", table.join("\n"));
+    assert!(wrong.is_empty(), "{wrong:?}\n{}", table.join("\n"));
+}
+
+// ---------------------------------------------------------------------------------------------
+// skinsimp_lbs
+
+/// Where a pose's matrix of a joint is read: (pose, joint, poses, joints) → index.
+type MatrixIndex = fn(usize, usize, usize, usize) -> usize;
+
+/// One vertex's skinning: rest point, joints, weights, the pose's matrix of a joint.
+type LbsBody = fn(V3<F>, [u32; 4], [F; 4], &dyn Fn(u32) -> [F; 12]) -> V3<F>;
+
+/// The candidate of `body` on the canonical LBS inputs under `model`: [vertices, poses, 3].
+/// `index(pose, joint, poses, joints)` is where the matrix is read (the manifest's: pose·J +
+/// joint).
+fn lbs_candidate(
+    body: LbsBody,
+    index: fn(usize, usize, usize, usize) -> usize,
+    model: Model,
+) -> Array {
+    let k = named(LBS);
+    let rest = input(&k, "rest").to_f64();
+    let joints = input(&k, "joints").to_f64();
+    let weights = input(&k, "weights").to_f64();
+    let m = input(&k, "matrices");
+    let (poses, joint_count) = (m.shape[0], m.shape[1]);
+    let m = m.to_f64();
+    let vertices = rest.len() / 3;
+    let mut out = Vec::with_capacity(vertices * poses * 3);
+    for v in 0..vertices {
+        let x = V3::new(
+            F::new(rest[3 * v] as f32),
+            F::new(rest[3 * v + 1] as f32),
+            F::new(rest[3 * v + 2] as f32),
+        );
+        let js = [0, 1, 2, 3].map(|c| joints[4 * v + c] as u32);
+        let ws = [0, 1, 2, 3].map(|c| F::new(weights[4 * v + c] as f32));
+        for j in 0..poses {
+            let matrix = |joint: u32| -> [F; 12] {
+                let o =
+                    12 * index(j, joint as usize, poses, joint_count).min(poses * joint_count - 1);
+                std::array::from_fn(|e| F::new(m[o + e] as f32))
+            };
+            let p = with_model(model, || body(x, js, ws, &matrix));
+            out.extend([p.x.get(), p.y.get(), p.z.get()]);
+        }
+    }
+    Array::f32(&[vertices, poses, 3], out)
+}
+
+fn pose_major(pose: usize, joint: usize, _: usize, joints: usize) -> usize {
+    pose * joints + joint
+}
+
+fn correct_lbs(x: V3<F>, js: [u32; 4], ws: [F; 4], m: &dyn Fn(u32) -> [F; 12]) -> V3<F> {
+    skin(x, js, ws, m)
+}
+
+/// (x, 0): the translation dropped.
+fn no_translation(x: V3<F>, js: [u32; 4], ws: [F; 4], m: &dyn Fn(u32) -> [F; 12]) -> V3<F> {
+    let mut sum = V3::splat(F::lit(0.0));
+    for k in 0..4 {
+        let h = V4::new(x.x, x.y, x.z, F::lit(0.0));
+        sum = sum + joint_times(&m(js[k]), h) * ws[k];
+    }
+    sum
+}
+
+/// The 3 × 4 matrix read column by column.
+fn column_major(x: V3<F>, js: [u32; 4], ws: [F; 4], m: &dyn Fn(u32) -> [F; 12]) -> V3<F> {
+    let transposed = |j: u32| {
+        let a = m(j);
+        std::array::from_fn(|e| a[3 * (e % 4) + e / 4])
+    };
+    skin(x, js, ws, transposed)
+}
+
+/// Only the first influence, weight 1.
+fn first_influence(x: V3<F>, js: [u32; 4], _: [F; 4], m: &dyn Fn(u32) -> [F; 12]) -> V3<F> {
+    skin(
+        x,
+        js,
+        [F::lit(1.0), F::lit(0.0), F::lit(0.0), F::lit(0.0)],
+        m,
+    )
+}
+
+/// Equal weights over the four slots.
+fn equal_weights(x: V3<F>, js: [u32; 4], _: [F; 4], m: &dyn Fn(u32) -> [F; 12]) -> V3<F> {
+    skin(x, js, [F::lit(0.25); 4], m)
+}
+
+/// The rest position returned unposed.
+fn unposed(x: V3<F>, _: [u32; 4], _: [F; 4], _: &dyn Fn(u32) -> [F; 12]) -> V3<F> {
+    x
+}
+
+/// Matrices indexed joint·P + pose (the other layout).
+fn joint_major(pose: usize, joint: usize, poses: usize, _: usize) -> usize {
+    joint * poses + pose
+}
+
+#[test]
+fn lbs_every_model_passes_every_mutant_fails_and_no_bound_is_zero() {
+    let k = named(LBS);
+    let bounds = Array::load(&dir().join(&k.bound.file)).unwrap().to_f64();
+    assert_eq!(bounds.iter().filter(|&&b| b == 0.0).count(), 0);
+    let judge = |a: Array| verify_array(&dir(), &k, &a, "twin").unwrap();
+    let mut table = vec![
+        "| mutant | the porter's mistake | verdict | worst error/bound | over |".to_string(),
+        "|---|---|---|---|---|".to_string(),
+    ];
+    let line = |name: &str, mistake: &str, r: &VerifyReport| {
+        format!(
+            "| `{name}` | {mistake} | {} | {:.3e} | {} of {} |",
+            if r.pass { "**survived**" } else { "killed" },
+            r.worst_ratio,
+            r.over,
+            r.errors.count
+        )
+    };
+    let mut wrong = Vec::new();
+    for model in Model::CHECKED {
+        let r = judge(lbs_candidate(correct_lbs, pose_major, model));
+        table.push(line(&format!("twin ({})", model.name()), "none", &r));
+        if !r.pass {
+            wrong.push(format!("the twin under {} fails", model.name()));
+        }
+    }
+    let mutants: [(&str, &str, LbsBody, MatrixIndex); 6] = [
+        (
+            "no_translation",
+            "the point taken as (x, 0): translations dropped",
+            no_translation,
+            pose_major,
+        ),
+        (
+            "column_major",
+            "the 3 × 4 matrix read column by column",
+            column_major,
+            pose_major,
+        ),
+        (
+            "first_influence",
+            "only the first joint, weight 1",
+            first_influence,
+            pose_major,
+        ),
+        (
+            "equal_weights",
+            "the weights ignored (¼ each)",
+            equal_weights,
+            pose_major,
+        ),
+        ("unposed", "the rest position returned", unposed, pose_major),
+        (
+            "joint_major",
+            "matrices indexed joint·P + pose",
+            correct_lbs,
+            joint_major,
+        ),
+    ];
+    for (name, mistake, body, index) in mutants {
+        let r = judge(lbs_candidate(body, index, Model::Nearest));
         table.push(line(name, mistake, &r));
         if r.pass {
             wrong.push(format!("mutant {name} survives"));

@@ -24,6 +24,7 @@
 //! | [`bpm_common`] | `bpm_common.wgsl` | `bpm::moebius`, `bpm::eval` |
 //! | [`bpm_eval`] | `bpm_eval.wgsl` | [`crate::bpm::Bpm::eval`] |
 //! | [`bpm_precompute`] | `bpm_precompute.wgsl` | [`crate::bpm::precompute()`] |
+//! | [`skinsimp_lbs`] | `skinsimp_lbs.wgsl` | `skinsimp::skinning` |
 //! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` (`skinsimp_plane_quadrics`) | `skinsimp::quadric` |
 
 pub mod ball;
@@ -33,6 +34,7 @@ pub mod bpm_precompute;
 pub mod lin;
 pub mod model;
 pub mod real;
+pub mod skinsimp_lbs;
 pub mod skinsimp_quadrics;
 
 pub use ball::Ball;
