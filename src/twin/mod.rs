@@ -24,6 +24,7 @@
 //! | [`bpm_common`] | `bpm_common.wgsl` | `bpm::moebius`, `bpm::eval` |
 //! | [`bpm_eval`] | `bpm_eval.wgsl` | [`crate::bpm::Bpm::eval`] |
 //! | [`bpm_precompute`] | `bpm_precompute.wgsl` | [`crate::bpm::precompute()`] |
+//! | [`gridwarp_aa`] | `gridwarp_aa.wgsl` (residuals) | `gridwarp::plain::aa` |
 //! | [`skinsimp_lbs`] | `skinsimp_lbs.wgsl` | `skinsimp::skinning` |
 //! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` (`skinsimp_plane_quadrics`) | `skinsimp::quadric` |
 
@@ -31,6 +32,7 @@ pub mod ball;
 pub mod bpm_common;
 pub mod bpm_eval;
 pub mod bpm_precompute;
+pub mod gridwarp_aa;
 pub mod lin;
 pub mod model;
 pub mod real;

@@ -315,8 +315,8 @@ pub const ALGORITHMS: [&str; 5] = ["bpm", "gridwarp", "unwarp", "maps", "skinsim
 ///
 /// - bpm: the conformance mesh (`procedural:bpm_conformance`: a curved cone fan, a mirrored
 ///   one, a non-conformal grid with a zero-area UV island), 32 faces, 352 samples;
-/// - gridwarp: the plane stretched by 2 on 32² fields, disc rigidity, a 5 × 5 uniform grid,
-///   4 × 4 samples per cell;
+/// - gridwarp: [`canonical_gridwarp_scene`] on 32² fields, lines s = (0, 0.2, 0.45, 0.7, 1),
+///   t = (0, 0.3, 0.55, 0.85, 1), 4 × 4 samples per cell;
 /// - unwarp: the cones height map at 16², s = 0.05, periodic;
 /// - maps: the 12 × 6 torus (144 triangles) to its coarsest base, Π⁻¹ at the uniform:1 points;
 /// - skinsimp: the skinned tube of 6 segments and 6 rings, 2 uniform poses per clip.
@@ -327,16 +327,21 @@ pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
             Ok(("procedural:bpm_conformance".into(), bpm::vectors(&mesh)?))
         }
         "gridwarp" => {
-            use crate::gridwarp::scene::{disc_rigidity, plane_stretch};
-            let rigidity = disc_rigidity(32, &[(0.6, 0.5, 0.2)], 0.1);
-            let scene = plane_stretch(32, 1, 2.0, rigidity);
-            let grid = crate::gridwarp::Grid::uniform(5, 5);
+            let scene = canonical_gridwarp_scene().fields(32);
+            // Lines not uniform, so that no cell has h_i = k_j.
+            let grid = crate::gridwarp::Grid::new(
+                vec![0.0, 0.2, 0.45, 0.7, 1.0],
+                vec![0.0, 0.3, 0.55, 0.85, 1.0],
+            )?;
             let options = crate::gridwarp::SolveOptions {
                 samples: (4, 4),
                 ..Default::default()
             };
             let (k, _) = gridwarp::all_vectors(None, &scene.rest, &grid, &scene.frames, &options)?;
-            Ok(("plane stretch 32², 5 × 5 lines, 4 × 4 samples".into(), k))
+            Ok((
+                "off-centre bump 32², 5 × 5 non-uniform lines, 4 × 4 samples".into(),
+                k,
+            ))
         }
         "unwarp" => {
             let heights = crate::unwarp::procedural("cones", 16)?;
@@ -357,6 +362,24 @@ pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
             "no vectors for '{other}'; known: {}",
             ALGORITHMS.join(", ")
         ))),
+    }
+}
+
+/// The canonical gridwarp scene: a plane whose bump, centred off both axes of symmetry at
+/// (0.6, 0.35), rises to 0.3 (X = (s, t, 0.3 exp(−|(s, t) − c|²/0.05))), and a rigid disc on
+/// its flank. The stretch fields differ from their mirror images in s and in t, so that a
+/// port that flips the fields' rows or swaps the axes fails (tests/twin_gridwarp.rs).
+pub fn canonical_gridwarp_scene() -> crate::gridwarp::scene::AnalyticScene {
+    use crate::gridwarp::scene::{disc_rigidity, AnalyticScene};
+    use nalgebra::Point3;
+    AnalyticScene {
+        name: "off-centre bump",
+        rest: Box::new(|s, t| Point3::new(s, t, 0.0)),
+        frames: vec![Box::new(|s, t| {
+            let r2 = (s - 0.6).powi(2) + (t - 0.35).powi(2);
+            Point3::new(s, t, 0.3 * (-r2 / 0.05).exp())
+        })],
+        rigidity: disc_rigidity(32, &[(0.45, 0.5, 0.15)], 0.1),
     }
 }
 
