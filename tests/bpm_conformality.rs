@@ -304,3 +304,38 @@ fn the_vertex_rule_matters_only_under_the_authors_unfolding() {
     let (a, b) = figures(Unfold::Authors);
     assert!((a - b).abs() > 1e-6 * a, "{a} vs {b}");
 }
+
+/// The authors' MATLAB code (shirrorbe/BPM e5054766, run under GNU Octave 7.3 with
+/// `tools/bpm_octave`) on `procedural:folded_star` written as an OBJ (the neighbour across t's
+/// first edge folded by 150°), n = 4: BPM area-average QC 2.168216422, max 123.702703; per
+/// face (their `bpm_qc.m` per-face CSV) the means below. Printed to 10 and 17 digits; the
+/// codes differ by rounding only (≈ 1e-13 relative per face), so 1e-9 relative.
+#[test]
+fn the_authors_unfolding_and_vertex_rule_reproduce_their_code_on_a_folded_star() {
+    let mesh = procedural::folded_star(150f64.to_radians());
+    let bpm = precompute(
+        &mesh,
+        BpmOptions {
+            unfold: Unfold::Authors,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let owners = authors_vertex_owners(&mesh, &Adjacency::new(&mesh), 4);
+    let (stats, faces) = qc_protocol_faces(&bpm, Interp::Bpm, 4, Some(&owners));
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b;
+    assert!(close(stats.mean, 2.168216422), "{}", stats.mean);
+    assert!(close(stats.max, 123.702703), "{}", stats.max);
+    let octave = [
+        3.796017879138307,
+        2.1110308538808051,
+        1.1464681611318883,
+        1.174197895777918,
+    ];
+    for (f, (q, o)) in faces.iter().zip(octave).enumerate() {
+        assert!(close(q.mean, o), "face {f}: {} vs {o}", q.mean);
+    }
+    // Each face evaluating its own sub-vertices gives another figure.
+    let per_face = qc_protocol_faces(&bpm, Interp::Bpm, 4, None).0.mean;
+    assert!(!close(per_face, 2.168216422), "{per_face}");
+}
