@@ -134,6 +134,7 @@ pub fn authors_vertex_owners(mesh: &TriMesh, adjacency: &Adjacency, subdiv: u32)
     };
     let mut borrowed: Vec<Vec<Borrowed>> = vec![Vec::new(); mesh.face_count()];
     for (f, list) in borrowed.iter_mut().enumerate() {
+        #[allow(clippy::needless_range_loop)] // e names the edge, as in `adjacency.neighbour(f, e)`
         for e in 0..3 {
             let Some((g, eg)) = adjacency.neighbour(f, e) else {
                 continue;
