@@ -112,12 +112,15 @@ pub const S_UNMEASURED_COLOUR: [u8; 4] = [150, 150, 150, 255];
 
 /// A picture of `mesh` with every face coloured by its s bin ([`S_BIN_COLOURS`]), in the 3D
 /// view (flat colour × (0.45 + 0.55 |n·v|), n the face normal, v the view direction) or in the
-/// UV layout, with a legend panel on the right: one line per bin with its area share.
+/// UV layout, with a legend panel on the right: one line per bin with its area share and, when
+/// `by_bin` holds the bins' QC ([`super::conformality::conformality_report`] with per-face
+/// figures), BPM's and linear's area-average QC in the bin.
 pub fn s_picture(
     mesh: &TriMesh,
     conformality: &super::conformality::Conformality,
     view: SView,
     options: &RenderOptions,
+    by_bin: &[super::conformality::BinQc],
 ) -> Result<Image<[u8; 4]>> {
     use super::conformality::{s_bin, s_distribution, S_BIN_LABELS};
     let face_colour = |f: usize| match s_bin(conformality.face_s[f]) {
@@ -157,14 +160,26 @@ pub fn s_picture(
         }
     };
     let distribution = s_distribution(conformality);
+    let qc_of = |bin: usize| match by_bin.get(bin) {
+        Some(b) => match (b.bpm_mean, b.linear_mean) {
+            (Some(bpm), Some(linear)) => format!(
+                "  QC {} | {}",
+                crate::report::sig(bpm, 3),
+                crate::report::sig(linear, 3)
+            ),
+            _ => String::new(),
+        },
+        None => String::new(),
+    };
     let mut entries: Vec<([u8; 4], String)> = (0..5)
         .map(|bin| {
             (
                 S_BIN_COLOURS[bin],
                 format!(
-                    "{:<12} {:>5}% of area",
+                    "{:<12} {:>5}%{}",
                     S_BIN_LABELS[bin],
-                    crate::report::sig(100.0 * distribution.area_share[bin], 3)
+                    crate::report::sig(100.0 * distribution.area_share[bin], 3),
+                    qc_of(bin)
                 ),
             )
         })
@@ -194,12 +209,16 @@ pub fn s_picture(
             crate::report::sig(distribution.mean, 3),
             crate::report::sig(distribution.max, 3)
         ),
+        match by_bin.is_empty() {
+            true => "per bin: % of the area".to_string(),
+            false => "per bin: % of the area, QC bpm | linear".to_string(),
+        },
     ];
     let legend = crate::plot::legend_panel(
         "cross-ratio mismatch s",
         &notes,
         &entries,
-        (options.width as usize / 2).clamp(360, 800),
+        (options.width as usize * 2 / 3).clamp(440, 800),
         options.height as usize,
     )?;
     Ok(texture::side_by_side(&[&picture, &legend], 0))

@@ -246,7 +246,14 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     let seconds = start.elapsed().as_secs_f64();
     save_png(&image, &args.output)?;
-    let s_picture_path = write_s_picture(&mesh, &measured, &args.s_picture, args.view, args.size)?;
+    let s_picture_path = write_s_picture(
+        &mesh,
+        &measured,
+        &args.s_picture,
+        args.view,
+        args.size,
+        &conformality,
+    )?;
     let result = RenderResult {
         mesh: mesh.name.clone(),
         output: args.output.clone(),
@@ -466,8 +473,14 @@ fn qc(args: QcArgs) -> Result<()> {
         )?;
     }
     let default_view = RenderOptions::default().view_dir;
-    let s_picture_path =
-        write_s_picture(&mesh, &measured, &args.s_picture, default_view, (768, 768))?;
+    let s_picture_path = write_s_picture(
+        &mesh,
+        &measured,
+        &args.s_picture,
+        default_view,
+        (768, 768),
+        &report,
+    )?;
     let result = QcResult {
         mesh: mesh.name.clone(),
         subdiv: args.subdiv,
@@ -588,6 +601,7 @@ fn write_s_picture(
     args: &SPictureArgs,
     view_dir: nalgebra::Vector3<f64>,
     size: (u32, u32),
+    report: &ConformalityReport,
 ) -> Result<Option<PathBuf>> {
     let Some(path) = &args.s_picture else {
         return Ok(None);
@@ -599,7 +613,7 @@ fn write_s_picture(
         ..Default::default()
     };
     save_png(
-        &s_picture(mesh, measured, args.s_view.into(), &options)?,
+        &s_picture(mesh, measured, args.s_view.into(), &options, &report.by_bin)?,
         path,
     )?;
     Ok(Some(path.clone()))
