@@ -41,6 +41,13 @@ fn edge_mismatch_is_zero_under_a_mobius_map_and_symmetric() {
     let cr = |q: [C; 4]| cross_ratio(q[0], q[1], q[2], q[3]);
     let direct = (cr(affine) / cr(z)).ln().norm();
     assert!((direct - m).abs() < TOL, "{direct} vs {m}");
+    // Scale- and translation-free: coordinates near f64's range give the same figure, and a
+    // quad that cannot be normalised gives NaN (no value), never ∞.
+    let far = |q: [C; 4], k: f64| q.map(|p| p * k + C::new(3.0 * k, -k));
+    assert!((edge_mismatch(far(z, 1e300), far(affine, 1e-300)) - m).abs() < TOL);
+    assert!(edge_mismatch([z[0]; 4], affine).is_nan());
+    let huge = [C::new(-1.5e308, 0.0), C::new(1.5e308, 0.0), z[2], z[3]];
+    assert!(edge_mismatch(huge, affine).is_nan());
 }
 
 #[test]

@@ -13,10 +13,13 @@
 //! The paper (Rorberg, Vaxman, Ben-Chen 2023) claims lower quasi-conformal distortion than
 //! piecewise-linear interpolation on its inputs, which are discrete conformal
 //! parameterisations (the authors' repository, shirrorbe/BPM, generates them with BFF and
-//! the CETM benchmark, `External/Generate_Input`, `External/CETMBenchmark-main`); the seed
-//! does not discuss the input's conformality. On artist UVs (spot, blub) the mismatch is large
-//! over much of the surface and BPM is worse than linear there: see [`s_distribution`] and the
-//! warning `reparam bpm qc` prints ([`needs_warning`]).
+//! the CETM benchmark, `External/Generate_Input`, `External/CETMBenchmark-main`). The seed
+//! (004) does not name the assumption, but its §3 ("Speckling") meets the consequence: "under
+//! conditions of large distortion" the blended maps "map the inside of triangles to the outside
+//! of their targets". On artist UVs (spot, blub) the mismatch is large over much of the surface
+//! and BPM is worse than linear there (spot: 27% of the area has s ≥ 1, BPM's mean QC 4.95
+//! against linear's 3.38 there): see [`s_distribution`] and the warning `reparam bpm qc`
+//! prints ([`needs_warning`]).
 
 use num_complex::Complex64 as C;
 use rayon::prelude::*;
@@ -56,7 +59,8 @@ impl Default for ConformalityOptions {
 pub struct Conformality {
     /// `edge[f][e]`: |log(CR_w / CR_z)| of local edge e of face f ([`edge_mismatch`]); the
     /// larger of the two faces' values (they differ only where exactly one of the two faces is
-    /// mirrored in UV); NaN where there is no interior, non-degenerate neighbour.
+    /// mirrored in UV); NaN where there is no interior, non-degenerate neighbour (or the
+    /// quad cannot be normalised, see [`edge_mismatch`]).
     pub edge: Vec<[f64; 3]>,
     /// Per face s = max over its edges (0 for a face without a measured edge, NaN for a
     /// degenerate face, which BPM interpolates linearly).
@@ -78,14 +82,33 @@ pub fn cross_ratio(a: C, b: C, c: C, d: C) -> C {
 /// z_d))| with the principal log, i.e. √(ln²|m| + arg²m), arg ∈ (−π, π]. The quad is the edge
 /// a→b, t's third corner c and the neighbour's apex d, in the flat layout z (the isometric
 /// unfolding, seed step 2) and in UV w. 0 for a discrete conformal map; symmetric under
-/// m ↦ 1/m, so the order of a, b and of c, d does not matter. Computed as ln|CR_w| − ln|CR_z|
-/// and arg(CR_w · conj CR_z), without forming the quotient.
+/// m ↦ 1/m, so the order of a, b and of c, d does not matter. Each quad is first moved to a
+/// at the origin and scaled to unit size ([`unit_quad`]; the cross-ratio is invariant under
+/// both), so coordinates of any finite size give finite products; then ln|CR_w| − ln|CR_z| and
+/// arg(CR_w · conj CR_z), without forming the quotient. NaN when a quad cannot be normalised
+/// (coinciding or overflowing points).
 pub fn edge_mismatch(z: [C; 4], w: [C; 4]) -> f64 {
+    let (Some(z), Some(w)) = (unit_quad(z), unit_quad(w)) else {
+        return f64::NAN;
+    };
     let cr_z = cross_ratio(z[0], z[1], z[2], z[3]);
     let cr_w = cross_ratio(w[0], w[1], w[2], w[3]);
     let log_modulus = cr_w.norm().ln() - cr_z.norm().ln();
     let angle = (cr_w * cr_z.conj()).arg();
-    log_modulus.hypot(angle)
+    let m = log_modulus.hypot(angle);
+    if m.is_finite() {
+        m
+    } else {
+        f64::NAN
+    }
+}
+
+/// (q_k − q_0) / max_k |q_k − q_0|: the quad translated and scaled to unit size; `None` when
+/// that size is zero or not finite.
+fn unit_quad(q: [C; 4]) -> Option<[C; 4]> {
+    let d = q.map(|p| p - q[0]);
+    let size = d.iter().map(|p| p.norm()).fold(0.0, f64::max);
+    (size > 0.0 && size.is_finite()).then(|| d.map(|p| p / size))
 }
 
 /// The three edge mismatches of one star ([`edge_mismatch`] on edges ij, jk, ki with t's
@@ -202,8 +225,11 @@ pub fn s_distribution(c: &Conformality) -> SDistribution {
         }
     }
     let total: f64 = area.iter().sum();
-    // No measured area (every face degenerate): shares and mean 0, never NaN.
-    let per_area = |x: f64| if total > 0.0 { x / total } else { 0.0 };
+    // No measured area (every face degenerate) or areas beyond f64's range: 0, never NaN.
+    let per_area = |x: f64| match x / total {
+        r if r.is_finite() => r,
+        _ => 0.0,
+    };
     SDistribution {
         bin_edges: S_BIN_EDGES,
         area_share: area.map(per_area),
@@ -226,10 +252,9 @@ pub fn area_share_at_least(c: &Conformality, threshold: f64) -> f64 {
             above += a;
         }
     }
-    if total > 0.0 {
-        above / total
-    } else {
-        0.0
+    match above / total {
+        r if r.is_finite() => r,
+        _ => 0.0,
     }
 }
 

@@ -382,7 +382,9 @@ struct FaceRow {
     face: usize,
     #[serde(skip_serializing_if = "Option::is_none")]
     s: Option<f64>,
-    area: f64,
+    /// Absent when it overflows f64.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    area: Option<f64>,
     bpm: FaceFigures,
     linear: FaceFigures,
 }
@@ -560,7 +562,7 @@ fn face_rows(run: &QcRun, measured: &Conformality) -> Vec<FaceRow> {
         .map(|f| FaceRow {
             face: f,
             s: Some(measured.face_s[f]).filter(|s| s.is_finite()),
-            area: measured.face_area[f],
+            area: Some(measured.face_area[f]).filter(|a| a.is_finite()),
             bpm: (&run.bpm_faces[f]).into(),
             linear: (&run.linear_faces[f]).into(),
         })
