@@ -347,3 +347,39 @@ fn the_authors_unfolding_and_vertex_rule_reproduce_their_code_on_a_folded_star()
     let per_face = qc_protocol_faces(&bpm, Interp::Bpm, 4, None).0.mean;
     assert!(!close(per_face, 2.168216422), "{per_face}");
 }
+
+/// The authors' code has no orientation fix: under `Unfold::Authors` a face with clockwise UVs
+/// keeps its counter-clockwise layout (on spot this gives their 2.571507 instead of 2.28913),
+/// while the report still counts the clockwise faces and folds are counted against the UV
+/// triangle's orientation (so linear interpolation, exact and per face, has none in both).
+#[test]
+fn the_authors_layout_does_not_mirror_clockwise_uv_faces() {
+    let mesh = procedural::two_charts_mirrored(3);
+    let run = |unfold: Unfold| {
+        let bpm = precompute(
+            &mesh,
+            BpmOptions {
+                unfold,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let linear = qc_protocol(&bpm, Interp::Linear, 2);
+        (bpm, linear)
+    };
+    let (correct, linear_correct) = run(Unfold::Correct);
+    let (authors, linear_authors) = run(Unfold::Authors);
+    let clockwise = correct.maps.iter().filter(|t| t.mirrored).count();
+    assert!(clockwise > 0 && clockwise < mesh.face_count());
+    assert!(authors.maps.iter().all(|t| !t.mirrored));
+    assert_eq!(authors.report.mirrored_faces, clockwise);
+    assert_eq!(correct.report.mirrored_faces, clockwise);
+    assert_eq!(linear_correct.folded, 0);
+    assert_eq!(linear_authors.folded, 0);
+    assert!((linear_correct.mean - linear_authors.mean).abs() < 1e-12);
+    // The clockwise chart's Möbius maps turn its triangles inside out: BPM is far off there.
+    let bpm_correct = qc_protocol(&correct, Interp::Bpm, 2).mean;
+    let bpm_authors = qc_protocol(&authors, Interp::Bpm, 2).mean;
+    assert!(bpm_correct < 1.0 + 1e-9, "{bpm_correct}");
+    assert!(bpm_authors > 10.0, "{bpm_authors}");
+}

@@ -24,7 +24,7 @@ pub struct QcStats {
     pub p95: f64,
     pub p99: f64,
     pub max: f64,
-    /// Sub-triangles whose image is reversed (det < 0).
+    /// Sub-triangles whose image is reversed against the face's UV triangle.
     pub folded: usize,
     /// Sub-triangles whose image is degenerate (σ_min = 0, QC = ∞), left out of the figures.
     pub collapsed: usize,
@@ -137,7 +137,10 @@ pub struct FaceQc {
 /// [`qc_protocol`] with the per-face figures as well, and optionally the authors' vertex rule
 /// ([`super::vertex_rule`]): with `owners`, a sub-vertex another face owns is evaluated by that
 /// face (`owners` must be built for the same mesh and `subdiv`). Each sub-triangle's record is
-/// (QC, area, folded) as in [`quasi_conformal`]; a face's [`FaceQc`] summarises its own 4ⁿ.
+/// (QC, area, folded), folded meaning the image's orientation differs from the face's UV
+/// triangle's ([`quasi_conformal`]'s reversal against the layout, corrected where the layout is
+/// not mirrored to the UV orientation, see `layout_against_uv`); a face's [`FaceQc`]
+/// summarises its own 4ⁿ.
 pub fn qc_protocol_faces(
     bpm: &Bpm,
     interp: Interp,
@@ -147,12 +150,14 @@ pub fn qc_protocol_faces(
     let per_face: Vec<Vec<(f64, f64, bool)>> =
         sub_triangle_images_with(bpm, interp, subdiv, owners)
             .into_iter()
-            .map(|face| {
+            .enumerate()
+            .map(|(f, face)| {
+                let flip = layout_against_uv(&bpm.maps[f]);
                 face.into_iter()
                     .map(|(z, w)| {
-                        let (qc, folded) = quasi_conformal(z, w);
+                        let (qc, reversed) = quasi_conformal(z, w);
                         let area = 0.5 * super::precompute::signed_area2(z[0], z[1], z[2]).abs();
-                        (qc, area, folded)
+                        (qc, area, reversed != flip)
                     })
                     .collect()
             })
@@ -166,6 +171,15 @@ pub fn qc_protocol_faces(
         skipped_faces,
     );
     (stats, faces)
+}
+
+/// Whether face t's layout and UV triangle have opposite orientations: never under the
+/// correct unfolding (the layout is mirrored to match), true for a clockwise UV face under the
+/// authors' (no orientation fix). A sub-triangle is folded when its image's orientation differs
+/// from the UV triangle's, i.e. reversed against the layout XOR this.
+fn layout_against_uv(t: &super::precompute::TriangleMaps) -> bool {
+    use super::precompute::{signed_area2, uv_clockwise};
+    (signed_area2(t.z[0], t.z[1], t.z[2]) < 0.0) != uv_clockwise(t.uv)
 }
 
 /// A face's [`FaceQc`] from its sub-triangles' (QC, area, folded) records.
