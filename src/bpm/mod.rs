@@ -18,11 +18,14 @@
 //! | SL(2,C) maps, fits, exp/log | 3, 4, 8 | [`moebius`] |
 //! | star layout (correct or authors' unfolding, [`Unfold`]), orientation fix, log ratios | 2–5 | [`precompute()`] |
 //! | edge-barycentric weights, blending, evaluation | 6–9 | [`eval`] |
-//! | quality protocol (QC = σmax/σmin) | authors' protocol | [`quality`] |
+//! | quality protocol (QC = σmax/σmin), per-face figures | authors' protocol | [`quality`] |
+//! | which face evaluates a shared sub-vertex (the authors' rule) | authors' code | [`vertex_rule`] |
+//! | the input map's conformality (cross-ratio mismatch s) | BPM's assumption (issue #36) | [`conformality`] |
 //!
 //! Entry points: [`precompute()`](precompute::precompute) then [`Bpm::eval`] /
 //! [`Bpm::eval_many`]; [`quality::qc_protocol`] for the distortion figures.
 
+pub mod conformality;
 pub mod eval;
 #[cfg(feature = "gpu")]
 pub mod gpu;
@@ -30,6 +33,7 @@ pub mod moebius;
 pub mod precompute;
 pub mod quality;
 pub mod render;
+pub mod vertex_rule;
 
 pub use eval::{
     edge_weights, edge_weights_distance, eval_bpm, eval_linear, face_samples, Interp, Sample,
@@ -39,4 +43,5 @@ pub use moebius::{ExpLog, Mobius, Sl2};
 pub use precompute::{
     precompute, Bpm, BpmOptions, Fit, Order, PrecomputeReport, TriangleMaps, Unfold,
 };
-pub use quality::{qc_protocol, QcStats};
+pub use quality::{qc_protocol, qc_protocol_faces, FaceQc, QcStats};
+pub use vertex_rule::{authors_vertex_owners, VertexOwners, VertexRule};

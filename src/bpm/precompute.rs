@@ -59,8 +59,11 @@ pub enum Unfold {
     /// Hinge rotation by the full fold angle (ρ = 0): the isometric unfolding. Default.
     #[default]
     Correct,
-    /// The authors' code (ρ = max(0, 2φ − π)), to reproduce the published figures. Differs from
-    /// `Correct` only for neighbours folded past 90°.
+    /// The authors' code (ρ = max(0, 2φ − π)), to reproduce the published figures. Their code
+    /// also lays out a face whose UV triangle is clockwise without mirroring it (no orientation
+    /// fix: its Möbius map takes the counter-clockwise layout to the clockwise UV triangle, seed
+    /// §1.2's "infinite amount of texture"), and so does this option. Differs from `Correct`
+    /// only for neighbours folded past 90° and for faces with clockwise UVs.
     Authors,
 }
 
@@ -109,7 +112,8 @@ pub struct TriangleMaps {
     pub logs: [Sl2; 3],
     /// Degenerate face (zero 3D or UV area): evaluated by linear interpolation.
     pub fallback_linear: bool,
-    /// The star's layout was mirrored because t's UV triangle is clockwise.
+    /// The star's layout was mirrored because t's UV triangle is clockwise (never under
+    /// [`Unfold::Authors`]).
     pub mirrored: bool,
 }
 
@@ -120,7 +124,8 @@ pub struct PrecomputeReport {
     /// Faces with zero 3D or UV area (linear fallback), first few ids listed below.
     pub degenerate_faces: usize,
     pub degenerate_examples: Vec<usize>,
-    /// Faces whose UV triangle is clockwise (mirrored layout).
+    /// Faces whose UV triangle is clockwise (mirrored layout under [`Unfold::Correct`]; the
+    /// authors' code, [`Unfold::Authors`], does not mirror them).
     pub mirrored_faces: usize,
     pub boundary_edges: usize,
     pub seam_edges: usize,
@@ -174,7 +179,10 @@ pub fn precompute(mesh: &TriMesh, options: BpmOptions) -> Result<Bpm> {
         faces: mesh.face_count(),
         degenerate_faces: degenerate_ids.len(),
         degenerate_examples: degenerate_ids.into_iter().take(10).collect(),
-        mirrored_faces: maps.iter().filter(|m| m.mirrored).count(),
+        mirrored_faces: stars
+            .iter()
+            .filter(|star| uv_clockwise([star.w[0], star.w[1], star.w[2]]))
+            .count(),
         boundary_edges: adjacency.boundary_edges,
         seam_edges: adjacency.seam_edges,
         non_manifold_edges: adjacency.non_manifold_edges,
@@ -253,6 +261,11 @@ pub fn is_degenerate(mesh: &TriMesh, f: usize) -> bool {
         || !(area2 > DEGENERATE_RELATIVE_AREA * longest2 * longest2)
 }
 
+/// Whether a UV triangle is clockwise (negative [`signed_area2`]).
+pub fn uv_clockwise(w: [C; 3]) -> bool {
+    signed_area2(w[0], w[1], w[2]) < 0.0
+}
+
 /// Signed area (×2) of a triangle of complex points: Im((b − a) · conj(c − a)) with the sign
 /// flipped so that counter-clockwise is positive.
 pub fn signed_area2(a: C, b: C, c: C) -> f64 {
@@ -266,8 +279,9 @@ pub fn signed_area2(a: C, b: C, c: C) -> f64 {
 /// each neighbour's apex is unfolded across its edge by [`place_apex`] ([`Unfold::Correct`]) or
 /// [`place_apex_authors`] ([`Unfold::Authors`]). If t's UV triangle is clockwise, the whole star
 /// is mirrored (z ↦ z̄) so the layout and UV orientations agree; otherwise "each triangle maps
-/// to an infinite amount of texture" (seed §1.2). Returns the six layout points and whether the
-/// star was mirrored.
+/// to an infinite amount of texture" (seed §1.2). The authors' code does not mirror, and
+/// neither does [`Unfold::Authors`]. Returns the six layout points and whether the star was
+/// mirrored.
 pub fn star_layout(p: &[Point3<f64>; 6], w_t: [C; 3], unfold: Unfold) -> ([C; 6], bool) {
     let ej = p[1] - p[0];
     let length = ej.norm();
@@ -284,7 +298,8 @@ pub fn star_layout(p: &[Point3<f64>; 6], w_t: [C; 3], unfold: Unfold) -> ([C; 6]
             Unfold::Authors => place_apex_authors(z[a], z[b], &p[a], &p[b], &normal, &p[3 + e]),
         };
     }
-    let mirrored = signed_area2(w_t[0], w_t[1], w_t[2]) < 0.0;
+    // The authors' code has no orientation fix (see `Unfold::Authors`).
+    let mirrored = unfold == Unfold::Correct && uv_clockwise(w_t);
     if mirrored {
         for zn in &mut z {
             *zn = zn.conj();

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use super::eval::Interp;
 use super::moebius::c_abs;
 use super::precompute::Bpm;
+use super::vertex_rule::{grid_index, VertexOwners};
 use crate::error::{Error, Result};
 
 /// Distortion statistics over all sub-triangles. Percentiles and the mean are weighted by the
@@ -23,7 +24,7 @@ pub struct QcStats {
     pub p95: f64,
     pub p99: f64,
     pub max: f64,
-    /// Sub-triangles whose image is reversed (det < 0).
+    /// Sub-triangles whose image is reversed against the face's UV triangle.
     pub folded: usize,
     /// Sub-triangles whose image is degenerate (σ_min = 0, QC = ∞), left out of the figures.
     pub collapsed: usize,
@@ -63,12 +64,6 @@ fn grid_bary(r: usize, s: usize, n: usize) -> [f64; 3] {
 /// The grid vertices (r, s), r + s ≤ n, row by row (s outer), in the order [`grid_index`] numbers them.
 fn grid_points(n: usize) -> impl Iterator<Item = (usize, usize)> {
     (0..=n).flat_map(move |s| (0..=n - s).map(move |r| (r, s)))
-}
-
-/// Position of grid vertex (r, s) in [`grid_points`] order: rows s' < s hold Σ (n + 1 − s')
-/// vertices.
-fn grid_index(r: usize, s: usize, n: usize) -> usize {
-    s * (n + 1) - s * (s.saturating_sub(1)) / 2 + r
 }
 
 /// The sub-triangles of the grid as triples of (r, s) indices: "up" (r,s),(r+1,s),(r,s+1) and
@@ -118,30 +113,123 @@ pub fn check_qc_size(mesh: &str, faces: usize, subdiv: u32) -> Result<()> {
 
 /// Run the QC protocol with `subdiv` 1→4 subdivisions per face (n = 4 gives 256 sub-triangles).
 pub fn qc_protocol(bpm: &Bpm, interp: Interp, subdiv: u32) -> QcStats {
-    let per_face: Vec<Vec<(f64, f64, bool)>> = sub_triangle_images(bpm, interp, subdiv)
-        .into_iter()
-        .map(|face| {
-            face.into_iter()
-                .map(|(z, w)| {
-                    let (qc, folded) = quasi_conformal(z, w);
-                    let area = 0.5 * super::precompute::signed_area2(z[0], z[1], z[2]).abs();
-                    (qc, area, folded)
-                })
-                .collect()
-        })
-        .collect();
+    qc_protocol_faces(bpm, interp, subdiv, None).0
+}
+
+/// One input face's QC figures under one interpolant (`bpm qc --per-face`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FaceQc {
+    /// Area-weighted mean QC over the face's sub-triangles with finite QC (NaN for a
+    /// degenerate face, which the protocol skips).
+    pub mean: f64,
+    /// Largest finite QC of its sub-triangles (NaN for a degenerate face).
+    pub max: f64,
+    /// Sub-triangles whose image is reversed.
+    pub folded: u32,
+    /// Sub-triangles whose image is degenerate (QC = ∞, left out of `mean` and `max`).
+    pub collapsed: u32,
+    /// Σ area of the sub-triangles with finite QC (the weight of `mean`; the face's area when
+    /// none collapsed): Σ_f mean_f · measured_area_f over any set of faces is the protocol's
+    /// area-weighted sum over their sub-triangles.
+    pub measured_area: f64,
+}
+
+/// [`qc_protocol`] with the per-face figures as well, and optionally the authors' vertex rule
+/// ([`super::vertex_rule`]): with `owners`, a sub-vertex another face owns is evaluated by that
+/// face (`owners` must be built for the same mesh and `subdiv`). Each sub-triangle's record is
+/// (QC, area, folded), folded meaning the image's orientation differs from the face's UV
+/// triangle's ([`quasi_conformal`]'s reversal against the layout, corrected where the layout is
+/// not mirrored to the UV orientation, see `layout_against_uv`); a face's [`FaceQc`]
+/// summarises its own 4ⁿ.
+pub fn qc_protocol_faces(
+    bpm: &Bpm,
+    interp: Interp,
+    subdiv: u32,
+    owners: Option<&VertexOwners>,
+) -> (QcStats, Vec<FaceQc>) {
+    let per_face: Vec<Vec<(f64, f64, bool)>> =
+        sub_triangle_images_with(bpm, interp, subdiv, owners)
+            .into_iter()
+            .enumerate()
+            .map(|(f, face)| {
+                let flip = layout_against_uv(&bpm.maps[f]);
+                face.into_iter()
+                    .map(|(z, w)| {
+                        let (qc, reversed) = quasi_conformal(z, w);
+                        let area = 0.5 * super::precompute::signed_area2(z[0], z[1], z[2]).abs();
+                        (qc, area, reversed != flip)
+                    })
+                    .collect()
+            })
+            .collect();
+    let faces = per_face.iter().map(|records| face_qc(records)).collect();
     let skipped_faces = bpm.maps.iter().filter(|t| t.fallback_linear).count();
-    summarise(
+    let stats = summarise(
         per_face.into_iter().flatten().collect(),
         interp,
         subdiv,
         skipped_faces,
-    )
+    );
+    (stats, faces)
+}
+
+/// Whether face t's layout and UV triangle have opposite orientations: never under the
+/// correct unfolding (the layout is mirrored to match), true for a clockwise UV face under the
+/// authors' (no orientation fix). A sub-triangle is folded when its image's orientation differs
+/// from the UV triangle's, i.e. reversed against the layout XOR this.
+fn layout_against_uv(t: &super::precompute::TriangleMaps) -> bool {
+    use super::precompute::{signed_area2, uv_clockwise};
+    (signed_area2(t.z[0], t.z[1], t.z[2]) < 0.0) != uv_clockwise(t.uv)
+}
+
+/// A face's [`FaceQc`] from its sub-triangles' (QC, area, folded) records.
+fn face_qc(records: &[(f64, f64, bool)]) -> FaceQc {
+    let finite = || records.iter().filter(|x| x.0.is_finite());
+    let measured_area: f64 = finite().map(|x| x.1).sum();
+    let finite_count = finite().count();
+    let (mean, max) = match finite_count {
+        0 => (f64::NAN, f64::NAN),
+        _ => (
+            finite().map(|x| x.0 * x.1).sum::<f64>() / measured_area,
+            finite().map(|x| x.0).fold(f64::NEG_INFINITY, f64::max),
+        ),
+    };
+    FaceQc {
+        mean,
+        max,
+        folded: records.iter().filter(|x| x.2).count() as u32,
+        collapsed: (records.len() - finite_count) as u32,
+        measured_area,
+    }
+}
+
+/// Area-weighted mean QC over the faces selected by `keep` (Σ mean_f · measured_area_f / Σ
+/// measured_area_f, faces without a finite figure left out); NaN when none is left.
+pub fn mean_over_faces(faces: &[FaceQc], keep: impl Fn(usize) -> bool) -> f64 {
+    let (mut sum, mut area) = (0.0, 0.0);
+    for (f, q) in faces.iter().enumerate() {
+        if keep(f) && q.mean.is_finite() {
+            sum += q.mean * q.measured_area;
+            area += q.measured_area;
+        }
+    }
+    sum / area
 }
 
 /// Every sub-triangle of the protocol as (layout z, image w), face by face in order (none for
 /// a degenerate face): the grid of `2^subdiv` segments per edge, each grid vertex evaluated once.
 pub fn sub_triangle_images(bpm: &Bpm, interp: Interp, subdiv: u32) -> Vec<Vec<([C; 3], [C; 3])>> {
+    sub_triangle_images_with(bpm, interp, subdiv, None)
+}
+
+/// [`sub_triangle_images`], with the sub-vertices `owners` lists evaluated by their owner face
+/// (the authors' vertex rule); the layout z stays the face's own.
+pub fn sub_triangle_images_with(
+    bpm: &Bpm,
+    interp: Interp,
+    subdiv: u32,
+    owners: Option<&VertexOwners>,
+) -> Vec<Vec<([C; 3], [C; 3])>> {
     let n = 1usize << subdiv;
     let subs = sub_triangles(n);
     (0..bpm.maps.len())
@@ -152,7 +240,7 @@ pub fn sub_triangle_images(bpm: &Bpm, interp: Interp, subdiv: u32) -> Vec<Vec<([
                 return Vec::new();
             }
             // Each grid vertex is shared by up to six sub-triangles: evaluate it once.
-            let grid: Vec<(C, C)> = grid_points(n)
+            let mut grid: Vec<(C, C)> = grid_points(n)
                 .map(|(r, s)| {
                     let b = grid_bary(r, s, n);
                     (
@@ -161,6 +249,11 @@ pub fn sub_triangle_images(bpm: &Bpm, interp: Interp, subdiv: u32) -> Vec<Vec<([
                     )
                 })
                 .collect();
+            if let Some(owners) = owners {
+                for borrowed in &owners.borrowed[f] {
+                    grid[borrowed.grid_index].1 = bpm.eval(borrowed.owner, borrowed.bary, interp);
+                }
+            }
             let point = |(r, s): (usize, usize)| grid[grid_index(r, s, n)];
             subs.iter()
                 .map(|tri| {

@@ -3,10 +3,17 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use crate::bpm::render::{render_cpu, RenderOptions};
-use crate::bpm::{
-    precompute, qc_protocol, BpmOptions, Fit, Interp, PrecomputeReport, QcStats, Unfold,
+use crate::bpm::conformality::{
+    conformality, conformality_report, Conformality, ConformalityOptions, ConformalityReport,
+    FaceMeans,
 };
+use crate::bpm::quality::check_qc_size;
+use crate::bpm::render::{render_cpu, s_picture, RenderOptions, SView};
+use crate::bpm::{
+    authors_vertex_owners, precompute, qc_protocol_faces, Bpm, BpmOptions, FaceQc, Fit, Interp,
+    PrecomputeReport, QcStats, Unfold, VertexRule,
+};
+use crate::mesh::{Adjacency, TriMesh};
 use crate::report::sig;
 use crate::texture::save_png;
 use crate::Result;
@@ -81,6 +88,37 @@ impl From<UnfoldArg> for Unfold {
     }
 }
 
+/// `--s-view`: where the s picture looks at the mesh from ([`SView`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum SViewArg {
+    /// The 3D surface, from --view.
+    #[default]
+    Surface,
+    /// The UV layout.
+    Uv,
+}
+
+impl From<SViewArg> for SView {
+    fn from(a: SViewArg) -> SView {
+        match a {
+            SViewArg::Surface => SView::Surface,
+            SViewArg::Uv => SView::Uv,
+        }
+    }
+}
+
+/// The conformality picture's options, shared by `render` and `qc`.
+#[derive(Args)]
+pub struct SPictureArgs {
+    /// Also write a PNG colouring every face by its cross-ratio mismatch s (the input map's
+    /// distance from conformal, BPM's assumption), with a legend of the area shares.
+    #[arg(long, value_name = "PNG")]
+    pub s_picture: Option<PathBuf>,
+    /// View of the s picture: the 3D surface (from --view) or the UV layout.
+    #[arg(long, value_enum, default_value = "surface")]
+    pub s_view: SViewArg,
+}
+
 #[derive(Args)]
 pub struct RenderArgs {
     /// OBJ file (with `vt` and optionally an MTL texture) or `procedural:<name>`.
@@ -110,6 +148,8 @@ pub struct RenderArgs {
     /// Output PNG.
     #[arg(short, long, default_value = "out/bpm_render.png")]
     pub output: PathBuf,
+    #[command(flatten)]
+    pub s_picture: SPictureArgs,
     /// Print machine-readable results.
     #[arg(long)]
     pub json: bool,
@@ -124,9 +164,23 @@ pub struct QcArgs {
     pub subdiv: u32,
     #[arg(long, value_enum, default_value = "local")]
     pub fit: FitArg,
-    /// Neighbour layout: `authors` reproduces the authors' code and the published figures.
+    /// Neighbour layout: `authors` reproduces the authors' code and the published figures
+    /// (their rotation, and their rule that each shared sub-vertex is evaluated once, by the
+    /// face of its last occurrence in their subdivided face list).
     #[arg(long, value_enum, default_value = "correct")]
     pub unfold: UnfoldArg,
+    /// Write the per-face figures as a NumPy .npy array, faces × 8 float64 columns: 0 BPM mean
+    /// QC, 1 BPM max QC, 2 linear mean QC, 3 linear max QC (area-weighted over the face's
+    /// sub-triangles; NaN for a degenerate face), 4 s (cross-ratio mismatch; NaN for a
+    /// degenerate face), 5 3D area, 6 BPM folded sub-triangles, 7 linear folded sub-triangles.
+    #[arg(long, value_name = "NPY")]
+    pub per_face: Option<PathBuf>,
+    /// With --json: include the per-face figures (`faces`: face, s, area, bpm and linear mean,
+    /// max, folded).
+    #[arg(long, requires = "json")]
+    pub json_faces: bool,
+    #[command(flatten)]
+    pub s_picture: SPictureArgs,
     /// Print machine-readable results.
     #[arg(long)]
     pub json: bool,
@@ -149,6 +203,9 @@ struct RenderResult {
     width: u32,
     height: u32,
     precompute: PrecomputeReport,
+    conformality: ConformalityReport,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    s_picture: Option<PathBuf>,
     seconds: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     adapter: Option<String>,
@@ -164,6 +221,7 @@ fn render(args: RenderArgs) -> Result<()> {
                 .into(),
         ));
     }
+    check_extension(args.s_picture.s_picture.as_deref(), "png", "--s-picture")?;
     let mesh = load_mesh(&args.mesh)?;
     let bpm_options = BpmOptions {
         fit: args.fit.into(),
@@ -172,6 +230,8 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     let bpm = precompute(&mesh, bpm_options)?;
     let texture = resolve_texture(&mesh, args.texture.as_deref())?;
+    let measured = conformality(&mesh)?;
+    let conformality = render_conformality_report(&mesh, &bpm, &measured)?;
     let options = RenderOptions {
         width: args.size.0,
         height: args.size.1,
@@ -186,6 +246,14 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     let seconds = start.elapsed().as_secs_f64();
     save_png(&image, &args.output)?;
+    let s_picture_path = write_s_picture(
+        &mesh,
+        &measured,
+        &args.s_picture,
+        args.view,
+        args.size,
+        &conformality,
+    )?;
     let result = RenderResult {
         mesh: mesh.name.clone(),
         output: args.output.clone(),
@@ -195,6 +263,8 @@ fn render(args: RenderArgs) -> Result<()> {
         width: options.width,
         height: options.height,
         precompute: bpm.report.clone(),
+        conformality,
+        s_picture: s_picture_path,
         seconds,
         adapter,
         versus_cpu,
@@ -212,6 +282,7 @@ fn render(args: RenderArgs) -> Result<()> {
         sig(seconds, 3)
     );
     print_precompute_report(&bpm.report);
+    print_conformality(&result.conformality, result.s_picture.as_deref());
     if let Some(d) = &result.versus_cpu {
         outln!(
             "versus the CPU render: PSNR {} dB, {}% of pixels differ by more than 1/255, max {}",
@@ -290,15 +361,89 @@ struct QcResult {
     mesh: String,
     subdiv: u32,
     unfold: Unfold,
+    /// Which face evaluates a sub-vertex shared by several faces (BPM; linear is per face).
+    vertex_rule: VertexRule,
     precompute: PrecomputeReport,
     linear: QcStats,
     bpm: QcStats,
+    conformality: ConformalityReport,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    per_face: Option<PathBuf>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    s_picture: Option<PathBuf>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    faces: Option<Vec<FaceRow>>,
     seconds: f64,
 }
 
+/// One face in `--json-faces` (figures that do not exist, for a degenerate face, are absent).
+#[derive(Serialize)]
+struct FaceRow {
+    face: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    s: Option<f64>,
+    /// Absent when it overflows f64.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    area: Option<f64>,
+    bpm: FaceFigures,
+    linear: FaceFigures,
+}
+
+#[derive(Serialize)]
+struct FaceFigures {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mean: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    max: Option<f64>,
+    folded: u32,
+}
+
+impl From<&FaceQc> for FaceFigures {
+    fn from(q: &FaceQc) -> FaceFigures {
+        FaceFigures {
+            mean: q.mean.is_finite().then_some(q.mean),
+            max: q.max.is_finite().then_some(q.max),
+            folded: q.folded,
+        }
+    }
+}
+
+/// The protocol's figures for both interpolants, overall and per face.
+struct QcRun {
+    linear: QcStats,
+    bpm: QcStats,
+    linear_faces: Vec<FaceQc>,
+    bpm_faces: Vec<FaceQc>,
+    vertex_rule: VertexRule,
+}
+
+/// Run the QC protocol for linear interpolation and BPM; under the authors' unfolding BPM's
+/// shared sub-vertices follow their vertex rule too ([`crate::bpm::vertex_rule`]).
+fn run_qc(mesh: &TriMesh, bpm: &Bpm, subdiv: u32) -> QcRun {
+    let vertex_rule = match bpm.options.unfold {
+        Unfold::Correct => VertexRule::PerFace,
+        Unfold::Authors => VertexRule::Authors,
+    };
+    let owners = match vertex_rule {
+        VertexRule::PerFace => None,
+        VertexRule::Authors => Some(authors_vertex_owners(mesh, &Adjacency::new(mesh), subdiv)),
+    };
+    let (linear, linear_faces) = qc_protocol_faces(bpm, Interp::Linear, subdiv, None);
+    let (bpm_stats, bpm_faces) = qc_protocol_faces(bpm, Interp::Bpm, subdiv, owners.as_ref());
+    QcRun {
+        linear,
+        bpm: bpm_stats,
+        linear_faces,
+        bpm_faces,
+        vertex_rule,
+    }
+}
+
 fn qc(args: QcArgs) -> Result<()> {
+    check_extension(args.per_face.as_deref(), "npy", "--per-face")?;
+    check_extension(args.s_picture.s_picture.as_deref(), "png", "--s-picture")?;
     let mesh = load_mesh(&args.mesh)?;
-    crate::bpm::quality::check_qc_size(&mesh.name, mesh.faces.len(), args.subdiv)?;
+    check_qc_size(&mesh.name, mesh.faces.len(), args.subdiv)?;
     let start = Instant::now();
     let bpm = precompute(
         &mesh,
@@ -308,18 +453,48 @@ fn qc(args: QcArgs) -> Result<()> {
             ..Default::default()
         },
     )?;
-    let linear = qc_protocol(&bpm, Interp::Linear, args.subdiv);
-    let bpm_stats = qc_protocol(&bpm, Interp::Bpm, args.subdiv);
-    for stats in [&linear, &bpm_stats] {
+    let run = run_qc(&mesh, &bpm, args.subdiv);
+    for stats in [&run.linear, &run.bpm] {
         check_measured(&mesh.name, &bpm.report, stats)?;
     }
+    let measured = conformality(&mesh)?;
+    let report = conformality_report(
+        &measured,
+        Some(FaceMeans {
+            bpm: &run.bpm_faces,
+            linear: &run.linear_faces,
+        }),
+        &ConformalityOptions::default(),
+    );
+    if let Some(path) = &args.per_face {
+        save_npy_f64(
+            path,
+            mesh.face_count(),
+            8,
+            &per_face_values(&run, &measured),
+        )?;
+    }
+    let default_view = RenderOptions::default().view_dir;
+    let s_picture_path = write_s_picture(
+        &mesh,
+        &measured,
+        &args.s_picture,
+        default_view,
+        (768, 768),
+        &report,
+    )?;
     let result = QcResult {
         mesh: mesh.name.clone(),
         subdiv: args.subdiv,
         unfold: bpm.options.unfold,
+        vertex_rule: run.vertex_rule,
         precompute: bpm.report.clone(),
-        linear,
-        bpm: bpm_stats,
+        faces: args.json_faces.then(|| face_rows(&run, &measured)),
+        linear: run.linear,
+        bpm: run.bpm,
+        conformality: report,
+        per_face: args.per_face.clone(),
+        s_picture: s_picture_path,
         seconds: start.elapsed().as_secs_f64(),
     };
     if args.json {
@@ -327,12 +502,184 @@ fn qc(args: QcArgs) -> Result<()> {
     }
     print_precompute_report(&bpm.report);
     outln!(
-        "QC = σmax/σmin over {} sub-triangles ({} subdivisions per face, {:?} unfolding), area-weighted:",
-        result.bpm.sub_triangles, args.subdiv, result.unfold
+        "QC = σmax/σmin over {} sub-triangles ({} subdivisions per face, {:?} unfolding, {:?} \
+         vertex rule), area-weighted:",
+        result.bpm.sub_triangles,
+        args.subdiv,
+        result.unfold,
+        result.vertex_rule
     );
     outln!("{}", qc_table(&[&result.linear, &result.bpm]));
+    print_conformality(&result.conformality, result.s_picture.as_deref());
+    if let Some(path) = &result.per_face {
+        outln!(
+            "wrote the per-face figures to {} (faces × 8, see --help)",
+            path.display()
+        );
+    }
     outln!("({} s)", sig(result.seconds, 3));
     Ok(())
+}
+
+/// `--per-face`: faces × 8 float64 (columns in [`QcArgs::per_face`]'s help), row-major.
+fn per_face_values(run: &QcRun, measured: &Conformality) -> Vec<f64> {
+    let faces = run.bpm_faces.len();
+    let mut values = Vec::with_capacity(8 * faces);
+    for f in 0..faces {
+        let (b, l) = (&run.bpm_faces[f], &run.linear_faces[f]);
+        values.extend([
+            b.mean,
+            b.max,
+            l.mean,
+            l.max,
+            measured.face_s[f],
+            measured.face_area[f],
+            b.folded as f64,
+            l.folded as f64,
+        ]);
+    }
+    values
+}
+
+/// Write `values` as a little-endian float64 C-order `.npy` array of shape `rows × columns`.
+fn save_npy_f64(path: &std::path::Path, rows: usize, columns: usize, values: &[f64]) -> Result<()> {
+    use npyz::WriterBuilder;
+    let io = |e: std::io::Error| crate::Error::io(path, e);
+    let mut bytes = Vec::new();
+    let mut writer = npyz::WriteOptions::<f64>::new()
+        .default_dtype()
+        .shape(&[rows as u64, columns as u64])
+        .writer(&mut bytes)
+        .begin_nd()
+        .map_err(io)?;
+    writer.extend(values.iter().copied()).map_err(io)?;
+    writer.finish().map_err(io)?;
+    std::fs::write(path, bytes).map_err(io)
+}
+
+fn face_rows(run: &QcRun, measured: &Conformality) -> Vec<FaceRow> {
+    (0..run.bpm_faces.len())
+        .map(|f| FaceRow {
+            face: f,
+            s: Some(measured.face_s[f]).filter(|s| s.is_finite()),
+            area: Some(measured.face_area[f]).filter(|a| a.is_finite()),
+            bpm: (&run.bpm_faces[f]).into(),
+            linear: (&run.linear_faces[f]).into(),
+        })
+        .collect()
+}
+
+/// `render`'s conformality report: the s distribution, and when it warns, BPM's and linear's
+/// QC where s ≥ 1 from the protocol at its default 4 subdivisions (left out, with a pointer
+/// to `bpm qc`, when the mesh is too large for it).
+fn render_conformality_report(
+    mesh: &TriMesh,
+    bpm: &Bpm,
+    measured: &Conformality,
+) -> Result<ConformalityReport> {
+    let options = ConformalityOptions::default();
+    let warn = crate::bpm::conformality::needs_warning(measured, &options);
+    if !warn || check_qc_size(&mesh.name, mesh.faces.len(), RENDER_QC_SUBDIV).is_err() {
+        return Ok(conformality_report(measured, None, &options));
+    }
+    let run = run_qc(mesh, bpm, RENDER_QC_SUBDIV);
+    Ok(conformality_report(
+        measured,
+        Some(FaceMeans {
+            bpm: &run.bpm_faces,
+            linear: &run.linear_faces,
+        }),
+        &options,
+    ))
+}
+
+/// Subdivisions of the QC `render` runs for its conformality warning (the `qc` default).
+const RENDER_QC_SUBDIV: u32 = 4;
+
+/// Write the s picture when asked; returns its path.
+fn write_s_picture(
+    mesh: &TriMesh,
+    measured: &Conformality,
+    args: &SPictureArgs,
+    view_dir: nalgebra::Vector3<f64>,
+    size: (u32, u32),
+    report: &ConformalityReport,
+) -> Result<Option<PathBuf>> {
+    let Some(path) = &args.s_picture else {
+        return Ok(None);
+    };
+    let options = RenderOptions {
+        width: size.0,
+        height: size.1,
+        view_dir,
+        ..Default::default()
+    };
+    save_png(
+        &s_picture(mesh, measured, args.s_view.into(), &options, &report.by_bin)?,
+        path,
+    )?;
+    Ok(Some(path.clone()))
+}
+
+/// [`crate::Error::InvalidArgument`] unless `path` (when given) ends in `.extension`.
+fn check_extension(path: Option<&std::path::Path>, extension: &str, flag: &str) -> Result<()> {
+    match path {
+        Some(p) if p.extension().and_then(|e| e.to_str()) != Some(extension) => {
+            Err(crate::Error::InvalidArgument(format!(
+                "{flag} {}: the file name must end in .{extension}",
+                p.display()
+            )))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The conformality report in text: the s distribution (with each bin's QC when measured) and
+/// the warning, if any.
+fn print_conformality(report: &ConformalityReport, picture: Option<&std::path::Path>) {
+    let d = &report.distribution;
+    outln!(
+        "input map conformality: s = max over a face's edges of |log(cr_uv / cr_3d)| (0 for a \
+         discrete conformal map); area-weighted mean {}, max {}{}",
+        sig(d.mean, 3),
+        sig(d.max, 3),
+        match d.unmeasured_faces {
+            0 => String::new(),
+            k => format!(", {k} degenerate faces left out"),
+        }
+    );
+    outln!("{}", s_table(report));
+    if let Some(path) = picture {
+        outln!("wrote the s picture to {}", path.display());
+    }
+    if let Some(w) = &report.warning {
+        outln!("warning: {}", w.message);
+    }
+}
+
+/// One row per s bin: area share, faces, and (when measured) BPM's and linear's mean QC.
+fn s_table(report: &ConformalityReport) -> String {
+    let d = &report.distribution;
+    let figure = |x: Option<f64>| x.map_or("-".to_string(), |v| sig(v, 4));
+    let mut s = format!(
+        "{:<12} {:>8} {:>7} {:>9} {:>9}\n",
+        "s", "area %", "faces", "bpm QC", "linear QC"
+    );
+    for bin in 0..5 {
+        let (bpm, linear) = match report.by_bin.get(bin) {
+            Some(b) => (b.bpm_mean, b.linear_mean),
+            None => (None, None),
+        };
+        s += &format!(
+            "{:<12} {:>8} {:>7} {:>9} {:>9}\n",
+            crate::bpm::conformality::S_BIN_LABELS[bin],
+            sig(100.0 * d.area_share[bin], 3),
+            d.faces[bin],
+            figure(bpm),
+            figure(linear)
+        );
+    }
+    s
 }
 
 /// The QC figures exist: at least one sub-triangle has a finite QC. When every face is

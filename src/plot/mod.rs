@@ -197,3 +197,66 @@ fn short(v: f64) -> String {
         format!("{v:.0e}")
     }
 }
+
+/// A legend panel, `width × height` on white: `title` (and the `notes` lines below it,
+/// smaller) at the top, then one filled colour box with its label per entry, one line each. Used beside
+/// pictures that colour a mesh by a quantity ([`crate::bpm::render::s_picture`]). Errors: a
+/// size outside 120 × 90 ..= 4096².
+pub fn legend_panel(
+    title: &str,
+    notes: &[String],
+    entries: &[(Rgba8, String)],
+    width: usize,
+    height: usize,
+) -> Result<Image<Rgba8>> {
+    if !(120..=4096).contains(&width) || !(90..=4096).contains(&height) {
+        return Err(Error::InvalidArgument(format!(
+            "legend '{title}': size {width}×{height} must be within 120×90 ..= 4096×4096"
+        )));
+    }
+    register_font();
+    let mut buffer = vec![255u8; width * height * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buffer, (width as u32, height as u32))
+            .into_drawing_area();
+        root.fill(&WHITE).map_err(draw_error)?;
+        let size = (height / 40).clamp(11, 18) as i32;
+        let line = size * 2;
+        let text = |s: &str, x: i32, y: i32, px: i32| {
+            Text::new(
+                s.to_string(),
+                (x, y),
+                (FAMILY, px).into_font().color(&BLACK),
+            )
+        };
+        root.draw(&text(title, 10, 10, size + 2))
+            .map_err(draw_error)?;
+        let note_line = size + 2;
+        for (k, note) in notes.iter().enumerate() {
+            root.draw(&text(note, 10, 10 + line + note_line * k as i32, size - 2))
+                .map_err(draw_error)?;
+        }
+        let top = 10 + line + note_line * notes.len() as i32 + line / 2;
+        for (k, (c, label)) in entries.iter().enumerate() {
+            let y = top + line * k as i32;
+            root.draw(&Rectangle::new(
+                [(10, y), (10 + size + 6, y + size + 2)],
+                colour(*c).filled(),
+            ))
+            .map_err(draw_error)?;
+            root.draw(&Rectangle::new(
+                [(10, y), (10 + size + 6, y + size + 2)],
+                BLACK,
+            ))
+            .map_err(draw_error)?;
+            root.draw(&text(label, 20 + size + 6, y, size))
+                .map_err(draw_error)?;
+        }
+        root.present().map_err(draw_error)?;
+    }
+    let mut image = Image::new(width, height, [255, 255, 255, 255]);
+    for (pixel, rgb) in image.pixels.iter_mut().zip(buffer.chunks_exact(3)) {
+        *pixel = [rgb[0], rgb[1], rgb[2], 255];
+    }
+    Ok(image)
+}
