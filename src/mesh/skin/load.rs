@@ -21,6 +21,7 @@ use super::{
     SceneNode, Skeleton, SkinnedMesh, Trs,
 };
 use crate::error::{Error, Result};
+use crate::input::{check_count, read_input, Reference};
 use crate::mesh::TriMesh;
 
 /// Options of [`load_gltf_with`].
@@ -95,7 +96,7 @@ pub fn load_gltf_with(path: &Path, options: &GltfOptions) -> Result<SkinnedMesh>
             let joint_count = skeleton.joints.len();
             let soup = file.read_node_mesh(&node, Some(joint_count), None, &mut report)?;
             report.mesh_nodes = vec![node.index()];
-            (soup, Some(skeleton), file.base_color_texture(&node))
+            (soup, Some(skeleton), file.base_color_texture(&node)?)
         }
         MeshChoice::Static(mesh_nodes) => {
             let rest: Vec<Trs> = nodes.iter().map(|n| n.rest).collect();
@@ -106,11 +107,11 @@ pub fn load_gltf_with(path: &Path, options: &GltfOptions) -> Result<SkinnedMesh>
                 soup.append(file.read_node_mesh(node, None, placement, &mut report)?);
             }
             report.mesh_nodes = mesh_nodes.iter().map(Node::index).collect();
-            (
-                soup,
-                None,
-                mesh_nodes.first().and_then(|n| file.base_color_texture(n)),
-            )
+            let texture = match mesh_nodes.first() {
+                Some(node) => file.base_color_texture(node)?,
+                None => None,
+            };
+            (soup, None, texture)
         }
     };
     report.skipped_mesh_nodes = file.mesh_node_count() - report.mesh_nodes.len();
@@ -210,7 +211,7 @@ const KEY_ROTATIONS: Expect = Expect {
 impl GltfFile {
     /// Read, parse and validate the file, and load its buffers.
     fn open(path: &Path) -> Result<GltfFile> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let bytes = read_input(path)?;
         let gltf::Gltf { document, mut blob } = parse_document(&bytes, path)?;
         let mut file = GltfFile {
             path: path.to_path_buf(),
@@ -234,36 +235,49 @@ impl GltfFile {
         }
     }
 
-    /// The bytes of one buffer: the GLB `BIN` chunk, a `data:` URI or a file next to the glTF.
+    /// The bytes of one buffer: the GLB `BIN` chunk, a `data:` URI or an external file. An
+    /// external file is read through [`Reference::read`]: by default inside the glTF's folder,
+    /// a regular file, at least `byteLength` bytes long, of which `byteLength` are read and no
+    /// more (`"uri": "/dev/urandom"` read until the memory ran out).
     fn load_buffer(
         &self,
         buffer: &gltf::Buffer,
         base: &Path,
         blob: &mut Option<Vec<u8>>,
     ) -> Result<Vec<u8>> {
-        let element = match buffer.source() {
-            gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => {
-                format!("buffer {} ({uri:?})", buffer.index())
-            }
-            _ => format!("buffer {}", buffer.index()),
-        };
+        let kind = format!("buffer {} URI", buffer.index());
+        let declared = buffer.length() as u64;
         if let gltf::buffer::Source::Uri(uri) = buffer.source() {
-            // The crate unwraps the percent-decoding of relative URIs: check it first.
-            if !uri.contains(':') && percent_decode(uri).is_none() {
-                return Err(self.error(element, "the URI is not valid percent-encoded UTF-8"));
+            if !uri.starts_with("data:") {
+                let written = external_path(uri).map_err(|m| self.reference(&kind, uri, m))?;
+                let reference = Reference {
+                    model: &self.path,
+                    kind: &kind,
+                    written: &written,
+                };
+                return reference.read(Some(declared), declared)?.map_err(|e| {
+                    let element = format!("buffer {} ({uri:?})", buffer.index());
+                    self.error(element, e.to_string())
+                });
             }
         }
         let data = gltf::buffer::Data::from_source_and_blob(buffer.source(), Some(base), blob)
-            .map_err(|e| self.error(&element, e.to_string()))?;
-        if data.0.len() < buffer.length() {
-            let message = format!(
-                "has {} bytes, the file declares {}",
-                data.0.len(),
-                buffer.length()
-            );
-            return Err(self.error(element, message));
+            .map_err(|e| self.error(format!("buffer {}", buffer.index()), e.to_string()))?;
+        if (data.0.len() as u64) < declared {
+            let message = format!("has {} bytes, the file declares {declared}", data.0.len());
+            return Err(self.error(format!("buffer {}", buffer.index()), message));
         }
         Ok(data.0)
+    }
+
+    /// An [`Error::Reference`] for the URI `uri` named by `kind` in this file.
+    fn reference(&self, kind: &str, uri: &str, reason: String) -> Error {
+        Reference {
+            model: &self.path,
+            kind,
+            written: uri,
+        }
+        .error(reason)
     }
 
     /// Every node with its name, parent and rest TRS. A node listed as the child of two nodes is
@@ -695,19 +709,37 @@ impl GltfFile {
             })
     }
 
-    /// The first primitive's base colour texture when it is an external image file.
-    fn base_color_texture(&self, node: &Node) -> Option<PathBuf> {
-        let dir = self.path.parent().unwrap_or(Path::new(""));
-        node.mesh()?.primitives().find_map(|primitive| {
+    /// The first primitive's base colour texture when it is an external image file, checked as
+    /// a reference ([`Reference::resolve_file`]: by default in the glTF's folder; a regular file
+    /// when it exists). A URI that is not a file path (`data:`, `http:`) is no texture here.
+    fn base_color_texture(&self, node: &Node) -> Result<Option<PathBuf>> {
+        let Some(mesh) = node.mesh() else {
+            return Ok(None);
+        };
+        let image = mesh.primitives().find_map(|primitive| {
             let material = primitive.material();
             let info = material.pbr_metallic_roughness().base_color_texture()?;
-            match info.texture().source().source() {
-                gltf::image::Source::Uri { uri, .. } if !uri.contains(':') => {
-                    Some(dir.join(percent_decode(uri)?))
+            Some(info.texture().source())
+        });
+        let Some(image) = image else {
+            return Ok(None);
+        };
+        match image.source() {
+            gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => {
+                let Ok(written) = external_path(uri) else {
+                    return Ok(None);
+                };
+                let kind = format!("image {} URI", image.index());
+                Reference {
+                    model: &self.path,
+                    kind: &kind,
+                    written: &written,
                 }
-                _ => None,
+                .resolve_file()
+                .map(Some)
             }
-        })
+            _ => Ok(None),
+        }
     }
 
     /// Every animation's translation / rotation / scale channels; morph-weight channels are
@@ -903,21 +935,21 @@ fn read_components(
             "byte stride {stride} is shorter than an element ({element_size} bytes)"
         ));
     }
-    if layout.count == 0 {
-        return Ok(Vec::new());
-    }
-    let end = (layout.count - 1)
-        .checked_mul(stride)
-        .and_then(|x| x.checked_add(layout.offset))
-        .and_then(|x| x.checked_add(element_size));
-    if end.is_none_or(|end| end > bytes.len()) {
-        return Err(format!(
-            "{} elements of {element_size} bytes from byte {} with stride {stride} do not fit in its buffer view ({} bytes)",
-            layout.count,
-            layout.offset,
-            bytes.len()
-        ));
-    }
+    // `count` elements from `offset` take (count − 1)·stride + element_size bytes, so they fit
+    // when count·stride ≤ view − offset + stride − element_size.
+    let room = (bytes.len() + (stride - element_size)).saturating_sub(layout.offset);
+    let unit = format!(
+        "bytes of its buffer view from byte {} (stride {stride}, elements of {element_size} \
+         bytes); they do not fit",
+        layout.offset
+    );
+    check_count(
+        "the accessor count",
+        layout.count as u64,
+        stride as u64,
+        room as u64,
+        &unit,
+    )?;
     let mut values = Vec::with_capacity(layout.count * layout.components);
     for e in 0..layout.count {
         let start = layout.offset + e * stride;
@@ -1079,6 +1111,22 @@ fn percent_decode(uri: &str) -> Option<String> {
     String::from_utf8(decoded).ok()
 }
 
+/// The file path an external URI names: a relative URI percent-decoded, or the path of a
+/// `file:` URI (as the `gltf` crate reads it). `Err` for another scheme or a relative URI that
+/// does not decode to UTF-8.
+fn external_path(uri: &str) -> std::result::Result<String, String> {
+    if let Some(path) = uri
+        .strip_prefix("file://")
+        .or_else(|| uri.strip_prefix("file:"))
+    {
+        return Ok(path.to_string());
+    }
+    if uri.contains(':') {
+        return Err("unsupported URI scheme (only relative paths, file: and data: URIs)".into());
+    }
+    percent_decode(uri).ok_or_else(|| "the URI is not valid percent-encoded UTF-8".into())
+}
+
 /// The base-colour image of the first material (in document order) that has one, decoded to
 /// RGBA8: embedded in a GLB's `BIN` chunk or a buffer view (a `bufferView` image), or an
 /// external file next to the glTF. `Ok(None)` when no material has a base-colour texture.
@@ -1097,21 +1145,20 @@ pub fn load_gltf_base_colour(path: &Path) -> Result<Option<crate::texture::Image
     let element = format!("image {}", image.index());
     let decoded = match image.source() {
         gltf::image::Source::View { view, .. } => {
-            let buffer = file
-                .buffers
-                .get(view.buffer().index())
-                .ok_or_else(|| file.error(&element, "buffer not loaded"))?;
-            let bytes = buffer
-                .get(view.offset()..view.offset() + view.length())
-                .ok_or_else(|| file.error(&element, "buffer view reaches outside its buffer"))?;
-            image::load_from_memory(bytes)
-                .map_err(|e| file.error(&element, format!("cannot decode: {e}")))?
+            let bytes = file
+                .view_bytes(&view)
+                .map_err(|m| file.error(&element, m))?;
+            let name = PathBuf::from(format!("{} ({element})", path.display()));
+            crate::texture::decode_image(bytes, &name)?
         }
         gltf::image::Source::Uri { uri, .. } => {
-            let relative = percent_decode(uri)
-                .filter(|_| !uri.contains(':'))
-                .ok_or_else(|| file.error(&element, format!("unsupported image URI '{uri}'")))?;
-            let full = path.parent().unwrap_or(Path::new("")).join(relative);
+            let written = external_path(uri).map_err(|m| file.reference(&element, uri, m))?;
+            let full = Reference {
+                model: path,
+                kind: &format!("{element} URI"),
+                written: &written,
+            }
+            .resolve_file()?;
             return crate::texture::load_rgba8(&full).map(Some);
         }
     };
