@@ -1364,3 +1364,58 @@ fn a_gltf_accessor_count_at_an_integer_limit_is_a_one_line_error() {
         one_line_naming(&error, &path);
     }
 }
+
+#[test]
+fn references_too_large_or_not_naming_a_file_are_refused() {
+    let root = tempfile::tempdir().unwrap();
+    let folder = root.path().join("model");
+    fs::create_dir_all(&folder).unwrap();
+    // A material library one byte over its limit (sparse: nothing is written).
+    let big = fs::File::create(folder.join("big.mtl")).unwrap();
+    big.set_len(reparam::mesh::io::MAX_MTL_BYTES + 1).unwrap();
+    let path = write(
+        &folder,
+        "big.obj",
+        "mtllib big.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    );
+    let shown = within(Duration::from_secs(1), "a large library", || {
+        refused(load_obj(&path), &path)
+    });
+    assert!(
+        shown.contains(&format!(
+            "mtllib \"big.mtl\": the file has {} bytes, more than the limit of {}",
+            reparam::mesh::io::MAX_MTL_BYTES + 1,
+            reparam::mesh::io::MAX_MTL_BYTES
+        )),
+        "{shown}"
+    );
+    // Buffer URIs that name no file: another scheme, a bad percent-encoding.
+    for (uri, why) in [
+        ("http://example.com/tube.bin", "unsupported URI scheme"),
+        ("tube%FF.bin", "not valid percent-encoded UTF-8"),
+    ] {
+        let path = tube_with_buffer_uri(root.path(), uri);
+        let shown = refused(load_gltf(&path), &path);
+        assert!(shown.contains(why), "{uri}: {shown}");
+    }
+}
+
+#[test]
+fn refused_input_exits_2_and_a_missing_file_exits_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().display().to_string();
+    let missing = dir.path().join("missing.off");
+    let args = ["maps", missing.to_str().unwrap(), "--out", &out];
+    let (status, stderr) = reparam_binary(&args);
+    assert_eq!(status, Some(1), "{stderr}");
+    one_error_line(&stderr, &missing);
+    let bad = write(
+        dir.path(),
+        "bad.off",
+        "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n",
+    );
+    let args = ["maps", bad.to_str().unwrap(), "--out", &out];
+    let (status, stderr) = reparam_binary(&args);
+    assert_eq!(status, Some(2), "{stderr}");
+    one_error_line(&stderr, &bad);
+}
