@@ -208,8 +208,12 @@ pub fn with_reference_policy<T>(policy: ReferencePolicy, f: impl FnOnce() -> T) 
 /// the name as written (after percent-decoding for URIs).
 #[derive(Clone, Copy, Debug)]
 pub struct Reference<'a> {
+    /// The model file that names the reference (an OBJ, a glTF).
     pub model: &'a Path,
+    /// What names it, for messages: `mtllib`, `buffer 0 URI`, `image 2 URI`…
     pub kind: &'a str,
+    /// The path as the model writes it (percent-decoded for a URI), relative to the model's
+    /// folder unless absolute.
     pub written: &'a str,
 }
 

@@ -716,30 +716,31 @@ impl GltfFile {
         let Some(mesh) = node.mesh() else {
             return Ok(None);
         };
-        let image = mesh.primitives().find_map(|primitive| {
+        let external = mesh.primitives().find_map(|primitive| {
             let material = primitive.material();
-            let info = material.pbr_metallic_roughness().base_color_texture()?;
-            Some(info.texture().source())
+            let image = material
+                .pbr_metallic_roughness()
+                .base_color_texture()?
+                .texture()
+                .source();
+            match image.source() {
+                gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => {
+                    Some((image.index(), external_path(uri).ok()?))
+                }
+                _ => None,
+            }
         });
-        let Some(image) = image else {
+        let Some((index, written)) = external else {
             return Ok(None);
         };
-        match image.source() {
-            gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => {
-                let Ok(written) = external_path(uri) else {
-                    return Ok(None);
-                };
-                let kind = format!("image {} URI", image.index());
-                Reference {
-                    model: &self.path,
-                    kind: &kind,
-                    written: &written,
-                }
-                .resolve_file()
-                .map(Some)
-            }
-            _ => Ok(None),
+        let kind = format!("image {index} URI");
+        Reference {
+            model: &self.path,
+            kind: &kind,
+            written: &written,
         }
+        .resolve_file()
+        .map(Some)
     }
 
     /// Every animation's translation / rotation / scale channels; morph-weight channels are
