@@ -1419,3 +1419,44 @@ fn refused_input_exits_2_and_a_missing_file_exits_1() {
     assert_eq!(status, Some(2), "{stderr}");
     one_error_line(&stderr, &bad);
 }
+
+#[test]
+fn a_gltf_image_without_a_source_is_an_error_not_a_panic() {
+    // Found by the reference mutation (issue #35): `gltf` 1.4 unwraps an image's `uri`, or its
+    // `mimeType` next to a `bufferView`, when the material's texture is read.
+    let dir = tempfile::tempdir().unwrap();
+    let (mut document, bin) = tube_gltf();
+    fs::write(dir.path().join("tube.bin"), &bin).unwrap();
+    document["buffers"][0]["uri"] = "tube.bin".into();
+    document["textures"] = serde_json::json!([{"source": 0}]);
+    document["materials"] =
+        serde_json::json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
+    document["meshes"][0]["primitives"][0]["material"] = 0.into();
+    for (k, (image, expected)) in [
+        (
+            serde_json::json!({"name": "no source"}),
+            "neither a `uri` nor a `bufferView`",
+        ),
+        (
+            serde_json::json!({"bufferView": 0}),
+            "a `bufferView` but no `mimeType`",
+        ),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        document["images"] = serde_json::json!([image]);
+        let path = write(dir.path(), &format!("image{k}.gltf"), document.to_string());
+        for loaded in [
+            load_gltf(&path).map(|_| ()),
+            load_gltf_base_colour(&path).map(|_| ()),
+        ] {
+            let error = loaded.unwrap_err();
+            let shown = one_line_naming(&error, &path);
+            assert!(
+                shown.contains(&format!("images[0]: has {expected}")),
+                "{shown}"
+            );
+        }
+    }
+}

@@ -804,10 +804,11 @@ impl GltfFile {
 
 /// Parse a `.gltf` (JSON) or `.glb` (binary) file and validate it.
 ///
-/// Three checks run before the crate's own validation, which would otherwise panic: a GLB header
+/// Four checks run before the crate's own validation, which would otherwise panic: a GLB header
 /// length below the header size, a `POSITION` accessor index out of range (the crate's
-/// validator looks the accessor up unchecked), and animation channel targets (the crate does not
-/// validate them and panics on reading a missing node or an unknown path such as `"matrix"`).
+/// validator looks the accessor up unchecked), animation channel targets (the crate does not
+/// validate them and panics on reading a missing node or an unknown path such as `"matrix"`),
+/// and image sources ([`check_image_sources`]).
 fn parse_document(bytes: &[u8], path: &Path) -> Result<gltf::Gltf> {
     let parse_error = |message: String| Error::MeshParse {
         path: path.to_path_buf(),
@@ -826,6 +827,7 @@ fn parse_document(bytes: &[u8], path: &Path) -> Result<gltf::Gltf> {
     let json = document.into_json();
     check_position_accessors(&json, path)?;
     check_animation_targets(&json, path)?;
+    check_image_sources(&json, path)?;
     let document = Document::from_json(json).map_err(|e| match e {
         gltf::Error::Validation(problems) => validation_error(&problems, path),
         other => parse_error(other.to_string()),
@@ -887,6 +889,33 @@ fn check_animation_targets(json: &gltf::json::Root, path: &Path) -> Result<()> {
                 ));
             }
         }
+    }
+    Ok(())
+}
+
+/// Every image has a source `gltf` 1.4 can read: a `uri`, or an existing `bufferView` with a
+/// `mimeType`. `Image::source` unwraps both and the crate's validator checks neither (an image
+/// without `uri` panicked when its material was read, found by the reference mutation of
+/// `tests/fuzz_parsers.rs`, issue #35).
+fn check_image_sources(json: &gltf::json::Root, path: &Path) -> Result<()> {
+    let views = json.buffer_views.len();
+    for (i, image) in json.images.iter().enumerate() {
+        let message = match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (None, None, _) => "has neither a `uri` nor a `bufferView`".to_string(),
+            (_, Some(_), None) => "has a `bufferView` but no `mimeType`".to_string(),
+            (_, Some(view), _) if view.value() >= views => {
+                format!(
+                    "buffer view {} does not exist ({views} buffer views)",
+                    view.value()
+                )
+            }
+            _ => continue,
+        };
+        return Err(Error::Gltf {
+            path: path.to_path_buf(),
+            element: format!("images[{i}]"),
+            message: format!("{message}; give the image a source or remove it"),
+        });
     }
     Ok(())
 }
