@@ -1460,3 +1460,31 @@ fn a_gltf_image_without_a_source_is_an_error_not_a_panic() {
         }
     }
 }
+
+#[test]
+fn maps_remesh_of_a_spike_over_a_two_face_base_domain_is_finite() {
+    // Found by the long command fuzz run of issue #35: one vertex of a 5×5 wavy grid moved to
+    // z = −30 (a byte inserted). A star flattened to a segment gave barycentrics 0/0 = NaN,
+    // which `Param::inverse` kept (a NaN never compared worse), so a remesh vertex was NaN and
+    // `hausdorff_remesh_to_input` infinite: the command stopped on a non-finite --json figure.
+    let fixture = hostile("maps_remesh_spike_degenerate_star.obj");
+    let dir = tempfile::tempdir().unwrap();
+    let (out, path) = (
+        dir.path().display().to_string(),
+        fixture.display().to_string(),
+    );
+    for relax in [false, true] {
+        let mut args = vec!["reparam", "maps", &path, "--remesh", "uniform:1", "--json"];
+        args.extend(["--picture-size", "0", "--out", &out]);
+        if relax {
+            args.extend(["--smooth", "--relax", "3"]);
+        }
+        let (result, stdout) = reparam::cli::run_captured(args);
+        assert_eq!(result.unwrap(), std::process::ExitCode::SUCCESS);
+        let json: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
+        for remesh in json["remeshes"].as_array().unwrap() {
+            let hausdorff = remesh["hausdorff_remesh_to_input"].as_f64().unwrap();
+            assert!(hausdorff.is_finite(), "{remesh}");
+        }
+    }
+}
