@@ -1178,8 +1178,13 @@ pub fn load_gltf_base_colour(path: &Path) -> Result<Option<crate::texture::Image
             let bytes = file
                 .view_bytes(&view)
                 .map_err(|m| file.error(&element, m))?;
-            let name = PathBuf::from(format!("{} ({element})", path.display()));
-            crate::texture::decode_image(bytes, &name)?
+            // Decoded with the checks of an image file; its errors name the glTF's image.
+            crate::texture::decode_image(bytes, path).map_err(|e| match e {
+                Error::Image { message, .. } => {
+                    file.error(&element, format!("cannot decode: {message}"))
+                }
+                other => other,
+            })?
         }
         gltf::image::Source::Uri { uri, .. } => {
             let written = external_path(uri).map_err(|m| file.reference(&element, uri, m))?;
