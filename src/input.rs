@@ -204,6 +204,16 @@ pub fn with_reference_policy<T>(policy: ReferencePolicy, f: impl FnOnce() -> T) 
     f()
 }
 
+/// How much of a referenced file [`Reference::read`] reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Length {
+    /// Exactly this many bytes, which the model declares (a glTF buffer's `byteLength`): a
+    /// shorter file is refused, the bytes after them are not read.
+    Declared(u64),
+    /// The whole file, which must be at most this long (a material library).
+    AtMost(u64),
+}
+
 /// A file named inside a model: the model, what names it (`mtllib`, `buffer 0 URI`…), and
 /// the name as written (after percent-decoding for URIs).
 #[derive(Clone, Copy, Debug)]
@@ -295,16 +305,14 @@ impl Reference<'_> {
         Ok(path)
     }
 
-    /// Read the referenced file: [`resolve`](Self::resolve)d, a regular file, and
-    /// - with `declared = Some(n)` (a glTF `byteLength`): at least `n` bytes long, of which the
-    ///   first `n` are read and nothing more;
-    /// - with `declared = None`: at most `max` bytes long.
+    /// Read the referenced file: [`resolve`](Self::resolve)d, a regular file, and as long as
+    /// `length` says ([`Length`]).
     ///
     /// Outer `Err`: the reference is refused ([`Error::Reference`]: outside the folder, not a
-    /// regular file, shorter than declared, larger than `max`). Inner `Err`: the file cannot be
-    /// opened or read (the caller decides: a missing `mtllib` is no texture, a missing buffer is
-    /// an error).
-    pub fn read(&self, declared: Option<u64>, max: u64) -> Result<io::Result<Vec<u8>>> {
+    /// regular file, shorter than declared, larger than its limit). Inner `Err`: the file cannot
+    /// be opened or read (the caller decides: a missing `mtllib` is no texture, a missing buffer
+    /// is an error).
+    pub fn read(&self, length: Length) -> Result<io::Result<Vec<u8>>> {
         let path = self.resolve()?;
         let (file, size) = match open_regular(&path) {
             Ok(opened) => opened,
@@ -316,16 +324,16 @@ impl Reference<'_> {
         let short = |size: u64, n: u64| {
             self.error(format!("the file has {size} bytes, the model declares {n}"))
         };
-        match declared {
-            Some(n) if size < n => Err(short(size, n)),
-            Some(n) => Ok(match read_at_most(file, n) {
+        match length {
+            Length::Declared(n) if size < n => Err(short(size, n)),
+            Length::Declared(n) => Ok(match read_at_most(file, n) {
                 Ok(bytes) if (bytes.len() as u64) < n => return Err(short(bytes.len() as u64, n)),
                 other => other,
             }),
-            None if size > max => Err(self.error(format!(
+            Length::AtMost(max) if size > max => Err(self.error(format!(
                 "the file has {size} bytes, more than the limit of {max} for it"
             ))),
-            None => Ok(read_at_most(file, max)),
+            Length::AtMost(max) => Ok(read_at_most(file, max)),
         }
     }
 }

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use super::obj_check::{keyword, parse_obj, statement_argument};
 use super::trimesh::TriMesh;
 use crate::error::{Error, Result};
-use crate::input::{read_input_text, Reference};
+use crate::input::{read_input_text, Length, Reference};
 
 /// Load an OBJ file as one [`TriMesh`] named after `path`.
 ///
@@ -67,7 +67,7 @@ fn find_diffuse_texture(obj_path: &Path, libraries: &[String]) -> Result<Option<
             kind: "mtllib",
             written: library,
         };
-        let Ok(bytes) = mtllib.read(None, MAX_MTL_BYTES)? else {
+        let Ok(bytes) = mtllib.read(Length::AtMost(MAX_MTL_BYTES))? else {
             continue;
         };
         let Ok(mtl_text) = String::from_utf8(bytes) else {

@@ -21,7 +21,7 @@ use super::{
     SceneNode, Skeleton, SkinnedMesh, Trs,
 };
 use crate::error::{Error, Result};
-use crate::input::{check_count, read_input, Reference};
+use crate::input::{check_count, read_input, Length, Reference};
 use crate::mesh::TriMesh;
 
 /// Options of [`load_gltf_with`].
@@ -255,7 +255,7 @@ impl GltfFile {
                     kind: &kind,
                     written: &written,
                 };
-                return reference.read(Some(declared), declared)?.map_err(|e| {
+                return reference.read(Length::Declared(declared))?.map_err(|e| {
                     let element = format!("buffer {} ({uri:?})", buffer.index());
                     self.error(element, e.to_string())
                 });
