@@ -9,6 +9,20 @@ pub type Result<T, E = Error> = std::result::Result<T, E>;
 /// Everything that can go wrong on user input. Nothing in the library panics on user input.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
+    /// An input file that is not a regular file (a device, a FIFO, a socket, a directory):
+    /// refused before it is read, since reading it might never end ([`crate::input`]).
+    #[error("{path}: {kind}, not a regular file; reparam reads its inputs from regular files")]
+    NotAFile { path: PathBuf, kind: &'static str },
+    /// A file named inside a model (a glTF buffer or image URI, an OBJ `mtllib`, an MTL
+    /// `map_Kd`) that is not followed: outside the model's folder, not a regular file, shorter
+    /// than the model declares, or larger than its limit ([`crate::input::Reference`]).
+    #[error("{model}: {kind} {reference:?}: {reason}")]
+    Reference {
+        model: PathBuf,
+        kind: String,
+        reference: String,
+        reason: String,
+    },
     /// A file could not be read or written.
     #[error("{path}: {source}")]
     Io {
@@ -162,6 +176,18 @@ pub enum Error {
 }
 
 impl Error {
+    /// The exit status of a command that stops with this error: 2 for input that reparam
+    /// refuses (a malformed or hostile file, a count the file cannot hold, a refused reference,
+    /// not a regular file, a bad argument: everything naming the user's input), 1 for a failure
+    /// of the system or the computation (an I/O error, the GPU, a figure that is not finite).
+    /// `crosscheck` and `verify` exit 2 on any error, their 1 meaning a bound exceeded.
+    pub fn exit_status(&self) -> u8 {
+        match self {
+            Error::Io { .. } | Error::Gpu(_) | Error::NonFiniteOutput { .. } => 1,
+            _ => 2,
+        }
+    }
+
     /// Wrap an `std::io::Error` with the path it concerns.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Error::Io {

@@ -15,8 +15,9 @@
 //!
 //! Shared layers: [`mesh`] (TriMesh with separate position and UV indices, adjacency, OBJ and
 //! glTF I/O, skinning, built-in meshes), [`texture`] (images), [`raster`] (the CPU reference
-//! rasteriser), [`report`] and [`reference_data`]. Every fallible function returns
-//! [`Error`], whose variants name the element and the file.
+//! rasteriser), [`report`] and [`reference_data`]; [`input`] reads files within bounds (counts
+//! checked before allocation, regular files only, references kept in the model's folder).
+//! Every fallible function returns [`Error`], whose variants name the element and the file.
 
 pub mod bpm;
 /// The `reparam` command line (the binary is `fn main() { reparam::cli::main() }`), in the
@@ -26,6 +27,7 @@ pub mod cli;
 pub mod crosscheck;
 pub mod error;
 pub mod gridwarp;
+pub mod input;
 pub mod lm;
 pub mod maps;
 pub mod mesh;

@@ -92,7 +92,7 @@ pub fn write_all(dir: &Path) -> Result<Vec<PathBuf>> {
 
 /// Read a golden file.
 pub fn read_golden(path: &Path) -> Result<GoldenBpm> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::input::read_input_text(path)?;
     serde_json::from_str(&text).map_err(|e| Error::MeshParse {
         path: path.into(),
         message: e.to_string(),

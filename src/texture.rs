@@ -5,12 +5,14 @@
 //! coordinates follow OBJ: (u, v) = (0, 0) is the *bottom*-left corner of the image, v grows
 //! upwards, and the image repeats with period 1 in u and v.
 
+use std::io::{BufRead, Seek};
 use std::path::Path;
 
 use exr::prelude as exrp;
 use exr::prelude::{ReadChannels, ReadLayers, WritableImage};
 
 use crate::error::{Error, Result};
+use crate::input::{fits, open_input};
 use crate::mesh::io::create_parent_dir;
 
 /// An 8-bit RGBA pixel.
@@ -188,21 +190,43 @@ fn check_image_size(path: &Path, what: &str, width: u64, height: u64) -> Result<
     Ok(())
 }
 
-/// Open an image reader with the format guessed from the contents.
-fn image_reader(path: &Path) -> Result<image::ImageReader<std::io::BufReader<std::fs::File>>> {
-    let reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
-    reader.with_guessed_format().map_err(|e| Error::io(path, e))
+/// An image reader over `source` with the format guessed from the contents.
+fn guessed<R: BufRead + Seek>(path: &Path, source: R) -> Result<image::ImageReader<R>> {
+    image::ImageReader::new(source)
+        .with_guessed_format()
+        .map_err(|e| Error::io(path, e))
 }
 
-/// Decode a PNG or JPEG after reading its header alone: its declared size is checked against
-/// [`max_image_pixels`] and against what the file's bytes can hold ([`MAX_EXPANSION`]) first,
-/// and the decoder's own allocation limit is set to what that size needs (16 bytes a pixel,
-/// 16-bit RGBA), so the limit can be raised past the `image` crate's default of 512 MiB.
+/// Decode a PNG or JPEG from an input file: a regular file only ([`open_input`]: a device or a
+/// FIFO named as a texture is refused, not read), see [`decode_checked`].
 fn open_image(path: &Path) -> Result<image::DynamicImage> {
+    let (_, file_bytes) = open_input(path)?;
+    decode_checked(path, file_bytes, || {
+        let (file, _) = open_input(path)?;
+        guessed(path, std::io::BufReader::new(file))
+    })
+}
+
+/// Decode a PNG or JPEG held in memory (an image embedded in a glTF buffer) with the checks of
+/// a file ([`decode_checked`]); `name` names it in errors.
+pub fn decode_image(bytes: &[u8], name: &Path) -> Result<image::DynamicImage> {
+    decode_checked(name, bytes.len() as u64, || {
+        guessed(name, std::io::Cursor::new(bytes))
+    })
+}
+
+/// Decode a PNG or JPEG after reading its header alone (`reader` is called twice: for the
+/// header, then for the pixels): its declared size is checked against [`max_image_pixels`]
+/// and against what the `file_bytes` can hold ([`MAX_EXPANSION`]) first, and the decoder's own
+/// allocation limit is set to what that size needs (16 bytes a pixel, 16-bit RGBA), so the
+/// limit can be raised past the `image` crate's default of 512 MiB.
+fn decode_checked<R: BufRead + Seek>(
+    path: &Path,
+    file_bytes: u64,
+    reader: impl Fn() -> Result<image::ImageReader<R>>,
+) -> Result<image::DynamicImage> {
     use image::ImageDecoder;
-    let decoder = image_reader(path)?
-        .into_decoder()
-        .map_err(|e| image_error(path, e))?;
+    let decoder = reader()?.into_decoder().map_err(|e| image_error(path, e))?;
     let (width, height) = decoder.dimensions();
     check_image_size(path, "the header", width.into(), height.into())?;
     check_expansion(
@@ -210,11 +234,11 @@ fn open_image(path: &Path) -> Result<image::DynamicImage> {
         "the header",
         (width.into(), height.into()),
         decoder.total_bytes(),
-        file_bytes(path)?,
+        file_bytes,
         "PNG or JPEG",
     )?;
     drop(decoder);
-    let mut reader = image_reader(path)?;
+    let mut reader = reader()?;
     let mut limits = image::Limits::default();
     limits.max_alloc = Some(max_image_pixels().saturating_mul(16));
     reader.limits(limits);
@@ -246,8 +270,9 @@ fn exr_error(path: &Path, error: exr::error::Error) -> Error {
 /// a window of 10⁹ rows (or one with ymin above ymax, which the crate swaps into a huge one)
 /// would reserve gigabytes from a few hundred bytes.
 fn check_exr_size(path: &Path) -> Result<()> {
-    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| exr_error(path, e))?;
+    // First: a regular file (the `exr` crate would open a FIFO and wait).
     let file_bytes = file_bytes(path)?;
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| exr_error(path, e))?;
     for (k, header) in meta.headers.iter().enumerate() {
         let window = header.data_window();
         let (width, height) = (window.size.width() as u64, window.size.height() as u64);
@@ -287,7 +312,7 @@ fn check_expansion(
     let holdable = file_bytes
         .saturating_mul(MAX_EXPANSION)
         .saturating_add(1 << 20);
-    if decoded > holdable {
+    if !fits(decoded, 1, holdable) {
         return Err(Error::Image {
             path: path.to_path_buf(),
             message: format!(
@@ -300,11 +325,9 @@ fn check_expansion(
     Ok(())
 }
 
-/// The size of `path` in bytes.
+/// The size of `path` in bytes, when it is a regular file ([`open_input`]).
 fn file_bytes(path: &Path) -> Result<u64> {
-    Ok(std::fs::metadata(path)
-        .map_err(|e| Error::io(path, e))?
-        .len())
+    open_input(path).map(|(_, size)| size)
 }
 
 /// Decode an EXR, containing a panic of the `exr` crate at this boundary.

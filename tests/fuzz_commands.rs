@@ -61,12 +61,12 @@ const BOUNDS: Bounds = Bounds {
     mem_per_byte: 16 << 10,
 };
 
-/// An OBJ file's bytes.
+/// An OBJ file's bytes, naming the seed material library (`fuzz::with_material_library`).
 fn obj_bytes(mesh: &TriMesh) -> Vec<u8> {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("seed.obj");
     write_obj(mesh, &path).unwrap();
-    std::fs::read(&path).unwrap()
+    fuzz::with_material_library(&std::fs::read(&path).unwrap())
 }
 
 /// `mesh` as OFF text.
@@ -93,11 +93,14 @@ fn uv_meshes() -> Vec<Vec<u8>> {
 /// Run `args` in-process (the case's path and an output folder substituted for `{case}` and
 /// `{out}`) and judge the outcome.
 fn run_command(args: &[&str], case: &Path, out: &Path, json: bool) -> Result<Verdict, String> {
+    // The harness's reference policy for this case, as the command line gives it.
+    let allow = reparam::input::reference_policy() == reparam::input::ReferencePolicy::Anywhere;
     let args: Vec<String> = std::iter::once("reparam".to_string())
         .chain(args.iter().map(|a| {
             a.replace("{case}", &case.display().to_string())
                 .replace("{out}", &out.display().to_string())
         }))
+        .chain(allow.then(|| "--allow-outside-references".to_string()))
         .collect();
     let (result, stdout) = reparam::cli::run_captured(&args);
     if std::env::var_os("REPARAM_FUZZ_SHOW").is_some() {
@@ -251,7 +254,7 @@ fn fuzz_skinsimp() {
     fuzz::assert_clean(&[fuzz_command(
         "skinsimp",
         "glb",
-        &[skinsimp_seed()],
+        &skinned_seeds(),
         &[
             "skinsimp",
             "{case}",
@@ -354,9 +357,12 @@ fn maps_seeds() -> Vec<Vec<u8>> {
         .collect()
 }
 
-/// The skinsimp seed: a small skinned tube, as GLB.
-fn skinsimp_seed() -> Vec<u8> {
-    glb_bytes(&skinned_tube(6, 2)).unwrap()
+/// The skinsimp (and glTF) seeds: a small skinned tube as GLB, and as `.gltf` text with a
+/// buffer and an image URI (the reference mutation's targets).
+fn skinned_seeds() -> Vec<Vec<u8>> {
+    let glb = glb_bytes(&skinned_tube(6, 2)).unwrap();
+    let text = fuzz::gltf_text(&glb);
+    vec![glb, text]
 }
 
 /// Conformance vectors of bpm_eval on the star, written once.
@@ -466,7 +472,7 @@ fn fuzz_vectors_of_every_algorithm() {
     let gridwarp = fuzz_command(
         "vectors-gridwarp",
         "glb",
-        &[skinsimp_seed()],
+        &skinned_seeds(),
         &[
             "vectors",
             "gridwarp",
@@ -510,7 +516,7 @@ fn fuzz_vectors_of_every_algorithm() {
     let skinsimp = fuzz_command(
         "vectors-skinsimp",
         "glb",
-        &[skinsimp_seed()],
+        &skinned_seeds(),
         &[
             "vectors", "skinsimp", "{case}", "--poses", "2", "--out", "{out}",
         ],
@@ -557,7 +563,7 @@ fn fuzz_crosscheck_of_every_algorithm() {
     let skinsimp = fuzz_command(
         "crosscheck-skinsimp",
         "glb",
-        &[skinsimp_seed()],
+        &skinned_seeds(),
         &[
             "crosscheck",
             "skinsimp",

@@ -1,10 +1,12 @@
 //! Mutation fuzzing of the file parsers on stable Rust (issue #25).
 //!
-//! Seeds: small files written from the procedural meshes (OBJ with an MTL, OFF, ASCII and
-//! binary PLY), images (PNG, EXR) and the skinned tube (glTF, GLB). Each case mutates a seed
-//! (see `fuzz/mod.rs`: flipped, inserted and deleted bytes, duplicated and deleted tokens,
-//! numbers replaced by huge or special ones, truncation, two seeds spliced), writes it and loads
-//! it. For every case: no panic, an error is one line naming the file, a loaded mesh or image is
+//! Seeds: small files written from the procedural meshes (OBJ naming an MTL and a texture, OFF,
+//! ASCII and binary PLY), images (PNG, EXR) and the skinned tube (glTF with a buffer and an
+//! image URI, GLB). Each case mutates a seed (see `fuzz/mod.rs`: flipped, inserted and deleted
+//! bytes, duplicated and deleted tokens, numbers replaced by huge or special ones and by
+//! integer limits, references replaced by devices, a FIFO, a directory or `..` chains,
+//! truncation, two seeds spliced), writes it and loads it, every other case following
+//! references outside the folder too. For every case: no panic, an error is one line naming the file, a loaded mesh or image is
 //! finite, the load takes at most 2 s + 50 µs per input byte, and the heap grows by at most
 //! 64 MiB + 4 KiB per input byte (counting allocator).
 //!
@@ -119,7 +121,7 @@ fn fuzz_obj() {
         .map(|mesh| {
             let path = dir.path().join("seed.obj");
             write_obj(mesh, &path).unwrap();
-            std::fs::read(&path).unwrap()
+            fuzz::with_material_library(&std::fs::read(&path).unwrap())
         })
         .collect();
     fuzz::assert_clean(&[fuzz("obj", &seeds, load_mesh, finite_mesh)]);
@@ -180,47 +182,11 @@ fn fuzz_png_and_exr() {
     fuzz::assert_clean(&[png, exr]);
 }
 
-/// Standard base64 (for a `.gltf` seed with its buffer in a `data:` URI).
-fn base64(bytes: &[u8]) -> String {
-    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
-        for k in 0..4 {
-            out.push(if k <= chunk.len() {
-                ALPHABET[(n >> (18 - 6 * k) & 63) as usize] as char
-            } else {
-                '='
-            });
-        }
-    }
-    out
-}
-
-/// The GLB's JSON chunk, pretty-printed (tokens to mutate), with its BIN chunk as a data URI.
-fn gltf_text(glb: &[u8]) -> Vec<u8> {
-    let chunk = |at: usize| {
-        let length = u32::from_le_bytes(glb[at..at + 4].try_into().unwrap()) as usize;
-        &glb[at + 8..at + 8 + length]
-    };
-    let json = chunk(12);
-    let bin = chunk(12 + 8 + json.len());
-    let mut document: serde_json::Value = serde_json::from_slice(json).unwrap();
-    document["buffers"][0]["uri"] =
-        format!("data:application/octet-stream;base64,{}", base64(bin)).into();
-    serde_json::to_vec_pretty(&document).unwrap()
-}
-
 #[test]
 fn fuzz_gltf_and_glb() {
     let glb = glb_bytes(&skinned_tube(6, 2)).unwrap();
     let check = |skinned: &reparam::mesh::SkinnedMesh| finite_mesh(&skinned.mesh);
-    let gltf = fuzz("gltf", &[gltf_text(&glb)], load_gltf, check);
+    let gltf = fuzz("gltf", &[fuzz::gltf_text(&glb)], load_gltf, check);
     let glb = fuzz("glb", &[glb], load_gltf, check);
     fuzz::assert_clean(&[gltf, glb]);
 }

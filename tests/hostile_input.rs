@@ -13,7 +13,10 @@ use std::time::{Duration, Instant};
 use nalgebra::{Point2, Point3, Vector3};
 use reparam::bpm::{precompute, BpmOptions};
 use reparam::gridwarp::rasterize::{frames_fields, Roi};
-use reparam::mesh::{check_manifold, load_mesh, load_obj, Adjacency, TriMesh};
+use reparam::input::{with_reference_policy, ReferencePolicy};
+use reparam::mesh::{
+    check_manifold, load_gltf, load_gltf_base_colour, load_mesh, load_obj, Adjacency, TriMesh,
+};
 use reparam::raster::{rasterize, Camera};
 use reparam::texture::{load_gray_f32, save_exr_rg};
 use reparam::Error;
@@ -298,11 +301,24 @@ fn a_material_library_that_is_a_device_is_refused_not_read() {
         "device.obj",
         "mtllib /dev/zero\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n",
     );
+    // By default an absolute path is outside the model's folder (issue #35); allowed, the
+    // device is still refused, not read.
     let error = within(Duration::from_secs(2), "loading", || {
         load_obj(&path).unwrap_err()
     });
     let shown = one_line_naming(&error, &path);
-    assert!(shown.contains("/dev/zero: not a regular file"), "{shown}");
+    assert!(
+        shown.contains("mtllib \"/dev/zero\": an absolute path"),
+        "{shown}"
+    );
+    let error = within(Duration::from_secs(2), "loading", || {
+        with_reference_policy(ReferencePolicy::Anywhere, || load_obj(&path)).unwrap_err()
+    });
+    let shown = one_line_naming(&error, &path);
+    assert!(
+        shown.contains("mtllib \"/dev/zero\": a character device, not a regular file"),
+        "{shown}"
+    );
     // A missing library is still no texture, not an error.
     let path = write(
         dir.path(),
@@ -968,4 +984,541 @@ fn maps_remesh_refuses_coordinates_whose_distance_figures_overflow() {
             assert!(r[key].as_f64().is_some_and(f64::is_finite), "{key}: {r}");
         }
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Integer limits, files that never end, references outside the model (issue #35)
+// ---------------------------------------------------------------------------------------------
+
+/// Run the `reparam` binary: its exit status and standard error.
+fn reparam_binary(args: &[&str]) -> (Option<i32>, String) {
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_reparam"))
+        .args(args)
+        .env("REPARAM_NO_PROGRESS", "1")
+        .output()
+        .unwrap();
+    (
+        output.status.code(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+/// Stderr holding exactly one line, `error: …`, that names `model`.
+fn one_error_line(stderr: &str, model: &Path) -> String {
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert_eq!(lines.len(), 1, "not one line: {stderr:?}");
+    assert!(lines[0].starts_with("error: "), "{stderr}");
+    assert!(lines[0].contains(&model.display().to_string()), "{stderr}");
+    lines[0].to_string()
+}
+
+#[test]
+fn issue_35_an_off_corner_count_of_2_pow_64_minus_1_is_a_one_line_error_with_status_2() {
+    // Was `Vec::with_capacity(corners)` in `load_off`: a `capacity overflow` panic, exit 101.
+    let path = hostile("off_corner_count_2e64.off");
+    let error = within(Duration::from_secs(1), "loading", || {
+        load_mesh(&path).unwrap_err()
+    });
+    assert!(matches!(error, Error::MeshParse { .. }), "{error}");
+    let shown = one_line_naming(&error, &path);
+    assert!(
+        shown.contains("line 7: the corner count 18446744073709551615 needs at least"),
+        "{shown}"
+    );
+    let out = tempfile::tempdir().unwrap();
+    let out_dir = out.path().display().to_string();
+    let args = [
+        "maps",
+        path.to_str().unwrap(),
+        "--out",
+        &out_dir,
+        "--picture-size",
+        "16",
+    ];
+    let (status, stderr) = within(Duration::from_secs(2), "reparam maps", || {
+        reparam_binary(&args)
+    });
+    assert_eq!(status, Some(2), "{stderr}");
+    let line = one_error_line(&stderr, &path);
+    assert!(line.contains("corner count 18446744073709551615"), "{line}");
+}
+
+#[test]
+fn every_integer_limit_as_an_off_count_is_a_one_line_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let limits = [
+        "2147483647",
+        "4294967296",
+        "9223372036854775807",
+        "18446744073709551615",
+        "18446744073709551616",
+        "-1",
+        "1e308",
+        "NaN",
+    ];
+    for (k, limit) in limits.iter().enumerate() {
+        let square = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n";
+        for (what, text) in [
+            ("corners", format!("OFF\n4 1 0\n{square}{limit} 0 1 2 3\n")),
+            ("vertices", format!("OFF\n{limit} 1 0\n{square}4 0 1 2 3\n")),
+            ("faces", format!("OFF\n4 {limit} 0\n{square}4 0 1 2 3\n")),
+        ] {
+            let path = write(dir.path(), &format!("{what}{k}.off"), text);
+            let error = within(Duration::from_secs(1), &format!("{what} {limit}"), || {
+                load_mesh(&path).unwrap_err()
+            });
+            assert!(
+                matches!(error, Error::MeshParse { .. }),
+                "{what} {limit}: {error}"
+            );
+            one_line_naming(&error, &path);
+        }
+    }
+}
+
+/// The skinned tube as a `.gltf` document and its binary buffer, for a buffer URI of one's
+/// choice.
+fn tube_gltf() -> (serde_json::Value, Vec<u8>) {
+    let glb =
+        reparam::skinsimp::glb::glb_bytes(&reparam::skinsimp::tube::skinned_tube(6, 2)).unwrap();
+    let chunk = |at: usize| {
+        let length = u32::from_le_bytes(glb[at..at + 4].try_into().unwrap()) as usize;
+        glb[at + 8..at + 8 + length].to_vec()
+    };
+    let json = chunk(12);
+    let bin = chunk(12 + 8 + json.len());
+    (serde_json::from_slice(&json).unwrap(), bin)
+}
+
+/// The tube's glTF written as `model/tube.gltf` under `root`, its buffer URI set to `uri`.
+fn tube_with_buffer_uri(root: &Path, uri: &str) -> PathBuf {
+    let (mut document, _) = tube_gltf();
+    document["buffers"][0]["uri"] = uri.into();
+    fs::create_dir_all(root.join("model")).unwrap();
+    write(&root.join("model"), "tube.gltf", document.to_string())
+}
+
+/// The message of a refused reference, checked to be an [`Error::Reference`] on one line that
+/// names the model.
+fn refused(result: reparam::Result<impl std::fmt::Debug>, model: &Path) -> String {
+    let error = result.unwrap_err();
+    assert!(matches!(error, Error::Reference { .. }), "{error}");
+    one_line_naming(&error, model)
+}
+
+#[test]
+fn issue_35_a_gltf_buffer_on_dev_urandom_is_a_one_line_error_with_status_2() {
+    // Was read until the kernel killed the process (128 s, memory exhausted).
+    if !Path::new("/dev/urandom").exists() {
+        return;
+    }
+    let path = hostile("gltf_buffer_dev_urandom.gltf");
+    let shown = within(Duration::from_secs(1), "loading", || {
+        refused(load_gltf(&path), &path)
+    });
+    assert!(
+        shown.contains(
+            "buffer 0 URI \"/dev/urandom\": an absolute path, outside the model's folder"
+        ),
+        "{shown}"
+    );
+    let shown = within(Duration::from_secs(1), "loading, allowed", || {
+        refused(
+            with_reference_policy(ReferencePolicy::Anywhere, || load_gltf(&path)),
+            &path,
+        )
+    });
+    assert!(
+        shown.contains("buffer 0 URI \"/dev/urandom\": a character device, not a regular file"),
+        "{shown}"
+    );
+    let out = tempfile::tempdir().unwrap();
+    let glb = out.path().join("s.glb").display().to_string();
+    for (flag, reason) in [
+        (None, "an absolute path"),
+        (Some("--allow-outside-references"), "a character device"),
+    ] {
+        let mut args = vec![
+            "skinsimp",
+            path.to_str().unwrap(),
+            "--target-ratio",
+            "0.5",
+            "-o",
+            &glb,
+        ];
+        args.extend(flag);
+        let (status, stderr) = within(Duration::from_secs(2), "reparam skinsimp", || {
+            reparam_binary(&args)
+        });
+        assert_eq!(status, Some(2), "{stderr}");
+        let line = one_error_line(&stderr, &path);
+        assert!(line.contains(reason), "{line}");
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn a_buffer_that_is_a_fifo_a_directory_or_shorter_than_declared_is_refused() {
+    let root = tempfile::tempdir().unwrap();
+    let folder = root.path().join("model");
+    fs::create_dir_all(folder.join("a directory")).unwrap();
+    let fifo = std::ffi::CString::new(folder.join("pipe.bin").to_str().unwrap()).unwrap();
+    // SAFETY: a valid NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(fifo.as_ptr(), 0o600) }, 0);
+    let (_, bin) = tube_gltf();
+    fs::write(folder.join("short.bin"), &bin[..bin.len() / 2]).unwrap();
+    // A FIFO without a writer would block the open; a directory is no data.
+    for (uri, reason) in [
+        ("pipe.bin", "a FIFO (named pipe), not a regular file"),
+        ("a%20directory", "a directory, not a regular file"),
+        (
+            "short.bin",
+            &format!("the file has {} bytes, the model declares", bin.len() / 2),
+        ),
+    ] {
+        let path = tube_with_buffer_uri(root.path(), uri);
+        let shown = within(Duration::from_secs(2), uri, || {
+            refused(load_gltf(&path), &path)
+        });
+        assert!(shown.contains(reason), "{uri}: {shown}");
+    }
+    // A longer file: the declared bytes are read, the rest is not.
+    let mut longer = bin.clone();
+    longer.extend_from_slice(&[0; 4096]);
+    fs::write(folder.join("longer.bin"), &longer).unwrap();
+    load_gltf(&tube_with_buffer_uri(root.path(), "longer.bin")).unwrap();
+}
+
+#[cfg(unix)]
+#[test]
+fn references_outside_the_model_folder_are_refused_by_default_and_followed_when_allowed() {
+    let root = tempfile::tempdir().unwrap();
+    let (_, bin) = tube_gltf();
+    fs::write(root.path().join("outside.bin"), &bin).unwrap();
+    fs::create_dir_all(root.path().join("model/sub")).unwrap();
+    fs::write(root.path().join("model/sub/inside.bin"), &bin).unwrap();
+    std::os::unix::fs::symlink(
+        root.path().join("outside.bin"),
+        root.path().join("model/link.bin"),
+    )
+    .unwrap();
+    let absolute = root.path().join("outside.bin").display().to_string();
+    let file_uri = format!("file://{absolute}");
+    // Inside the folder, `..` that stays inside included: read under both policies.
+    for uri in ["sub/inside.bin", "sub/../sub/inside.bin"] {
+        let path = tube_with_buffer_uri(root.path(), uri);
+        load_gltf(&path).unwrap();
+    }
+    for (uri, why) in [
+        ("../outside.bin", "`..` leads above the model's folder"),
+        (
+            "sub/../../outside.bin",
+            "`..` leads above the model's folder",
+        ),
+        (absolute.as_str(), "an absolute path"),
+        (file_uri.as_str(), "an absolute path"),
+        ("link.bin", "a symbolic link to"),
+    ] {
+        let path = tube_with_buffer_uri(root.path(), uri);
+        let shown = refused(load_gltf(&path), &path);
+        assert!(shown.contains(why), "{uri}: {shown}");
+        assert!(shown.contains("--allow-outside-references"), "{shown}");
+        with_reference_policy(ReferencePolicy::Anywhere, || load_gltf(&path)).unwrap();
+        // The policy is restored after the scope.
+        refused(load_gltf(&path), &path);
+    }
+
+    // OBJ: `mtllib` and the texture its `map_Kd` names.
+    let obj = "mtllib {lib}\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+    write(
+        root.path(),
+        "outside.mtl",
+        "newmtl a\nmap_Kd model/tex.png\n",
+    );
+    write(
+        &root.path().join("model"),
+        "inside.mtl",
+        "newmtl a\nmap_Kd ../tex.png\n",
+    );
+    for (lib, what) in [
+        (
+            "../outside.mtl",
+            "mtllib \"../outside.mtl\": `..` leads above",
+        ),
+        (
+            "inside.mtl",
+            "map_Kd (in the material library) \"../tex.png\": `..` leads above",
+        ),
+    ] {
+        let path = write(
+            &root.path().join("model"),
+            "m.obj",
+            obj.replace("{lib}", lib),
+        );
+        let shown = refused(load_obj(&path), &path);
+        assert!(shown.contains(what), "{shown}");
+        let mesh = with_reference_policy(ReferencePolicy::Anywhere, || load_obj(&path)).unwrap();
+        assert!(mesh.texture.is_some());
+    }
+
+    // glTF image URIs: the texture path and the decoded base colour.
+    let (mut document, _) = tube_gltf();
+    fs::write(root.path().join("model/tube.bin"), &bin).unwrap();
+    document["buffers"][0]["uri"] = "tube.bin".into();
+    document["images"] = serde_json::json!([{"uri": "/dev/zero"}]);
+    document["textures"] = serde_json::json!([{"source": 0}]);
+    document["materials"] =
+        serde_json::json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
+    document["meshes"][0]["primitives"][0]["material"] = 0.into();
+    let path = write(
+        &root.path().join("model"),
+        "image.gltf",
+        document.to_string(),
+    );
+    let shown = refused(load_gltf(&path), &path);
+    assert!(
+        shown.contains("image 0 URI \"/dev/zero\": an absolute path"),
+        "{shown}"
+    );
+    let shown = refused(load_gltf_base_colour(&path).map(|i| i.is_some()), &path);
+    assert!(
+        shown.contains("image 0 URI \"/dev/zero\": an absolute path"),
+        "{shown}"
+    );
+    let allowed =
+        |f: fn(&Path) -> String| with_reference_policy(ReferencePolicy::Anywhere, || f(&path));
+    let shown = allowed(|p| refused(load_gltf(p), p));
+    assert!(
+        shown.contains("a character device, not a regular file"),
+        "{shown}"
+    );
+    let shown = allowed(|p| refused(load_gltf_base_colour(p).map(|i| i.is_some()), p));
+    assert!(
+        shown.contains("a character device, not a regular file"),
+        "{shown}"
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn an_input_that_is_a_device_a_fifo_or_a_directory_is_refused_not_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo_path = dir.path().join("pipe.off");
+    let fifo = std::ffi::CString::new(fifo_path.to_str().unwrap()).unwrap();
+    // SAFETY: a valid NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(fifo.as_ptr(), 0o600) }, 0);
+    fs::create_dir_all(dir.path().join("folder.ply")).unwrap();
+    let mut inputs = vec![
+        (fifo_path, "a FIFO (named pipe)"),
+        (dir.path().join("folder.ply"), "a directory"),
+    ];
+    if Path::new("/dev/zero").exists() {
+        std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.obj")).unwrap();
+        std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.png")).unwrap();
+        inputs.push((dir.path().join("zero.obj"), "a character device"));
+    }
+    for (path, kind) in &inputs {
+        let error = within(Duration::from_secs(2), kind, || {
+            load_mesh(path).unwrap_err()
+        });
+        assert!(matches!(error, Error::NotAFile { .. }), "{error}");
+        let shown = one_line_naming(&error, path);
+        assert!(
+            shown.contains(&format!("{kind}, not a regular file")),
+            "{shown}"
+        );
+    }
+    if Path::new("/dev/zero").exists() {
+        let path = dir.path().join("zero.png");
+        let error = within(Duration::from_secs(2), "an image", || {
+            load_gray_f32(&path).unwrap_err()
+        });
+        assert!(matches!(error, Error::NotAFile { .. }), "{error}");
+    }
+}
+
+#[test]
+fn a_gltf_accessor_count_at_an_integer_limit_is_a_one_line_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, bin) = tube_gltf();
+    fs::write(dir.path().join("tube.bin"), &bin).unwrap();
+    for (k, count) in [
+        "4294967296",
+        "9223372036854775807",
+        "18446744073709551615",
+        "1e308",
+    ]
+    .iter()
+    .enumerate()
+    {
+        let (document, _) = tube_gltf();
+        let mut text = document.to_string();
+        text = text.replacen("\"buffers\":[{", "\"buffers\":[{\"uri\":\"tube.bin\",", 1);
+        let first = text.find("\"count\":").unwrap() + "\"count\":".len();
+        let end = first + text[first..].find([',', '}']).unwrap();
+        text.replace_range(first..end, count);
+        let path = write(dir.path(), &format!("count{k}.gltf"), text);
+        let error = within(Duration::from_secs(1), count, || {
+            load_gltf(&path).unwrap_err()
+        });
+        one_line_naming(&error, &path);
+    }
+}
+
+#[test]
+fn references_too_large_or_not_naming_a_file_are_refused() {
+    let root = tempfile::tempdir().unwrap();
+    let folder = root.path().join("model");
+    fs::create_dir_all(&folder).unwrap();
+    // A material library one byte over its limit (sparse: nothing is written).
+    let big = fs::File::create(folder.join("big.mtl")).unwrap();
+    big.set_len(reparam::mesh::io::MAX_MTL_BYTES + 1).unwrap();
+    let path = write(
+        &folder,
+        "big.obj",
+        "mtllib big.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    );
+    let shown = within(Duration::from_secs(1), "a large library", || {
+        refused(load_obj(&path), &path)
+    });
+    assert!(
+        shown.contains(&format!(
+            "mtllib \"big.mtl\": the file has {} bytes, more than the limit of {}",
+            reparam::mesh::io::MAX_MTL_BYTES + 1,
+            reparam::mesh::io::MAX_MTL_BYTES
+        )),
+        "{shown}"
+    );
+    // Buffer URIs that name no file: another scheme, a bad percent-encoding.
+    for (uri, why) in [
+        ("http://example.com/tube.bin", "unsupported URI scheme"),
+        ("tube%FF.bin", "not valid percent-encoded UTF-8"),
+    ] {
+        let path = tube_with_buffer_uri(root.path(), uri);
+        let shown = refused(load_gltf(&path), &path);
+        assert!(shown.contains(why), "{uri}: {shown}");
+    }
+}
+
+#[test]
+fn refused_input_exits_2_and_a_missing_file_exits_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().display().to_string();
+    let missing = dir.path().join("missing.off");
+    let args = ["maps", missing.to_str().unwrap(), "--out", &out];
+    let (status, stderr) = reparam_binary(&args);
+    assert_eq!(status, Some(1), "{stderr}");
+    one_error_line(&stderr, &missing);
+    let bad = write(
+        dir.path(),
+        "bad.off",
+        "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n",
+    );
+    let args = ["maps", bad.to_str().unwrap(), "--out", &out];
+    let (status, stderr) = reparam_binary(&args);
+    assert_eq!(status, Some(2), "{stderr}");
+    one_error_line(&stderr, &bad);
+}
+
+#[test]
+fn a_gltf_image_without_a_source_is_an_error_not_a_panic() {
+    // Found by the reference mutation (issue #35): `gltf` 1.4 unwraps an image's `uri`, or its
+    // `mimeType` next to a `bufferView`, when the material's texture is read.
+    let dir = tempfile::tempdir().unwrap();
+    let (mut document, bin) = tube_gltf();
+    fs::write(dir.path().join("tube.bin"), &bin).unwrap();
+    document["buffers"][0]["uri"] = "tube.bin".into();
+    document["textures"] = serde_json::json!([{"source": 0}]);
+    document["materials"] =
+        serde_json::json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
+    document["meshes"][0]["primitives"][0]["material"] = 0.into();
+    for (k, (image, expected)) in [
+        (
+            serde_json::json!({"name": "no source"}),
+            "neither a `uri` nor a `bufferView`",
+        ),
+        (
+            serde_json::json!({"bufferView": 0}),
+            "a `bufferView` but no `mimeType`",
+        ),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        document["images"] = serde_json::json!([image]);
+        let path = write(dir.path(), &format!("image{k}.gltf"), document.to_string());
+        for loaded in [
+            load_gltf(&path).map(|_| ()),
+            load_gltf_base_colour(&path).map(|_| ()),
+        ] {
+            let error = loaded.unwrap_err();
+            let shown = one_line_naming(&error, &path);
+            assert!(
+                shown.contains(&format!("images[0]: has {expected}")),
+                "{shown}"
+            );
+        }
+    }
+}
+
+#[test]
+fn maps_remesh_of_a_spike_over_a_two_face_base_domain_is_finite() {
+    // Found by the long command fuzz run of issue #35: one vertex of a 5×5 wavy grid moved to
+    // z = −30 (a byte inserted). A star flattened to a segment gave barycentrics 0/0 = NaN,
+    // which `Param::inverse` kept (a NaN never compared worse), so a remesh vertex was NaN and
+    // `hausdorff_remesh_to_input` infinite: the command stopped on a non-finite --json figure.
+    let fixture = hostile("maps_remesh_spike_degenerate_star.obj");
+    let dir = tempfile::tempdir().unwrap();
+    let (out, path) = (
+        dir.path().display().to_string(),
+        fixture.display().to_string(),
+    );
+    for relax in [false, true] {
+        let mut args = vec!["reparam", "maps", &path, "--remesh", "uniform:1", "--json"];
+        args.extend(["--picture-size", "0", "--out", &out]);
+        if relax {
+            args.extend(["--smooth", "--relax", "3"]);
+        }
+        let (result, stdout) = reparam::cli::run_captured(args);
+        assert_eq!(result.unwrap(), std::process::ExitCode::SUCCESS);
+        let json: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
+        for remesh in json["remeshes"].as_array().unwrap() {
+            let hausdorff = remesh["hausdorff_remesh_to_input"].as_f64().unwrap();
+            assert!(hausdorff.is_finite(), "{remesh}");
+        }
+    }
+}
+
+/// `verify`'s candidate and manifest are inputs too: a FIFO or a device as the candidate `.npy`
+/// or as `manifest.json` is refused at once (it once hung, reading forever).
+#[cfg(all(unix, feature = "gpu"))]
+#[test]
+fn a_verify_candidate_or_manifest_that_is_a_fifo_or_a_device_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo_path = dir.path().join("candidate.npy");
+    let fifo = std::ffi::CString::new(fifo_path.to_str().unwrap()).unwrap();
+    // SAFETY: a valid NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(fifo.as_ptr(), 0o600) }, 0);
+    let mut inputs = vec![(fifo_path, "a FIFO (named pipe)")];
+    if Path::new("/dev/zero").exists() {
+        std::os::unix::fs::symlink("/dev/zero", dir.path().join("zero.npy")).unwrap();
+        inputs.push((dir.path().join("zero.npy"), "a character device"));
+    }
+    for (path, kind) in &inputs {
+        let error = within(Duration::from_secs(2), kind, || {
+            reparam::vectors::Array::load(path).unwrap_err()
+        });
+        assert!(matches!(error, Error::NotAFile { .. }), "{error}");
+        assert!(one_line_naming(&error, path).contains(kind), "{error}");
+    }
+    let manifest_dir = dir.path().join("vectors");
+    fs::create_dir_all(&manifest_dir).unwrap();
+    let manifest =
+        std::ffi::CString::new(manifest_dir.join("manifest.json").to_str().unwrap()).unwrap();
+    // SAFETY: as above.
+    assert_eq!(unsafe { libc::mkfifo(manifest.as_ptr(), 0o600) }, 0);
+    let error = within(Duration::from_secs(2), "a FIFO manifest", || {
+        reparam::vectors::read_manifest(&manifest_dir).unwrap_err()
+    });
+    assert!(matches!(error, Error::NotAFile { .. }), "{error}");
 }

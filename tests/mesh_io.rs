@@ -37,7 +37,14 @@ fn round_trip_keeps_every_face_corner() {
     original.texture = Some(dir.path().join("textures/albedo.png"));
     let path = dir.path().join("out/roundtrip.obj");
     write_obj(&original, &path).unwrap();
-    let loaded = load_obj(&path).unwrap();
+    // The texture lies outside the OBJ's folder: written by its absolute path, which is
+    // followed only when allowed (issue #35).
+    assert!(matches!(
+        load_obj(&path),
+        Err(reparam::Error::Reference { .. })
+    ));
+    use reparam::input::{with_reference_policy, ReferencePolicy};
+    let loaded = with_reference_policy(ReferencePolicy::Anywhere, || load_obj(&path)).unwrap();
 
     assert_eq!(loaded.name, path.display().to_string());
     assert_eq!(loaded.faces.len(), original.faces.len());

@@ -99,6 +99,11 @@ use clap::{Parser, Subcommand};
 #[derive(Parser)]
 #[command(name = "reparam", version, about, long_about = None)]
 struct Cli {
+    /// Follow files that a model names (glTF buffer and image URIs, OBJ `mtllib`, MTL `map_Kd`)
+    /// outside the model's folder too: absolute paths, `..` above it, links out of it. Refused
+    /// by default (README, "Limits on input").
+    #[arg(long, global = true)]
+    allow_outside_references: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -206,10 +211,21 @@ where
     (result, output.unwrap_or_default())
 }
 
-/// Run a parsed command line: its exit status, or its error and the exit status `main` gives it
-/// (1; 2 for `crosscheck` and `verify`, whose 1 means a bound exceeded).
+/// Run a parsed command line, under the reference policy it asks for: its exit status, or its
+/// error and the exit status `main` gives it ([`crate::Error::exit_status`]; 2 for `crosscheck`
+/// and `verify`, whose 1 means a bound exceeded).
 fn dispatch(cli: Cli) -> Result<u8, (crate::Error, u8)> {
-    let result = match cli.command {
+    use crate::input::{with_reference_policy, ReferencePolicy};
+    let policy = match cli.allow_outside_references {
+        true => ReferencePolicy::Anywhere,
+        false => ReferencePolicy::ModelFolder,
+    };
+    with_reference_policy(policy, || dispatch_command(cli.command))
+}
+
+/// [`dispatch`] of one command.
+fn dispatch_command(command: Command) -> Result<u8, (crate::Error, u8)> {
+    let result = match command {
         Command::Demo(args) => demo::run(args),
         Command::Bpm(cmd) => bpm::run(cmd),
         Command::Crosscheck(args) => return crosscheck::try_run(args).map_err(|e| (e, 2)),
@@ -233,7 +249,10 @@ fn dispatch(cli: Cli) -> Result<u8, (crate::Error, u8)> {
             }
         }),
     };
-    result.map(|()| 0).map_err(|e| (e, 1))
+    result.map(|()| 0).map_err(|e| {
+        let status = e.exit_status();
+        (e, status)
+    })
 }
 
 /// Print `value` as pretty JSON on stdout. A NaN or infinite number anywhere in it (which

@@ -84,7 +84,7 @@ impl Features {
 /// Read a feature sidecar file: one statement per line, `v I` tags vertex I (0-based) as a
 /// corner, `e I J` tags the edge I–J; `#` starts a comment. Errors name `path:line`.
 pub fn load_features(path: &Path) -> Result<Features> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::input::read_input_text(path)?;
     parse_features(&text, path)
 }
 

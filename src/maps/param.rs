@@ -184,7 +184,7 @@ impl Param {
             let t = self.faces[f as usize];
             let m = t.map(|v| ring_index(r, v).map(|k| r.mu[k]).unwrap_or([0.0, 0.0]));
             let l = barycentric(u, m[0], m[1], m[2]);
-            let min = l[0].min(l[1]).min(l[2]);
+            let min = smallest(&l);
             if min >= 0.0 {
                 return (f, l);
             }
@@ -238,9 +238,25 @@ fn ring_index(r: &Removal, v: u32) -> Option<usize> {
 }
 
 /// Barycentrics clamped to ≥ 0 and renormalised (removes the ~1e-17 excursions of points that
-/// rounding put a hair outside their triangle).
+/// rounding put a hair outside their triangle). Barycentrics that say nothing (NaN, from a
+/// triangle flattened to a point or a segment, or all ≤ 0) become the centroid's, so that Π⁻¹
+/// stays a point of the face: a spiked grid over a 2-face base domain gave a NaN remesh vertex
+/// and an infinite Hausdorff distance (found by the command fuzzer, issue #35).
 pub(crate) fn clamp(l: [f64; 3]) -> [f64; 3] {
     let c = l.map(|x| x.max(0.0));
     let s = c[0] + c[1] + c[2];
+    if !(s > 0.0 && s.is_finite()) {
+        return [1.0 / 3.0; 3];
+    }
     c.map(|x| x / s)
+}
+
+/// The smallest of three barycentrics, −∞ when one is NaN: the ranking of [`Param`]'s star
+/// faces, in which a face with meaningful barycentrics must beat a degenerate one (`f64::min`
+/// skips a NaN, and a NaN compares false, so a degenerate first face used to stay the best).
+fn smallest(l: &[f64; 3]) -> f64 {
+    if l.iter().any(|x| x.is_nan()) {
+        return f64::NEG_INFINITY;
+    }
+    l[0].min(l[1]).min(l[2])
 }

@@ -6,12 +6,13 @@
 //! parser is in `obj_check.rs`.
 
 use std::fs;
-use std::io::{BufWriter, Read, Write};
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use super::obj_check::{keyword, parse_obj, statement_argument};
 use super::trimesh::TriMesh;
 use crate::error::{Error, Result};
+use crate::input::{read_input_text, Length, Reference};
 
 /// Load an OBJ file as one [`TriMesh`] named after `path`.
 ///
@@ -28,8 +29,13 @@ use crate::error::{Error, Result};
 /// - `texture` is the `map_Kd` of the first material that has one, in the first material
 ///   library that has one, resolved relative to the OBJ's directory. A missing MTL file means no
 ///   texture; whether the texture file itself exists is for the caller to check.
+/// - Both references follow [`crate::input::Reference`]: by default they must stay in the OBJ's
+///   folder, and an existing one must be a regular file (a device, a FIFO or a directory is
+///   refused, not read); the library is read only up to [`MAX_MTL_BYTES`].
 ///
 /// Errors name the file and the element: [`Error::Io`] when the file cannot be read,
+/// [`Error::NotAFile`] when it is not a regular file, [`Error::Reference`] for a refused
+/// `mtllib` or `map_Kd` (naming the OBJ, the statement, the name and why),
 /// [`Error::NonFinite`] for a `nan`/`inf` coordinate, [`Error::IndexOutOfRange`] /
 /// [`Error::PartialUvs`] / [`Error::DegenerateFace`] for bad faces (mesh name `path:line`,
 /// face = number of the `f` statement from 0, vertex = number of the `v` statement from 0),
@@ -37,7 +43,7 @@ use crate::error::{Error, Result};
 /// For a file of triangles, face and vertex numbers in errors of later algorithms are the same
 /// numbers.
 pub fn load_obj(path: &Path) -> Result<TriMesh> {
-    let text = fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = read_input_text(path)?;
     let parsed = parse_obj(&text, path)?;
     let mut mesh = parsed.mesh;
     mesh.texture = find_diffuse_texture(path, &parsed.material_libraries)?;
@@ -51,51 +57,32 @@ pub const MAX_MTL_BYTES: u64 = 16 << 20;
 
 /// The first `map_Kd` in the first readable material library that has one, resolved relative to
 /// the OBJ's directory. A missing or unreadable library is skipped (no texture, not an error);
-/// one that is not a regular file (`mtllib /dev/zero`) or is larger than [`MAX_MTL_BYTES`] is
-/// an error, since reading it would never end or fill the memory.
+/// one outside the OBJ's folder (by default), not a regular file (`mtllib /dev/zero`) or larger
+/// than [`MAX_MTL_BYTES`] is an error ([`Reference::read`]), since reading it would never end
+/// or fill the memory. The texture is checked the same way, its reading left to the caller.
 fn find_diffuse_texture(obj_path: &Path, libraries: &[String]) -> Result<Option<PathBuf>> {
-    let dir = obj_path.parent().unwrap_or(Path::new(""));
     for library in libraries {
-        let Some(mtl_text) = read_material_library(obj_path, &dir.join(library))? else {
+        let mtllib = Reference {
+            model: obj_path,
+            kind: "mtllib",
+            written: library,
+        };
+        let Ok(bytes) = mtllib.read(Length::AtMost(MAX_MTL_BYTES))? else {
+            continue;
+        };
+        let Ok(mtl_text) = String::from_utf8(bytes) else {
             continue;
         };
         if let Some(texture) = first_map_kd(&mtl_text) {
-            return Ok(Some(dir.join(texture)));
+            let map_kd = Reference {
+                model: obj_path,
+                kind: "map_Kd (in the material library)",
+                written: texture,
+            };
+            return map_kd.resolve_file().map(Some);
         }
     }
     Ok(None)
-}
-
-/// Read one material library: `None` when it cannot be opened or is not UTF-8 (skipped, as
-/// before), an error naming the OBJ and the library when it is not a regular file or is larger
-/// than [`MAX_MTL_BYTES`]. The size is checked on the open file and the read is capped, so
-/// neither a device nor a file growing meanwhile is read without end.
-fn read_material_library(obj_path: &Path, mtl_path: &Path) -> Result<Option<String>> {
-    let Ok(file) = fs::File::open(mtl_path) else {
-        return Ok(None);
-    };
-    let refuse = |what: String| Error::MeshParse {
-        path: obj_path.to_path_buf(),
-        message: format!(
-            "mtllib {}: {what}; point `mtllib` at the material (.mtl) file or remove the line",
-            mtl_path.display()
-        ),
-    };
-    let metadata = file.metadata().map_err(|e| Error::io(mtl_path, e))?;
-    if !metadata.is_file() {
-        return Err(refuse("not a regular file".into()));
-    }
-    let mut bytes = Vec::new();
-    file.take(MAX_MTL_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| Error::io(mtl_path, e))?;
-    if bytes.len() as u64 > MAX_MTL_BYTES {
-        return Err(refuse(format!(
-            "larger than {} MiB, too large for a material library",
-            MAX_MTL_BYTES >> 20
-        )));
-    }
-    Ok(String::from_utf8(bytes).ok())
 }
 
 /// The file named by the first `map_Kd` statement. Options (`map_Kd -s 1 1 1 file.png`) are

@@ -4,7 +4,6 @@
 //! `vertex_indices` (or `vertex_index`); polygons split into the fan `(i₀, iₖ, iₖ₊₁)`. Other
 //! elements and properties (normals, colours, texture coordinates) are ignored.
 
-use std::fs;
 use std::io::Cursor;
 use std::path::Path;
 
@@ -14,6 +13,7 @@ use ply_rs::ply::{DefaultElement, Property};
 
 use super::trimesh::TriMesh;
 use crate::error::{Error, Result};
+use crate::input::{check_count, read_input};
 
 /// Load a PLY file as a [`TriMesh`] named after `path` (no UVs).
 ///
@@ -21,12 +21,13 @@ use crate::error::{Error, Result};
 /// would overflow on (it panics) nor a declared count the file cannot hold (it would allocate
 /// for it); of the crate's own multi-line errors the first line is kept.
 ///
-/// Errors: [`Error::Io`] when unreadable; [`Error::MeshParse`] when `ply-rs` rejects the file,
+/// Errors: [`Error::Io`] when unreadable, [`Error::NotAFile`] for a device, FIFO or directory;
+/// [`Error::MeshParse`] when `ply-rs` rejects the file,
 /// when `vertex`/`face` or `x y z`/`vertex_indices` are missing or of a wrong type (naming the
 /// element number), or a face has fewer than 3 corners; [`Error::NonFinite`] /
 /// [`Error::IndexOutOfRange`] / [`Error::EmptyMesh`] from [`TriMesh::validate`].
 pub fn load_ply(path: &Path) -> Result<TriMesh> {
-    let bytes = fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = read_input(path)?;
     let err = |message: String| Error::MeshParse {
         path: path.to_path_buf(),
         message,
@@ -167,16 +168,13 @@ fn check_header(bytes: &[u8]) -> std::result::Result<(), String> {
     let Some(data_start) = data_start else {
         return Ok(());
     };
-    let available = (bytes.len() - data_start) as u64;
-    let mut needed: u64 = 0;
+    // Cumulatively: each element's count must fit in what the elements before it left.
+    let mut available = (bytes.len() - data_start) as u64;
     for &(line, count, min_bytes) in &elements {
-        needed = needed.saturating_add(count.saturating_mul(min_bytes.max(1)));
-        if needed > available {
-            return Err(format!(
-                "header line {line}: the element count {count} needs at least {needed} bytes of \
-                 data but the file has {available} after the header; fix the count"
-            ));
-        }
+        let unit = "bytes of data left after the header and the elements before it";
+        check_count("the element count", count, min_bytes, available, unit)
+            .map_err(|m| format!("header line {line}: {m}"))?;
+        available -= count * min_bytes.max(1);
     }
     Ok(())
 }

@@ -300,7 +300,7 @@ pub fn write_vectors(
 /// Read `dir/manifest.json`.
 pub fn read_manifest(dir: &Path) -> Result<Manifest> {
     let path = dir.join("manifest.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+    let text = crate::input::read_input_text(&path)?;
     serde_json::from_str(&text).map_err(|e| Error::Vectors {
         file: path.display().to_string(),
         reason: format!("not a reparam manifest: {e}"),

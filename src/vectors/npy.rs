@@ -134,7 +134,7 @@ impl Array {
     /// Read `path` (`.npy`, C order, one of the four dtypes); a typed error naming the file for
     /// a missing file, another format, dtype or order.
     pub fn load(path: &Path) -> Result<Array> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let bytes = crate::input::read_input(path)?;
         let bad = |why: String| Error::Vectors {
             file: path.display().to_string(),
             reason: why,

@@ -29,6 +29,8 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock, PoisonError};
 use std::time::{Duration, Instant};
 
+use reparam::input::{with_reference_policy, ReferencePolicy};
+
 // ---------------------------------------------------------------------------------------------
 // Counting allocator
 
@@ -116,20 +118,194 @@ pub const HOSTILE_NUMBERS: &[&str] = &[
     "3",
     "255",
     "65536",
+    "2147483647",
     "2147483648",
     "4294967295",
     "4294967296",
     "9223372036854775807",
     "9223372036854775808",
+    "18446744073709551615",
     "18446744073709551616",
     "99999999999999999999999",
     "1e308",
     "-1e308",
     "nan",
+    "NaN",
     "inf",
     "1e-320",
     "2e10",
 ];
+
+/// The integer limits of issue #35, each put in place of a numeric token by the mutator: the
+/// edges of i32, u32, i64 and u64 (2⁶⁴ − 1 as a corner count found a `capacity overflow`
+/// panic that the list above, with 2⁶⁴ but not 2⁶⁴ − 1, missed), a huge float and NaN.
+pub const INTEGER_LIMITS: &[&str] = &[
+    "0",
+    "-1",
+    "2147483647",
+    "4294967296",
+    "9223372036854775807",
+    "18446744073709551615",
+    "1e308",
+    "NaN",
+];
+
+/// Names that a mutated reference (a glTF `uri`, an OBJ `mtllib`, an MTL `map_Kd`) is replaced
+/// with (issue #35): devices that never end, the special files [`prepare_special_files`] puts
+/// next to the case (a FIFO without a writer, a directory, a file shorter than any buffer,
+/// material libraries naming such files), `..` chains out of the folder, a `file:` URI.
+pub const SPECIAL_PATHS: &[&str] = &[
+    "/dev/zero",
+    "/dev/urandom",
+    "special-fifo",
+    "special-dir",
+    "special-short.bin",
+    "special-zero.mtl",
+    "special-fifo.mtl",
+    "special-up.mtl",
+    "../../../../../../../../../../dev/zero",
+    "special-dir/../../fuzz-current/special-fifo",
+    "../fuzz-current/special-fifo",
+    "file:///dev/urandom",
+];
+
+/// Create, in `dir` (the folder of the case files), the files [`SPECIAL_PATHS`] names: a FIFO
+/// nobody writes to (reading it would block forever), a directory, a 3-byte file, material
+/// libraries whose `map_Kd` is a device, the FIFO and a `..` chain, and `fuzz-seed.mtl` /
+/// `fuzz-texture.png`, the valid library and texture the OBJ seeds name.
+pub fn prepare_special_files(dir: &Path) {
+    std::fs::create_dir_all(dir.join("special-dir")).unwrap();
+    let fifo = dir.join("special-fifo");
+    if !fifo.exists() {
+        #[cfg(unix)]
+        {
+            let name = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+            // SAFETY: a valid NUL-terminated path.
+            unsafe { libc::mkfifo(name.as_ptr(), 0o600) };
+        }
+    }
+    let files: [(&str, &[u8]); 5] = [
+        ("special-short.bin", b"abc"),
+        ("special-zero.mtl", b"newmtl a\nmap_Kd /dev/zero\n"),
+        ("special-fifo.mtl", b"newmtl a\nmap_Kd special-fifo\n"),
+        (
+            "special-up.mtl",
+            b"newmtl a\nmap_Kd ../../../../../../../dev/zero\n",
+        ),
+        ("fuzz-seed.mtl", b"newmtl a\nmap_Kd fuzz-texture.png\n"),
+    ];
+    for (name, bytes) in files {
+        std::fs::write(dir.join(name), bytes).unwrap();
+    }
+    let texture = reparam::texture::checker(8, 2);
+    reparam::texture::save_png(&texture, &dir.join("fuzz-texture.png")).unwrap();
+}
+
+/// An OBJ seed with `mtllib fuzz-seed.mtl` in front (the library and its texture are made by
+/// [`prepare_special_files`]), so that the reference mutation has an `mtllib` to replace.
+pub fn with_material_library(obj: &[u8]) -> Vec<u8> {
+    [&b"mtllib fuzz-seed.mtl\n"[..], obj].concat()
+}
+
+/// Standard base64 (for a `.gltf` seed with its buffer in a `data:` URI).
+pub fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
+        for k in 0..4 {
+            out.push(if k <= chunk.len() {
+                ALPHABET[(n >> (18 - 6 * k) & 63) as usize] as char
+            } else {
+                '='
+            });
+        }
+    }
+    out
+}
+
+/// A GLB's JSON chunk, pretty-printed (tokens to mutate), with its BIN chunk as a data URI and
+/// a base-colour texture `fuzz-texture.png` on the first mesh's primitives (two references
+/// for the reference mutation).
+pub fn gltf_text(glb: &[u8]) -> Vec<u8> {
+    let chunk = |at: usize| {
+        let length = u32::from_le_bytes(glb[at..at + 4].try_into().unwrap()) as usize;
+        &glb[at + 8..at + 8 + length]
+    };
+    let json = chunk(12);
+    let bin = chunk(12 + 8 + json.len());
+    let mut document: serde_json::Value = serde_json::from_slice(json).unwrap();
+    document["buffers"][0]["uri"] =
+        format!("data:application/octet-stream;base64,{}", base64(bin)).into();
+    document["images"] = serde_json::json!([{"uri": "fuzz-texture.png"}]);
+    document["textures"] = serde_json::json!([{"source": 0}]);
+    document["materials"] =
+        serde_json::json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
+    if let Some(primitives) = document["meshes"][0]["primitives"].as_array_mut() {
+        for primitive in primitives {
+            primitive["material"] = 0.into();
+        }
+    }
+    serde_json::to_vec_pretty(&document).unwrap()
+}
+
+/// Byte ranges of the references in `bytes`: the string after each `"uri":` (JSON) and the
+/// rest of each line starting with `mtllib` or `map_Kd` (OBJ, MTL).
+pub fn reference_spans(bytes: &[u8]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let find = |from: usize, byte: u8| {
+        bytes[from..]
+            .iter()
+            .position(|&b| b == byte)
+            .map(|k| from + k)
+    };
+    let mut at = 0;
+    while let Some(k) = bytes[at..].windows(5).position(|w| w == b"\"uri\"") {
+        let key_end = at + k + 5;
+        let Some(open) = find(key_end, b'"') else {
+            break;
+        };
+        let Some(close) = find(open + 1, b'"') else {
+            break;
+        };
+        out.push((open + 1, close));
+        at = close + 1;
+    }
+    let mut start = 0;
+    for line in bytes.split(|&b| b == b'\n') {
+        for keyword in [&b"mtllib "[..], b"map_Kd "] {
+            if line.starts_with(keyword) {
+                let end = start + line.len() - usize::from(line.ends_with(b"\r"));
+                out.push((start + keyword.len(), end));
+            }
+        }
+        start += line.len() + 1;
+    }
+    out
+}
+
+/// Byte ranges of the numbers of `bytes`: runs of digits with a sign, a point and an exponent.
+pub fn number_spans(bytes: &[u8]) -> Vec<(usize, usize)> {
+    digit_runs(bytes)
+        .into_iter()
+        .map(|(mut s, mut e)| {
+            if s > 0 && bytes[s - 1] == b'-' {
+                s -= 1;
+            }
+            while e < bytes.len()
+                && matches!(bytes[e], b'.' | b'e' | b'E' | b'+' | b'-' | b'0'..=b'9')
+            {
+                e += 1;
+            }
+            (s, e)
+        })
+        .collect()
+}
 
 /// Byte ranges of the whitespace-separated tokens of `bytes`.
 pub fn tokens(bytes: &[u8]) -> Vec<(usize, usize)> {
@@ -171,12 +347,14 @@ pub fn digit_runs(bytes: &[u8]) -> Vec<(usize, usize)> {
 
 /// One to three mutations of `seed` (`other` is a second seed for splicing): flipped, inserted
 /// and deleted bytes, a token duplicated up to 2 000 times, a token deleted, a token or a run
-/// of digits replaced by a hostile number, truncation, splicing.
+/// of digits replaced by a hostile number, a number replaced by an integer limit
+/// ([`INTEGER_LIMITS`]), a reference replaced by a special file ([`SPECIAL_PATHS`]),
+/// truncation, splicing.
 pub fn mutate(rng: &mut Rng, seed: &[u8], other: &[u8]) -> Vec<u8> {
     let mut bytes = seed.to_vec();
     for _ in 0..1 + rng.below(3) {
         let toks = tokens(&bytes);
-        match rng.below(9) {
+        match rng.below(11) {
             0 if !bytes.is_empty() => {
                 let i = rng.below(bytes.len());
                 bytes[i] ^= 1 << rng.below(8);
@@ -216,6 +394,22 @@ pub fn mutate(rng: &mut Rng, seed: &[u8], other: &[u8]) -> Vec<u8> {
                     let (s, e) = runs[rng.below(runs.len())];
                     let number = HOSTILE_NUMBERS[rng.below(HOSTILE_NUMBERS.len())];
                     bytes.splice(s..e, number.bytes());
+                }
+            }
+            8 => {
+                let numbers = number_spans(&bytes);
+                if !numbers.is_empty() {
+                    let (s, e) = numbers[rng.below(numbers.len())];
+                    let limit = INTEGER_LIMITS[rng.below(INTEGER_LIMITS.len())];
+                    bytes.splice(s..e, limit.bytes());
+                }
+            }
+            9 => {
+                let references = reference_spans(&bytes);
+                if !references.is_empty() {
+                    let (s, e) = references[rng.below(references.len())];
+                    let path = SPECIAL_PATHS[rng.below(SPECIAL_PATHS.len())];
+                    bytes.splice(s..e, path.bytes());
                 }
             }
             _ => {
@@ -392,6 +586,7 @@ pub fn fuzz(
             .bytes()
             .fold(0u64, |h, b| h.wrapping_mul(31).wrapping_add(b as u64)));
     let path = tmp_dir("fuzz-current").join(format!("{target}.{ext}"));
+    prepare_special_files(path.parent().unwrap());
     let started = Instant::now();
     let mut tally = Tally::default();
     while tally.cases < cases && secs.is_none_or(|s| started.elapsed() < s) {
@@ -421,7 +616,15 @@ pub fn fuzz(
         ));
         FUZZING.store(true, Ordering::Relaxed);
         let start = Instant::now();
-        let outcome = catch_unwind(AssertUnwindSafe(|| run(&path)));
+        // Every other case follows references anywhere (`--allow-outside-references`), so that
+        // a device named by an absolute path reaches the file checks, not only the policy.
+        let policy = match case % 2 {
+            0 => ReferencePolicy::ModelFolder,
+            _ => ReferencePolicy::Anywhere,
+        };
+        let outcome = catch_unwind(AssertUnwindSafe(|| {
+            with_reference_policy(policy, || run(&path))
+        }));
         let took = start.elapsed();
         FUZZING.store(false, Ordering::Relaxed);
         *CURRENT.lock().unwrap_or_else(PoisonError::into_inner) = None;

@@ -21,6 +21,7 @@ use super::{
     SceneNode, Skeleton, SkinnedMesh, Trs,
 };
 use crate::error::{Error, Result};
+use crate::input::{check_count, read_input, Length, Reference};
 use crate::mesh::TriMesh;
 
 /// Options of [`load_gltf_with`].
@@ -95,7 +96,7 @@ pub fn load_gltf_with(path: &Path, options: &GltfOptions) -> Result<SkinnedMesh>
             let joint_count = skeleton.joints.len();
             let soup = file.read_node_mesh(&node, Some(joint_count), None, &mut report)?;
             report.mesh_nodes = vec![node.index()];
-            (soup, Some(skeleton), file.base_color_texture(&node))
+            (soup, Some(skeleton), file.base_color_texture(&node)?)
         }
         MeshChoice::Static(mesh_nodes) => {
             let rest: Vec<Trs> = nodes.iter().map(|n| n.rest).collect();
@@ -106,11 +107,11 @@ pub fn load_gltf_with(path: &Path, options: &GltfOptions) -> Result<SkinnedMesh>
                 soup.append(file.read_node_mesh(node, None, placement, &mut report)?);
             }
             report.mesh_nodes = mesh_nodes.iter().map(Node::index).collect();
-            (
-                soup,
-                None,
-                mesh_nodes.first().and_then(|n| file.base_color_texture(n)),
-            )
+            let texture = match mesh_nodes.first() {
+                Some(node) => file.base_color_texture(node)?,
+                None => None,
+            };
+            (soup, None, texture)
         }
     };
     report.skipped_mesh_nodes = file.mesh_node_count() - report.mesh_nodes.len();
@@ -210,7 +211,7 @@ const KEY_ROTATIONS: Expect = Expect {
 impl GltfFile {
     /// Read, parse and validate the file, and load its buffers.
     fn open(path: &Path) -> Result<GltfFile> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let bytes = read_input(path)?;
         let gltf::Gltf { document, mut blob } = parse_document(&bytes, path)?;
         let mut file = GltfFile {
             path: path.to_path_buf(),
@@ -234,36 +235,49 @@ impl GltfFile {
         }
     }
 
-    /// The bytes of one buffer: the GLB `BIN` chunk, a `data:` URI or a file next to the glTF.
+    /// The bytes of one buffer: the GLB `BIN` chunk, a `data:` URI or an external file. An
+    /// external file is read through [`Reference::read`]: by default inside the glTF's folder,
+    /// a regular file, at least `byteLength` bytes long, of which `byteLength` are read and no
+    /// more (`"uri": "/dev/urandom"` read until the memory ran out).
     fn load_buffer(
         &self,
         buffer: &gltf::Buffer,
         base: &Path,
         blob: &mut Option<Vec<u8>>,
     ) -> Result<Vec<u8>> {
-        let element = match buffer.source() {
-            gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => {
-                format!("buffer {} ({uri:?})", buffer.index())
-            }
-            _ => format!("buffer {}", buffer.index()),
-        };
+        let kind = format!("buffer {} URI", buffer.index());
+        let declared = buffer.length() as u64;
         if let gltf::buffer::Source::Uri(uri) = buffer.source() {
-            // The crate unwraps the percent-decoding of relative URIs: check it first.
-            if !uri.contains(':') && percent_decode(uri).is_none() {
-                return Err(self.error(element, "the URI is not valid percent-encoded UTF-8"));
+            if !uri.starts_with("data:") {
+                let written = external_path(uri).map_err(|m| self.reference(&kind, uri, m))?;
+                let reference = Reference {
+                    model: &self.path,
+                    kind: &kind,
+                    written: &written,
+                };
+                return reference.read(Length::Declared(declared))?.map_err(|e| {
+                    let element = format!("buffer {} ({uri:?})", buffer.index());
+                    self.error(element, e.to_string())
+                });
             }
         }
         let data = gltf::buffer::Data::from_source_and_blob(buffer.source(), Some(base), blob)
-            .map_err(|e| self.error(&element, e.to_string()))?;
-        if data.0.len() < buffer.length() {
-            let message = format!(
-                "has {} bytes, the file declares {}",
-                data.0.len(),
-                buffer.length()
-            );
-            return Err(self.error(element, message));
+            .map_err(|e| self.error(format!("buffer {}", buffer.index()), e.to_string()))?;
+        if (data.0.len() as u64) < declared {
+            let message = format!("has {} bytes, the file declares {declared}", data.0.len());
+            return Err(self.error(format!("buffer {}", buffer.index()), message));
         }
         Ok(data.0)
+    }
+
+    /// An [`Error::Reference`] for the URI `uri` named by `kind` in this file.
+    fn reference(&self, kind: &str, uri: &str, reason: String) -> Error {
+        Reference {
+            model: &self.path,
+            kind,
+            written: uri,
+        }
+        .error(reason)
     }
 
     /// Every node with its name, parent and rest TRS. A node listed as the child of two nodes is
@@ -695,19 +709,38 @@ impl GltfFile {
             })
     }
 
-    /// The first primitive's base colour texture when it is an external image file.
-    fn base_color_texture(&self, node: &Node) -> Option<PathBuf> {
-        let dir = self.path.parent().unwrap_or(Path::new(""));
-        node.mesh()?.primitives().find_map(|primitive| {
+    /// The first primitive's base colour texture when it is an external image file, checked as
+    /// a reference ([`Reference::resolve_file`]: by default in the glTF's folder; a regular file
+    /// when it exists). A URI that is not a file path (`data:`, `http:`) is no texture here.
+    fn base_color_texture(&self, node: &Node) -> Result<Option<PathBuf>> {
+        let Some(mesh) = node.mesh() else {
+            return Ok(None);
+        };
+        let external = mesh.primitives().find_map(|primitive| {
             let material = primitive.material();
-            let info = material.pbr_metallic_roughness().base_color_texture()?;
-            match info.texture().source().source() {
-                gltf::image::Source::Uri { uri, .. } if !uri.contains(':') => {
-                    Some(dir.join(percent_decode(uri)?))
+            let image = material
+                .pbr_metallic_roughness()
+                .base_color_texture()?
+                .texture()
+                .source();
+            match image.source() {
+                gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => {
+                    Some((image.index(), external_path(uri).ok()?))
                 }
                 _ => None,
             }
-        })
+        });
+        let Some((index, written)) = external else {
+            return Ok(None);
+        };
+        let kind = format!("image {index} URI");
+        Reference {
+            model: &self.path,
+            kind: &kind,
+            written: &written,
+        }
+        .resolve_file()
+        .map(Some)
     }
 
     /// Every animation's translation / rotation / scale channels; morph-weight channels are
@@ -771,10 +804,11 @@ impl GltfFile {
 
 /// Parse a `.gltf` (JSON) or `.glb` (binary) file and validate it.
 ///
-/// Three checks run before the crate's own validation, which would otherwise panic: a GLB header
+/// Four checks run before the crate's own validation, which would otherwise panic: a GLB header
 /// length below the header size, a `POSITION` accessor index out of range (the crate's
-/// validator looks the accessor up unchecked), and animation channel targets (the crate does not
-/// validate them and panics on reading a missing node or an unknown path such as `"matrix"`).
+/// validator looks the accessor up unchecked), animation channel targets (the crate does not
+/// validate them and panics on reading a missing node or an unknown path such as `"matrix"`),
+/// and image sources ([`check_image_sources`]).
 fn parse_document(bytes: &[u8], path: &Path) -> Result<gltf::Gltf> {
     let parse_error = |message: String| Error::MeshParse {
         path: path.to_path_buf(),
@@ -793,6 +827,7 @@ fn parse_document(bytes: &[u8], path: &Path) -> Result<gltf::Gltf> {
     let json = document.into_json();
     check_position_accessors(&json, path)?;
     check_animation_targets(&json, path)?;
+    check_image_sources(&json, path)?;
     let document = Document::from_json(json).map_err(|e| match e {
         gltf::Error::Validation(problems) => validation_error(&problems, path),
         other => parse_error(other.to_string()),
@@ -858,6 +893,33 @@ fn check_animation_targets(json: &gltf::json::Root, path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Every image has a source `gltf` 1.4 can read: a `uri`, or an existing `bufferView` with a
+/// `mimeType`. `Image::source` unwraps both and the crate's validator checks neither (an image
+/// without `uri` panicked when its material was read, found by the reference mutation of
+/// `tests/fuzz_parsers.rs`, issue #35).
+fn check_image_sources(json: &gltf::json::Root, path: &Path) -> Result<()> {
+    let views = json.buffer_views.len();
+    for (i, image) in json.images.iter().enumerate() {
+        let message = match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (None, None, _) => "has neither a `uri` nor a `bufferView`".to_string(),
+            (_, Some(_), None) => "has a `bufferView` but no `mimeType`".to_string(),
+            (_, Some(view), _) if view.value() >= views => {
+                format!(
+                    "buffer view {} does not exist ({views} buffer views)",
+                    view.value()
+                )
+            }
+            _ => continue,
+        };
+        return Err(Error::Gltf {
+            path: path.to_path_buf(),
+            element: format!("images[{i}]"),
+            message: format!("{message}; give the image a source or remove it"),
+        });
+    }
+    Ok(())
+}
+
 /// The crate's validation problems as one error: the first problem's JSON path and message.
 fn validation_error(
     problems: &[(gltf::json::Path, gltf::json::validation::Error)],
@@ -903,21 +965,21 @@ fn read_components(
             "byte stride {stride} is shorter than an element ({element_size} bytes)"
         ));
     }
-    if layout.count == 0 {
-        return Ok(Vec::new());
-    }
-    let end = (layout.count - 1)
-        .checked_mul(stride)
-        .and_then(|x| x.checked_add(layout.offset))
-        .and_then(|x| x.checked_add(element_size));
-    if end.is_none_or(|end| end > bytes.len()) {
-        return Err(format!(
-            "{} elements of {element_size} bytes from byte {} with stride {stride} do not fit in its buffer view ({} bytes)",
-            layout.count,
-            layout.offset,
-            bytes.len()
-        ));
-    }
+    // `count` elements from `offset` take (count − 1)·stride + element_size bytes, so they fit
+    // when count·stride ≤ view − offset + stride − element_size.
+    let room = (bytes.len() + (stride - element_size)).saturating_sub(layout.offset);
+    let unit = format!(
+        "bytes of its buffer view from byte {} (stride {stride}, elements of {element_size} \
+         bytes); they do not fit",
+        layout.offset
+    );
+    check_count(
+        "the accessor count",
+        layout.count as u64,
+        stride as u64,
+        room as u64,
+        &unit,
+    )?;
     let mut values = Vec::with_capacity(layout.count * layout.components);
     for e in 0..layout.count {
         let start = layout.offset + e * stride;
@@ -1079,6 +1141,22 @@ fn percent_decode(uri: &str) -> Option<String> {
     String::from_utf8(decoded).ok()
 }
 
+/// The file path an external URI names: a relative URI percent-decoded, or the path of a
+/// `file:` URI (as the `gltf` crate reads it). `Err` for another scheme or a relative URI that
+/// does not decode to UTF-8.
+fn external_path(uri: &str) -> std::result::Result<String, String> {
+    if let Some(path) = uri
+        .strip_prefix("file://")
+        .or_else(|| uri.strip_prefix("file:"))
+    {
+        return Ok(path.to_string());
+    }
+    if uri.contains(':') {
+        return Err("unsupported URI scheme (only relative paths, file: and data: URIs)".into());
+    }
+    percent_decode(uri).ok_or_else(|| "the URI is not valid percent-encoded UTF-8".into())
+}
+
 /// The base-colour image of the first material (in document order) that has one, decoded to
 /// RGBA8: embedded in a GLB's `BIN` chunk or a buffer view (a `bufferView` image), or an
 /// external file next to the glTF. `Ok(None)` when no material has a base-colour texture.
@@ -1097,21 +1175,25 @@ pub fn load_gltf_base_colour(path: &Path) -> Result<Option<crate::texture::Image
     let element = format!("image {}", image.index());
     let decoded = match image.source() {
         gltf::image::Source::View { view, .. } => {
-            let buffer = file
-                .buffers
-                .get(view.buffer().index())
-                .ok_or_else(|| file.error(&element, "buffer not loaded"))?;
-            let bytes = buffer
-                .get(view.offset()..view.offset() + view.length())
-                .ok_or_else(|| file.error(&element, "buffer view reaches outside its buffer"))?;
-            image::load_from_memory(bytes)
-                .map_err(|e| file.error(&element, format!("cannot decode: {e}")))?
+            let bytes = file
+                .view_bytes(&view)
+                .map_err(|m| file.error(&element, m))?;
+            // Decoded with the checks of an image file; its errors name the glTF's image.
+            crate::texture::decode_image(bytes, path).map_err(|e| match e {
+                Error::Image { message, .. } => {
+                    file.error(&element, format!("cannot decode: {message}"))
+                }
+                other => other,
+            })?
         }
         gltf::image::Source::Uri { uri, .. } => {
-            let relative = percent_decode(uri)
-                .filter(|_| !uri.contains(':'))
-                .ok_or_else(|| file.error(&element, format!("unsupported image URI '{uri}'")))?;
-            let full = path.parent().unwrap_or(Path::new("")).join(relative);
+            let written = external_path(uri).map_err(|m| file.reference(&element, uri, m))?;
+            let full = Reference {
+                model: path,
+                kind: &format!("{element} URI"),
+                written: &written,
+            }
+            .resolve_file()?;
             return crate::texture::load_rgba8(&full).map(Some);
         }
     };
