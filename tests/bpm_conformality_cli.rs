@@ -145,7 +145,8 @@ fn bpm_qc_refuses_output_names_with_the_wrong_extension() {
         "--per-face",
         txt.to_str().unwrap(),
     ]);
-    assert_eq!(code, Some(1), "{stderr}");
+    // A refused argument is bad input: exit status 2 (`Error::exit_status`).
+    assert_eq!(code, Some(2), "{stderr}");
     assert!(
         stderr.contains("--per-face") && stderr.contains(".npy"),
         "{stderr}"
@@ -160,7 +161,7 @@ fn bpm_qc_refuses_output_names_with_the_wrong_extension() {
             "--s-picture",
             jpg.to_str().unwrap(),
         ]);
-        assert_eq!(code, Some(1), "{command}: {stderr}");
+        assert_eq!(code, Some(2), "{command}: {stderr}");
         assert!(
             stderr.contains("--s-picture") && stderr.contains(".png"),
             "{stderr}"
