@@ -318,7 +318,8 @@ pub const ALGORITHMS: [&str; 5] = ["bpm", "gridwarp", "unwarp", "maps", "skinsim
 /// - gridwarp: [`canonical_gridwarp_scene`] on 32² fields, lines s = (0, 0.2, 0.45, 0.7, 1),
 ///   t = (0, 0.3, 0.55, 0.85, 1), 4 × 4 samples per cell;
 /// - unwarp: the cones height map at 16², s = 0.05, periodic;
-/// - maps: the 12 × 6 torus (144 triangles) to its coarsest base, Π⁻¹ at the uniform:1 points;
+/// - maps: the 12 × 6 torus (144 triangles) to its coarsest base, Π⁻¹ at the uniform:2 points
+///   (base vertices, points on the base edges and points inside the base faces);
 /// - skinsimp: the skinned tube of 6 segments and 6 rings, 2 uniform poses per clip.
 pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
     match algorithm {
@@ -351,7 +352,7 @@ pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
         "maps" => {
             let (built, remesh) = canonical_maps()?;
             let (k, _) = maps::all_vectors(None, &built, &remesh)?;
-            Ok(("torus 12 × 6, uniform:1 points".into(), k))
+            Ok(("torus 12 × 6, uniform:2 points".into(), k))
         }
         "skinsimp" => {
             let (model, sets) = canonical_skinned()?;
@@ -383,13 +384,14 @@ pub fn canonical_gridwarp_scene() -> crate::gridwarp::scene::AnalyticScene {
     }
 }
 
-/// The hierarchy and the uniform:1 remesh of the canonical maps vectors.
+/// The hierarchy and the uniform:2 remesh of the canonical maps vectors: its points include
+/// face interiors, not only base vertices and edge midpoints (issue #33).
 pub fn canonical_maps() -> Result<(crate::maps::Maps, crate::maps::remesh::Remesh)> {
     let mut torus = crate::mesh::procedural::torus(12, 6, 1.0, 0.35);
     torus.uvs.clear();
     torus.uv_faces.clear();
     let built = crate::maps::build(&torus, &Default::default(), &Default::default())?;
-    let remesh = crate::maps::remesh::uniform(&built, 1)?;
+    let remesh = crate::maps::remesh::uniform(&built, 2)?;
     Ok((built, remesh))
 }
 
