@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use reparam::twin::real::{cross, dot, length};
 use reparam::twin::skinsimp_lbs::{joint_times, skin};
 use reparam::twin::skinsimp_quadrics::{
-    edge_constraint, from_plane, from_triangle, plane_quadric, unit_normal, zero_quadric, Quadric,
-    SOURCE_FACE,
+    edge_constraint, from_plane, from_triangle, plane_quadric, unit_normal, vertex_quadric,
+    zero_quadric, Quadric, SOURCE_FACE,
 };
 use reparam::twin::{with_model, Model, Real, F, V3, V4};
 use reparam::vectors::verify::{verify_array, VerifyReport};
@@ -393,6 +393,161 @@ fn lbs_every_model_passes_every_mutant_fails_and_no_bound_is_zero() {
     ];
     for (name, mistake, body, index) in mutants {
         let r = judge(lbs_candidate(body, index, Model::Nearest));
+        table.push(line(name, mistake, &r));
+        if r.pass {
+            wrong.push(format!("mutant {name} survives"));
+        }
+    }
+    println!("{}", table.join("\n"));
+    assert!(wrong.is_empty(), "{wrong:?}\n{}", table.join("\n"));
+}
+
+// ---------------------------------------------------------------------------------------------
+// skinsimp_quadrics.vertex
+
+const VERTEX: &str = "skinsimp_quadrics.vertex";
+
+/// How a port gathers vertex v's sources for pose j: (offsets, sources, kinds, v) → the source
+/// ids to sum, and the pose whose source quadric it reads.
+type Gather = fn(&[usize], &[usize], &[u32], usize) -> Vec<usize>;
+/// Which pose's source quadrics a port reads for pose j.
+type PoseOf = fn(usize) -> usize;
+
+fn as_stored(offsets: &[usize], sources: &[usize], _: &[u32], v: usize) -> Vec<usize> {
+    sources[offsets[v]..offsets[v + 1]].to_vec()
+}
+
+/// The candidate: each source's quadric by the twin under `model`, then each vertex's sum of
+/// the sources `gather` names, read at pose `pose_of(j)`.
+fn vertex_candidate(gather: Gather, pose_of: PoseOf, model: Model) -> Array {
+    let k = named(VERTEX);
+    let posed = input(&k, "posed");
+    let poses = posed.shape[1];
+    let posed = posed.to_f64();
+    let corners = input(&k, "corners").to_f64();
+    let kind: Vec<u32> = input(&k, "kind")
+        .to_f64()
+        .iter()
+        .map(|&x| x as u32)
+        .collect();
+    let weight = F::new(input(&k, "boundary_weight").to_f64()[0] as f32);
+    let offsets: Vec<usize> = input(&k, "vertex_offsets")
+        .to_f64()
+        .iter()
+        .map(|&x| x as usize)
+        .collect();
+    let sources: Vec<usize> = input(&k, "vertex_sources")
+        .to_f64()
+        .iter()
+        .map(|&x| x as usize)
+        .collect();
+    let quadric = |s: usize, j: usize| -> Quadric<F> {
+        let p = [0, 1, 2].map(|c| {
+            let v = corners[3 * s + c] as usize;
+            let o = 3 * (v * poses + j);
+            V3::new(
+                F::new(posed[o] as f32),
+                F::new(posed[o + 1] as f32),
+                F::new(posed[o + 2] as f32),
+            )
+        });
+        with_model(model, || plane_quadric(kind[s], p, weight))
+    };
+    let vertices = offsets.len() - 1;
+    let mut out = Vec::with_capacity(vertices * poses * 10);
+    for v in 0..vertices {
+        for j in 0..poses {
+            let qs: Vec<Quadric<F>> = gather(&offsets, &sources, &kind, v)
+                .into_iter()
+                .map(|s| quadric(s, pose_of(j)))
+                .collect();
+            let q = with_model(model, || vertex_quadric(&qs));
+            out.extend(q.iter().map(|x| x.get()));
+        }
+    }
+    Array::f32(&[vertices, poses, 10], out)
+}
+
+#[test]
+fn vertex_quadrics_every_model_passes_every_mutant_fails() {
+    let k = named(VERTEX);
+    let bounds = Array::load(&dir().join(&k.bound.file)).unwrap().to_f64();
+    assert_eq!(bounds.iter().filter(|&&b| b == 0.0).count(), 0);
+    let judge = |a: Array| verify_array(&dir(), &k, &a, "twin").unwrap();
+    let mut table = vec![
+        "| mutant | the porter's mistake | verdict | worst error/bound | over |".to_string(),
+        "|---|---|---|---|---|".to_string(),
+    ];
+    let line = |name: &str, mistake: &str, r: &VerifyReport| {
+        format!(
+            "| `{name}` | {mistake} | {} | {:.3e} | {} of {} |",
+            if r.pass { "**survived**" } else { "killed" },
+            r.worst_ratio,
+            r.over,
+            r.errors.count
+        )
+    };
+    let same_pose = |j: usize| j;
+    let mut wrong = Vec::new();
+    for model in Model::CHECKED {
+        let r = judge(vertex_candidate(as_stored, same_pose, model));
+        table.push(line(&format!("twin ({})", model.name()), "none", &r));
+        if !r.pass {
+            wrong.push(format!("the twin under {} fails", model.name()));
+        }
+    }
+    let mutants: [(&str, &str, Gather, PoseOf); 6] = [
+        (
+            "first_source_skipped",
+            "the sum starts at offsets[v] + 1",
+            |o, s, _, v| s[o[v] + 1..o[v + 1]].to_vec(),
+            |j| j,
+        ),
+        (
+            "csr_shifted",
+            "vertex v sums vertex v + 1's sources",
+            |o, s, _, v| s[o[(v + 1).min(o.len() - 2)]..o[(v + 2).min(o.len() - 1)]].to_vec(),
+            |j| j,
+        ),
+        (
+            "faces_only",
+            "boundary constraints left out of the sum",
+            |o, s, kind, v| {
+                s[o[v]..o[v + 1]]
+                    .iter()
+                    .copied()
+                    .filter(|&x| kind[x] == SOURCE_FACE)
+                    .collect()
+            },
+            |j| j,
+        ),
+        (
+            "constraints_only",
+            "face planes left out of the sum",
+            |o, s, kind, v| {
+                s[o[v]..o[v + 1]]
+                    .iter()
+                    .copied()
+                    .filter(|&x| kind[x] != SOURCE_FACE)
+                    .collect()
+            },
+            |j| j,
+        ),
+        (
+            "first_pose",
+            "every pose reads pose 0's sources",
+            as_stored,
+            |_| 0,
+        ),
+        (
+            "sources_twice",
+            "each source added twice",
+            |o, s, _, v| s[o[v]..o[v + 1]].iter().flat_map(|&x| [x, x]).collect(),
+            |j| j,
+        ),
+    ];
+    for (name, mistake, gather, pose_of) in mutants {
+        let r = judge(vertex_candidate(gather, pose_of, Model::Nearest));
         table.push(line(name, mistake, &r));
         if r.pass {
             wrong.push(format!("mutant {name} survives"));

@@ -82,3 +82,16 @@ pub fn plane_quadric<R: Real>(kind: u32, p: [V3<R>; 3], boundary_weight: R) -> Q
     let normal = unit_normal(p[0], p[1], p[2]);
     edge_constraint(p[e], p[(e + 1) % 3], normal, boundary_weight)
 }
+
+/// The body of `skinsimp_vertex_quadrics`: Σ of the vertex's source quadrics, in the given
+/// order, entry by entry (a sum a compiler may reorder).
+pub fn vertex_quadric<R: Real>(sources: &[Quadric<R>]) -> Quadric<R> {
+    let mut out = zero_quadric();
+    for (k, entry) in out.iter_mut().enumerate() {
+        let terms: Vec<R> = sources.iter().map(|q| q[k]).collect();
+        if !terms.is_empty() {
+            *entry = R::sum(&terms);
+        }
+    }
+    out
+}
