@@ -1,11 +1,15 @@
-//! `gridwarp_aa.residuals` through its f32 twin (`src/twin/gridwarp_aa.rs`): the canonical
-//! vectors accept it under every arithmetic model a conforming GPU may use and reject the
-//! porting mistakes below (mutants). The printed table is the README's.
+//! `gridwarp_aa` through its f32 twin (`src/twin/gridwarp_aa.rs`): the residuals, and the
+//! per-cell energies, F, JᵀJ and Jᵀr (the cells' shares added by the host in f64, as
+//! gpu/src/gridwarp/aa.rs does). The canonical vectors accept the twin under every arithmetic
+//! model a conforming GPU may use and reject the porting mistakes below (mutants). The printed
+//! tables are the README's.
 
 use std::path::{Path, PathBuf};
 
 use reparam::twin::gridwarp_aa::{
-    field_bilinear, residual, sample_residuals, slope, warped_point, CellLines, Field, RestSample,
+    add_residual, cell_contribution, field_bilinear, field_bilinear_sample, line_derivatives,
+    residual, sample_residuals, slope, warped_point, CellContribution, CellLines, Field,
+    RestSample,
 };
 use reparam::twin::{with_model, Model, Real, F};
 use reparam::vectors::verify::{verify_array, VerifyReport};
@@ -285,6 +289,308 @@ fn every_model_passes_and_every_mutant_fails() {
         let r = judge(&k, candidate(&x, body, order, Model::Nearest));
         table.push(line(name, mistake, &r));
         if r.pass {
+            wrong.push(format!("mutant {name} survives"));
+        }
+    }
+    println!("{}", table.join("\n"));
+    assert!(wrong.is_empty(), "{wrong:?}\n{}", table.join("\n"));
+}
+
+// ---------------------------------------------------------------------------------------------
+// The normal equations: cell_energy, energy, jtj, jtr
+
+/// What a port does with one cell (its lines, samples and the fields).
+type CellBody = fn(&CellLines<F>, &[RestSample<F>], &Field<F>, &Field<F>) -> CellContribution<F>;
+
+/// How a port numbers the unknown of a line: (the manifest's index, the count of s unknowns).
+type UnknownOrder = fn(i32, usize) -> i32;
+
+/// The host's assembly (gpu/src/gridwarp/aa.rs): cells added in cell order, in f64, each
+/// slot's row and column dropped where its line is fixed (−1). `transpose_upper` leaves JᵀJ's
+/// lower triangle 0 (a mutant's host).
+struct Assembled {
+    cell_energy: Vec<f64>,
+    energy: f64,
+    jtj: Vec<f64>,
+    jtr: Vec<f64>,
+}
+
+fn assemble(
+    x: &Inputs,
+    body: CellBody,
+    unknown_order: UnknownOrder,
+    model: Model,
+) -> Assembled {
+    let s_index: Vec<i32> = load("s_index").to_f64().iter().map(|&v| v as i32).collect();
+    let t_index: Vec<i32> = load("t_index").to_f64().iter().map(|&v| v as i32).collect();
+    let n = s_index.iter().chain(&t_index).filter(|&&u| u >= 0).count();
+    let ns = s_index.iter().filter(|&&u| u >= 0).count();
+    let d_s = Field {
+        values: &x.d_s.0,
+        width: x.d_s.1,
+        height: x.d_s.2,
+    };
+    let d_t = Field {
+        values: &x.d_t.0,
+        width: x.d_t.1,
+        height: x.d_t.2,
+    };
+    let (columns, rows) = (x.s.len() - 1, x.t.len() - 1);
+    let samples: Vec<RestSample<F>> = x
+        .samples
+        .chunks(5)
+        .map(|v| RestSample {
+            alpha: v[0],
+            beta: v[1],
+            sigma: v[2],
+            o_s: v[3],
+            o_t: v[4],
+        })
+        .collect();
+    let mut out = Assembled {
+        cell_energy: vec![0.0; columns * rows],
+        energy: 0.0,
+        jtj: vec![0.0; n * n],
+        jtr: vec![0.0; n],
+    };
+    for c in 0..columns * rows {
+        let (i, j) = (c / rows, c % rows);
+        let lines = CellLines {
+            s0: x.s[i],
+            s1: x.s[i + 1],
+            t0: x.t[j],
+            t1: x.t[j + 1],
+            h: x.h[i],
+            k: x.k[j],
+        };
+        let cell_samples = &samples[c * x.per_cell..(c + 1) * x.per_cell];
+        let cell = with_model(model, || body(&lines, cell_samples, &d_s, &d_t));
+        let unknowns =
+            [s_index[i], s_index[i + 1], t_index[j], t_index[j + 1]].map(|u| unknown_order(u, ns));
+        out.cell_energy[c] = cell.energy.f64();
+        out.energy += cell.energy.f64();
+        for a in 0..4 {
+            if unknowns[a] < 0 {
+                continue;
+            }
+            out.jtr[unknowns[a] as usize] += cell.jtr[a].f64();
+            for b in 0..4 {
+                if unknowns[b] >= 0 {
+                    out.jtj[unknowns[a] as usize * n + unknowns[b] as usize] +=
+                        cell.jtj[4 * a + b].f64();
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The unknowns as the manifest numbers them (s first, then t).
+fn as_numbered(u: i32, _: usize) -> i32 {
+    u
+}
+
+/// t unknowns first, then s (the other order).
+fn t_first(u: i32, ns: usize) -> i32 {
+    if u < 0 {
+        u
+    } else if (u as usize) < ns {
+        u + 3
+    } else {
+        u - ns as i32
+    }
+}
+
+/// The four judged outputs of an assembly, by kernel name.
+fn candidates(a: &Assembled) -> [(&'static str, Array); 4] {
+    let n = a.jtr.len();
+    [
+        (
+            "gridwarp_aa.cell_energy",
+            Array::f64(&[a.cell_energy.len()], a.cell_energy.clone()),
+        ),
+        ("gridwarp_aa.energy", Array::f64(&[1], vec![a.energy])),
+        ("gridwarp_aa.jtj", Array::f64(&[n, n], a.jtj.clone())),
+        ("gridwarp_aa.jtr", Array::f64(&[n], a.jtr.clone())),
+    ]
+}
+
+/// A cell's contribution with `derivatives` in place of `line_derivatives` and `lookup` in
+/// place of the bilinear sample (the mutants' cell body).
+fn cell_with(
+    l: &CellLines<F>,
+    samples: &[RestSample<F>],
+    d_s: &Field<F>,
+    d_t: &Field<F>,
+    derivatives: impl Fn([F; 8]) -> [F; 4],
+    t_slots: fn([F; 4]) -> [F; 4],
+    t_along_across: bool,
+) -> CellContribution<F> {
+    let zero = F::lit(0.0);
+    let mut out = CellContribution {
+        jtj: [zero; 16],
+        jtr: [zero; 4],
+        energy: zero,
+    };
+    let a = slope(l.s0, l.s1, l.h);
+    let b = slope(l.t0, l.t1, l.k);
+    for smp in samples {
+        if smp.sigma.value() == 0.0 {
+            continue;
+        }
+        let p = warped_point(l.s0, l.s1, l.t0, l.t1, smp.alpha, smp.beta);
+        let c_s = field_bilinear_sample(d_s, p.x, p.y);
+        let c_t = field_bilinear_sample(d_t, p.x, p.y);
+        let r_s = residual(smp.sigma, c_s.value, a, smp.o_s);
+        let r_t = residual(smp.sigma, c_t.value, b, smp.o_t);
+        let d1 = derivatives([
+            smp.sigma, c_s.value, c_s.ds, c_s.dt, a, l.h, smp.alpha, smp.beta,
+        ]);
+        let (along, across) = if t_along_across {
+            (smp.beta, smp.alpha)
+        } else {
+            (smp.alpha, smp.beta)
+        };
+        let d2 = derivatives([smp.sigma, c_t.value, c_t.dt, c_t.ds, b, l.k, along, across]);
+        add_residual(&mut out, r_s, d1);
+        add_residual(&mut out, r_t, t_slots(d2));
+    }
+    out
+}
+
+fn kernel_derivatives(v: [F; 8]) -> [F; 4] {
+    line_derivatives(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7])
+}
+
+fn permuted(d: [F; 4]) -> [F; 4] {
+    [d[2], d[3], d[0], d[1]]
+}
+
+#[test]
+fn normal_equations_every_model_passes_every_mutant_fails() {
+    let manifest = read_manifest(&dir()).unwrap();
+    let kernel = |name: &str| {
+        manifest
+            .kernels
+            .iter()
+            .find(|k| k.name == name)
+            .unwrap()
+            .clone()
+    };
+    let x = inputs();
+    let mut table = vec![
+        "| mutant | the porter's mistake | verdict per kernel (cell_energy, energy, jtj, jtr): worst error/bound |".to_string(),
+        "|---|---|---|".to_string(),
+    ];
+    // Judge an assembly on the four kernels: (all pass, any kernel fails, the row).
+    let judge_all = |a: &Assembled| -> (bool, bool, String) {
+        let mut all_pass = true;
+        let mut any_fail = false;
+        let mut cells = Vec::new();
+        for (name, array) in candidates(a) {
+            let r = verify_array(&dir(), &kernel(name), &array, "twin").unwrap();
+            all_pass &= r.pass;
+            any_fail |= !r.pass;
+            cells.push(format!(
+                "{} {:.1e}",
+                if r.pass { "pass" } else { "FAIL" },
+                r.worst_ratio
+            ));
+        }
+        (all_pass, any_fail, cells.join(", "))
+    };
+    let mut wrong = Vec::new();
+    for model in Model::CHECKED {
+        let (pass, _, row) = judge_all(&assemble(&x, cell_contribution, as_numbered, model));
+        table.push(format!("| `twin ({})` | none | {row} |", model.name()));
+        if !pass {
+            wrong.push(format!("the twin under {} fails", model.name()));
+        }
+    }
+    let mutants: [(&str, &str, CellBody, UnknownOrder); 6] = [
+        (
+            "derivative_sign",
+            "∂r/∂(near, far line) with σc/h's sign flipped",
+            |l, s, a, b| {
+                cell_with(
+                    l,
+                    s,
+                    a,
+                    b,
+                    |v| {
+                        let d = kernel_derivatives(v);
+                        let w = (v[0] / v[5]) * v[1] * F::lit(2.0);
+                        [d[0] + w, d[1] - w, d[2], d[3]]
+                    },
+                    permuted,
+                    true,
+                )
+            },
+            as_numbered,
+        ),
+        (
+            "no_field_gradient",
+            "c treated as constant (∂c/∂s = ∂c/∂t = 0)",
+            |l, s, a, b| {
+                cell_with(
+                    l,
+                    s,
+                    a,
+                    b,
+                    |mut v| {
+                        v[2] = F::lit(0.0);
+                        v[3] = F::lit(0.0);
+                        kernel_derivatives(v)
+                    },
+                    permuted,
+                    true,
+                )
+            },
+            as_numbered,
+        ),
+        (
+            "t_along_is_alpha",
+            "r^t's derivatives with α along and β across",
+            |l, s, a, b| cell_with(l, s, a, b, kernel_derivatives, permuted, false),
+            as_numbered,
+        ),
+        (
+            "t_slots_not_permuted",
+            "r^t's derivatives added to the s slots",
+            |l, s, a, b| cell_with(l, s, a, b, kernel_derivatives, |d| d, true),
+            as_numbered,
+        ),
+        (
+            "t_unknowns_first",
+            "unknowns numbered t first, then s",
+            cell_contribution,
+            t_first,
+        ),
+        (
+            "gradient_unscaled",
+            "∂c/∂s, ∂c/∂t per texel, not per texture width (no ×W, ×H)",
+            |l, s, a, b| {
+                cell_with(
+                    l,
+                    s,
+                    a,
+                    b,
+                    |mut v| {
+                        v[2] = v[2] / F::lit(32.0);
+                        v[3] = v[3] / F::lit(32.0);
+                        kernel_derivatives(v)
+                    },
+                    permuted,
+                    true,
+                )
+            },
+            as_numbered,
+        ),
+    ];
+    for (name, mistake, body, order) in mutants {
+        let (_, any_fail, row) = judge_all(&assemble(&x, body, order, Model::Nearest));
+        table.push(format!("| `{name}` | {mistake} | {row} |"));
+        if !any_fail {
             wrong.push(format!("mutant {name} survives"));
         }
     }

@@ -1,7 +1,8 @@
-//! Twin of `gpu/shaders/gridwarp_aa.wgsl`'s residuals (`gridwarp_aa_residuals.wgsl` shares
-//! them), function for function: the axis-aligned energy's residuals r^s = σ(c_s a − o_s),
+//! Twin of `gpu/shaders/gridwarp_aa.wgsl` (and of the residuals `gridwarp_aa_residuals.wgsl`
+//! shares), function for function: the axis-aligned energy's residuals r^s = σ(c_s a − o_s),
 //! r^t = σ(c_t b − o_t) of one sample (seed 000 §5.1), the stretches c sampled bilinearly
-//! from the fields ‖D_s‖, ‖D_t‖ at the warped point.
+//! from the fields ‖D_s‖, ‖D_t‖ at the warped point, their derivatives with respect to the
+//! cell's four lines, and each cell's share of F, Jᵀr and JᵀJ (the host adds the cells in f64).
 
 use super::real::{floor, Real, V2};
 
@@ -48,9 +49,17 @@ pub struct Field<'a, R> {
     pub height: usize,
 }
 
-/// `field_bilinear`'s value (the gradient is not needed by the residuals): along s on the two
-/// texel rows, then along t between them.
-pub fn field_bilinear<R: Real>(f: &Field<R>, s: R, t: R) -> R {
+/// `FieldSample`: a bilinear sample and its gradient (∂/∂s, ∂/∂t).
+#[derive(Clone, Copy, Debug)]
+pub struct FieldSample<R> {
+    pub value: R,
+    pub ds: R,
+    pub dt: R,
+}
+
+/// `field_bilinear`: along s on the two texel rows, then along t between them, with the
+/// gradient (0 along an axis where the lookup is clamped).
+pub fn field_bilinear_sample<R: Real>(f: &Field<R>, s: R, t: R) -> FieldSample<R> {
     let ax = axis(s, f.width);
     let ay = axis(t, f.height);
     let x1 = (ax.x0 + 1).min(f.width - 1);
@@ -60,7 +69,17 @@ pub fn field_bilinear<R: Real>(f: &Field<R>, s: R, t: R) -> R {
     let along_1 = at(x1, y1) - at(ax.x0, y1);
     let f0 = at(ax.x0, ay.x0) + ax.frac * along_0;
     let f1 = at(ax.x0, y1) + ax.frac * along_1;
-    f0 + ay.frac * (f1 - f0)
+    let across = f1 - f0;
+    FieldSample {
+        value: f0 + ay.frac * across,
+        ds: ax.grad * (along_0 + ay.frac * (along_1 - along_0)),
+        dt: ay.grad * across,
+    }
+}
+
+/// `field_bilinear`'s value.
+pub fn field_bilinear<R: Real>(f: &Field<R>, s: R, t: R) -> R {
+    field_bilinear_sample(f, s, t).value
 }
 
 /// `slope`: (far − near) / rest width.
@@ -116,4 +135,90 @@ pub fn sample_residuals<R: Real>(
         residual(sample.sigma, c_s, a, sample.o_s),
         residual(sample.sigma, c_t, b, sample.o_t),
     ]
+}
+
+/// `line_derivatives`: the derivatives of r = σ (c a − o) with respect to the near and far
+/// lines along the residual's axis and across it, [near along, far along, near across, far
+/// across], from u = σ a ∂c/∂along, v = σ c / h, w = σ a ∂c/∂across.
+#[allow(clippy::too_many_arguments)] // the kernel's eight arguments, named as in the WGSL
+pub fn line_derivatives<R: Real>(
+    sigma: R,
+    c: R,
+    dc_along: R,
+    dc_across: R,
+    a: R,
+    rest_width: R,
+    along: R,
+    across: R,
+) -> [R; 4] {
+    let one = R::lit(1.0);
+    let sigma_a = sigma * a;
+    let u = sigma_a * dc_along;
+    let v = (sigma / rest_width) * c;
+    let w = sigma_a * dc_across;
+    [
+        u * (one - along) - v,
+        u * along + v,
+        w * (one - across),
+        w * across,
+    ]
+}
+
+/// `CellContribution`: one cell's F, Jᵀr and JᵀJ over its four slots (s_i, s_{i+1}, t_j,
+/// t_{j+1}), JᵀJ row-major 4 × 4.
+#[derive(Clone, Copy, Debug)]
+pub struct CellContribution<R> {
+    pub jtj: [R; 16],
+    pub jtr: [R; 4],
+    pub energy: R,
+}
+
+/// `add_residual`: F += r², Jᵀr += d r, JᵀJ += d dᵀ.
+pub fn add_residual<R: Real>(out: &mut CellContribution<R>, r: R, d: [R; 4]) {
+    out.energy = r * r + out.energy;
+    for u in 0..4 {
+        out.jtr[u] = d[u] * r + out.jtr[u];
+        for v in 0..4 {
+            out.jtj[4 * u + v] = d[u] * d[v] + out.jtj[4 * u + v];
+        }
+    }
+}
+
+/// The body of `gridwarp_aa_cell`: the cell's contribution from its samples (σ = 0 skipped).
+pub fn cell_contribution<R: Real>(
+    l: &CellLines<R>,
+    samples: &[RestSample<R>],
+    d_s: &Field<R>,
+    d_t: &Field<R>,
+) -> CellContribution<R> {
+    let zero = R::lit(0.0);
+    let mut out = CellContribution {
+        jtj: [zero; 16],
+        jtr: [zero; 4],
+        energy: zero,
+    };
+    let a = slope(l.s0, l.s1, l.h);
+    let b = slope(l.t0, l.t1, l.k);
+    for sample in samples {
+        if sample.sigma.value() == 0.0 {
+            continue;
+        }
+        let p = warped_point(l.s0, l.s1, l.t0, l.t1, sample.alpha, sample.beta);
+        let c_s = field_bilinear_sample(d_s, p.x, p.y);
+        let c_t = field_bilinear_sample(d_t, p.x, p.y);
+        let r_s = residual(sample.sigma, c_s.value, a, sample.o_s);
+        let r_t = residual(sample.sigma, c_t.value, b, sample.o_t);
+        let (alpha, beta, sigma) = (sample.alpha, sample.beta, sample.sigma);
+        // r^s stretches along s: its lines along are s_i, s_{i+1} (slots 0, 1).
+        let d_s_lines = line_derivatives(sigma, c_s.value, c_s.ds, c_s.dt, a, l.h, alpha, beta);
+        // r^t stretches along t: its lines along are t_j, t_{j+1} (slots 2, 3).
+        let d_t_lines = line_derivatives(sigma, c_t.value, c_t.dt, c_t.ds, b, l.k, beta, alpha);
+        add_residual(&mut out, r_s, d_s_lines);
+        add_residual(
+            &mut out,
+            r_t,
+            [d_t_lines[2], d_t_lines[3], d_t_lines[0], d_t_lines[1]],
+        );
+    }
+    out
 }
