@@ -315,12 +315,7 @@ struct Assembled {
     jtr: Vec<f64>,
 }
 
-fn assemble(
-    x: &Inputs,
-    body: CellBody,
-    unknown_order: UnknownOrder,
-    model: Model,
-) -> Assembled {
+fn assemble(x: &Inputs, body: CellBody, unknown_order: UnknownOrder, model: Model) -> Assembled {
     let s_index: Vec<i32> = load("s_index").to_f64().iter().map(|&v| v as i32).collect();
     let t_index: Vec<i32> = load("t_index").to_f64().iter().map(|&v| v as i32).collect();
     let n = s_index.iter().chain(&t_index).filter(|&&u| u >= 0).count();

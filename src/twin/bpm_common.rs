@@ -390,7 +390,7 @@ pub struct TriangleMaps<R> {
     pub uv_k_origin: V4<R>,
     /// M_t: (a, b), (c, d); f(z) = w_origin + M_t(z).
     pub m: [V4<R>; 2],
-    /// Log ratio of edge e (ij, jk, ki): logs[2e] = (a, b), logs[2e + 1] = (c, 0).
+    /// Log ratio of edge e (ij, jk, ki): `logs[2e] = (a, b)`, `logs[2e + 1] = (c, 0)`.
     pub logs: [V4<R>; 6],
     /// FLAG_LINEAR_FALLBACK | FLAG_MIRRORED.
     pub flags: u32,

@@ -2,7 +2,7 @@
 //!
 //! One file per WGSL file (`src/twin/<shader>.rs` beside `gpu/shaders/<shader>.wgsl`), function
 //! for function and operation for operation, written over a number type [`Real`] so that the
-//! same lines serve two purposes:
+//! same lines serve three purposes:
 //!
 //! - over [`F`] (an f32 under an arithmetic [`Model`]: correctly rounded, fused multiply-adds,
 //!   reordered sums, or every operation and builtin at the edge of the WGSL accuracy table),
@@ -15,7 +15,8 @@
 //!   the cancellations a ball cannot see (a long kernel such as `bpm_precompute`, whose Möbius
 //!   maps are defined up to a common scale).
 //!
-//! The twins also make the conformance vectors' mutants (tests/mutants.rs): a mutant is a
+//! The twins also make the conformance vectors' mutants (`tests/mutants_bpm.rs`,
+//! `tests/twin_skinsimp.rs`, `tests/twin_gridwarp.rs`): a mutant is a
 //! porting mistake (a term dropped, slots swapped, the wrong multiplication order, a branch
 //! ignored) built from a twin's functions, and the canonical vectors must reject every one.
 //!
@@ -24,9 +25,9 @@
 //! | [`bpm_common`] | `bpm_common.wgsl` | `bpm::moebius`, `bpm::eval` |
 //! | [`bpm_eval`] | `bpm_eval.wgsl` | [`crate::bpm::Bpm::eval`] |
 //! | [`bpm_precompute`] | `bpm_precompute.wgsl` | [`crate::bpm::precompute()`] |
-//! | [`gridwarp_aa`] | `gridwarp_aa.wgsl` (residuals) | `gridwarp::plain::aa` |
-//! | [`skinsimp_lbs`] | `skinsimp_lbs.wgsl` | `skinsimp::skinning` |
-//! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` (`skinsimp_plane_quadrics`) | `skinsimp::quadric` |
+//! | [`gridwarp_aa`] | `gridwarp_aa.wgsl`, `gridwarp_aa_residuals.wgsl` | `gridwarp::plain::aa` |
+//! | [`skinsimp_lbs`] | `skinsimp_lbs.wgsl` | [`crate::mesh::skin::skin_positions`] |
+//! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` | `skinsimp::quadric` (`Quadric::from_plane`, …) |
 
 pub mod ball;
 pub mod bpm_common;

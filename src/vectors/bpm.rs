@@ -36,7 +36,7 @@ fn maps_values(m: &GpuTriangleMaps) -> impl Iterator<Item = f32> + '_ {
         .copied()
 }
 
-/// The per-triangle data of every face as one row of 44 values ([`maps_values`]), and the flags.
+/// The per-triangle data of every face as one row of 44 values (`maps_values`), and the flags.
 pub fn maps_arrays(maps: &[GpuTriangleMaps]) -> (Array, Array) {
     let rows = maps.iter().flat_map(maps_values).collect();
     (
@@ -329,7 +329,7 @@ fn qc_figures(bpm: &crate::bpm::Bpm) -> Vec<f64> {
 }
 
 /// The whole-algorithm vectors of BPM: the mesh (rounded to f32) and the QC protocol's figures
-/// ([`qc_figures`], seed 004's evaluation protocol) of its BPM map (local fit), each with the
+/// (`qc_figures`, seed 004's evaluation protocol) of its BPM map (local fit), each with the
 /// relative bound that a precompute within its derived bound keeps (δ = the largest of
 /// [`pipeline_bounds`] over the samples; [`crate::bpm::quality::qc_sensitivity`]).
 pub fn qc_vectors(mesh: &TriMesh) -> Result<KernelData> {
