@@ -31,11 +31,23 @@ impl Report {
     }
 
     /// A table with a header row.
+    /// Each cell's `|` is escaped (`\|`: a header such as `largest |uv|` would otherwise
+    /// split its column and break the table in every Markdown viewer).
     pub fn table(&mut self, header: &[&str], rows: &[Vec<String>]) {
-        let _ = writeln!(self.text, "| {} |", header.join(" | "));
+        let line = |cells: Vec<String>| format!("| {} |", cells.join(" | "));
+        let escaped = |cell: &str| cell.replace('|', "\\|");
+        let _ = writeln!(
+            self.text,
+            "{}",
+            line(header.iter().map(|c| escaped(c)).collect())
+        );
         let _ = writeln!(self.text, "|{}", "---|".repeat(header.len()));
         for row in rows {
-            let _ = writeln!(self.text, "| {} |", row.join(" | "));
+            let _ = writeln!(
+                self.text,
+                "{}",
+                line(row.iter().map(|c| escaped(c)).collect())
+            );
         }
         self.text.push('\n');
     }
@@ -403,5 +415,60 @@ mod tests {
             Some("results[1].list[1]")
         );
         assert_eq!(first_non_finite(&f64::NAN).as_deref(), Some("the result"));
+    }
+}
+
+/// The tables of a Markdown `text`: per table, its rows split into cells at every `|` that is
+/// not escaped (header and separator included). For tests of the reports: a table whose rows
+/// have different cell counts does not render.
+pub fn markdown_tables(text: &str) -> Vec<Vec<Vec<String>>> {
+    let mut tables = Vec::new();
+    let mut current: Vec<Vec<String>> = Vec::new();
+    for line in text.lines() {
+        let line = line.trim();
+        if line.starts_with('|') && line.ends_with('|') {
+            let mut cells = Vec::new();
+            let mut cell = String::new();
+            let mut chars = line[1..line.len() - 1].chars().peekable();
+            while let Some(c) = chars.next() {
+                match c {
+                    '\\' if chars.peek() == Some(&'|') => {
+                        cell.push('|');
+                        chars.next();
+                    }
+                    '|' => cells.push(std::mem::take(&mut cell).trim().to_string()),
+                    _ => cell.push(c),
+                }
+            }
+            cells.push(cell.trim().to_string());
+            current.push(cells);
+        } else if !current.is_empty() {
+            tables.push(std::mem::take(&mut current));
+        }
+    }
+    if !current.is_empty() {
+        tables.push(current);
+    }
+    tables
+}
+
+#[cfg(test)]
+mod markdown_tests {
+    use super::*;
+
+    #[test]
+    fn a_bar_in_a_cell_is_escaped_and_the_table_keeps_its_columns() {
+        let mut r = Report::new("t");
+        r.table(
+            &["largest |uv|", "error"],
+            &[vec!["1".into(), "|x|".into()]],
+        );
+        let tables = markdown_tables(r.as_str());
+        assert_eq!(tables.len(), 1);
+        assert!(tables[0].iter().all(|row| row.len() == 2), "{tables:?}");
+        assert_eq!(tables[0][0][0], "largest |uv|");
+        // Unescaped, the same header has four cells: the check fails a broken table.
+        let broken = markdown_tables("| largest |uv| | error |\n|---|---|\n");
+        assert_eq!(broken[0][0].len(), 4);
     }
 }
