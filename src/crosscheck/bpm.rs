@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use reparam_gpu::Gpu;
 use serde::Serialize;
 
-use super::run::{time_cpu, time_gpu_warm};
+use super::timing::{time_cpu, time_gpu_warm};
 use super::{to_f32_precision, Bounds, ErrorSummary, Row, Timing};
 use crate::bpm::gpu::{
     eval_gpu, maps_to_gpu, precompute_gpu, sample_as_gpu_sees_it, samples_to_gpu, stars,
@@ -24,8 +24,9 @@ use crate::mesh::TriMesh;
 use crate::report::sig;
 use reparam_gpu::bpm::GpuTriangleMaps;
 
-/// Errors are reported in texels of a texture this wide: |Δuv| × 4096.
-pub const TEXTURE_SIZE: f64 = 4096.0;
+/// BPM's UV errors are measured in texels of a texture this wide (4096²): written once, in
+/// [`super::bpm_bound`].
+pub use super::bpm_bound::TEXTURE_SIZE;
 /// Unit string of the summaries.
 pub const UNIT: &str = "texels of a 4096² texture";
 

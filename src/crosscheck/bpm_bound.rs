@@ -32,7 +32,6 @@
 use num_complex::Complex64 as C;
 use rayon::prelude::*;
 
-use super::bpm::TEXTURE_SIZE;
 use crate::bpm::gpu::{triangle_flags, triangle_values};
 use crate::bpm::precompute::{Star, TriangleMaps};
 use crate::bpm::{Bpm, Interp, Sample};
@@ -42,6 +41,9 @@ use crate::twin::bpm_eval::{bpm_eval, Sample as TwinSample};
 use crate::twin::bpm_precompute::{triangle_maps, StarInput, FIT_LOCAL, MASK_DEGENERATE};
 use crate::twin::lin::{self, Lin, SECOND_ORDER};
 use crate::twin::{Real, V2, V3};
+
+/// BPM's UV errors are measured in texels of a texture this wide (4096²).
+pub const TEXTURE_SIZE: f64 = 4096.0;
 
 /// The bound of an element where the WGSL accuracy table gives none (JSON has no ∞).
 pub const UNBOUNDED: f64 = f64::MAX;

@@ -23,7 +23,7 @@
 use nalgebra::{DMatrix, DVector};
 use reparam_gpu::Gpu;
 
-use super::run::{time_cpu, time_gpu, time_gpu_warm};
+use super::timing::{time_cpu, time_gpu, time_gpu_warm};
 use super::{Bounds, Row, Timing};
 use crate::error::{Error, Result};
 use crate::gridwarp::energy::{AaEnergy, DeformedFields, RestFields};

@@ -11,7 +11,7 @@
 use nalgebra::Point3;
 use reparam_gpu::Gpu;
 
-use super::run::{time_cpu, time_gpu_warm};
+use super::timing::{time_cpu, time_gpu_warm};
 use super::{Bounds, Row, Timing};
 use crate::error::Result;
 use crate::maps::gpu::{

@@ -11,7 +11,7 @@
 
 use serde::Serialize;
 
-use super::ErrorSummary;
+use super::summary::{round_significant, ErrorSummary};
 
 /// What a row concludes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -263,7 +263,7 @@ impl Row {
 
     /// The same row with its figures rounded to `digits` significant digits.
     pub fn rounded(&self, digits: u32) -> Row {
-        let r = |x: f64| super::round_significant(x, digits);
+        let r = |x: f64| round_significant(x, digits);
         let t = |x: Option<f64>| x.map(r);
         Row {
             errors: self.errors.rounded(digits),

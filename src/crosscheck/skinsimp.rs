@@ -13,7 +13,7 @@ use nalgebra::{Matrix4, Point3, Vector3};
 use reparam_gpu::skinsimp::{EdgeItem, PlaneSource, SOURCE_FACE};
 use reparam_gpu::Gpu;
 
-use super::run::{time_cpu, time_gpu_warm};
+use super::timing::{time_cpu, time_gpu_warm};
 use super::{Bounds, Row, Timing};
 use crate::crosscheck::F32_FLUSH;
 use crate::error::{Error, Result};

@@ -8,7 +8,7 @@
 
 use reparam_gpu::Gpu;
 
-use super::run::{time_cpu, time_gpu};
+use super::timing::{time_cpu, time_gpu};
 use super::{Bounds, Row, Timing};
 use crate::error::Result;
 use crate::unwarp::energy::{node_energy, node_gradient, triangle_gradient, Fan};
