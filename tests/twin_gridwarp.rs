@@ -4,8 +4,11 @@
 //! model a conforming GPU may use and reject the porting mistakes below (mutants). The printed
 //! tables are the README's.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
+use common::mutation::MutationTable;
 use reparam::twin::gridwarp_aa::{
     add_residual, cell_contribution, field_bilinear, field_bilinear_sample, line_derivatives,
     residual, sample_residuals, slope, warped_point, CellContribution, CellLines, Field,
@@ -206,26 +209,10 @@ fn every_model_passes_and_every_mutant_fails() {
         .find(|k| k.name == KERNEL)
         .unwrap();
     let x = inputs();
-    let mut table = vec![
-        "| mutant | the porter's mistake | verdict | worst error/bound | over |".to_string(),
-        "|---|---|---|---|---|".to_string(),
-    ];
-    let line = |name: &str, mistake: &str, r: &VerifyReport| {
-        format!(
-            "| `{name}` | {mistake} | {} | {:.3e} | {} of {} |",
-            if r.pass { "**survived**" } else { "killed" },
-            r.worst_ratio,
-            r.over,
-            r.errors.count
-        )
-    };
-    let mut wrong = Vec::new();
+    let mut table = MutationTable::default();
     for model in Model::CHECKED {
         let r = judge(&k, candidate(&x, correct, row_inner, model));
-        table.push(line(&format!("twin ({})", model.name()), "none", &r));
-        if !r.pass {
-            wrong.push(format!("the twin under {} fails", model.name()));
-        }
+        table.twin(&model.name(), &r);
     }
     let mutants: [(&str, &str, Body, CellOrder); 9] = [
         (
@@ -287,13 +274,9 @@ fn every_model_passes_and_every_mutant_fails() {
     ];
     for (name, mistake, body, order) in mutants {
         let r = judge(&k, candidate(&x, body, order, Model::Nearest));
-        table.push(line(name, mistake, &r));
-        if r.pass {
-            wrong.push(format!("mutant {name} survives"));
-        }
+        table.mutant(name, mistake, &r);
     }
-    println!("{}", table.join("\n"));
-    assert!(wrong.is_empty(), "{wrong:?}\n{}", table.join("\n"));
+    table.finish();
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -6,8 +6,11 @@
 //! - no bound is 0;
 //! - the porting mistakes below (mutants) are all rejected. The printed table is the README's.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
+use common::mutation::MutationTable;
 use reparam::twin::real::{cross, dot, length};
 use reparam::twin::skinsimp_lbs::{joint_times, skin};
 use reparam::twin::skinsimp_quadrics::{
@@ -200,36 +203,16 @@ fn every_model_passes_every_mutant_fails_and_no_bound_is_zero() {
     let bounds = Array::load(&dir().join(&k.bound.file)).unwrap().to_f64();
     let zero = bounds.iter().filter(|&&b| b == 0.0).count();
     assert_eq!(zero, 0, "{zero} of {} bounds are exactly 0", bounds.len());
-    let mut table = vec![
-        "| mutant | the porter's mistake | verdict | worst error/bound | over |".to_string(),
-        "|---|---|---|---|---|".to_string(),
-    ];
-    let line = |name: &str, mistake: &str, r: &VerifyReport| {
-        format!(
-            "| `{name}` | {mistake} | {} | {:.3e} | {} of {} |",
-            if r.pass { "**survived**" } else { "killed" },
-            r.worst_ratio,
-            r.over,
-            r.errors.count
-        )
-    };
-    let mut wrong = Vec::new();
+    let mut table = MutationTable::default();
     for model in Model::CHECKED {
         let r = judge(&k, plane_quadric, model);
-        table.push(line(&format!("twin ({})", model.name()), "none", &r));
-        if !r.pass {
-            wrong.push(format!("the twin under {} fails", model.name()));
-        }
+        table.twin(&model.name(), &r);
     }
     for (name, mistake, body) in MUTANTS {
         let r = judge(&k, body, Model::Nearest);
-        table.push(line(name, mistake, &r));
-        if r.pass {
-            wrong.push(format!("mutant {name} survives"));
-        }
+        table.mutant(name, mistake, &r);
     }
-    println!("{}", table.join("\n"));
-    assert!(wrong.is_empty(), "{wrong:?}\n{}", table.join("\n"));
+    table.finish();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -337,26 +320,10 @@ fn lbs_every_model_passes_every_mutant_fails_and_no_bound_is_zero() {
     let bounds = Array::load(&dir().join(&k.bound.file)).unwrap().to_f64();
     assert_eq!(bounds.iter().filter(|&&b| b == 0.0).count(), 0);
     let judge = |a: Array| verify_array(&dir(), &k, &a, "twin").unwrap();
-    let mut table = vec![
-        "| mutant | the porter's mistake | verdict | worst error/bound | over |".to_string(),
-        "|---|---|---|---|---|".to_string(),
-    ];
-    let line = |name: &str, mistake: &str, r: &VerifyReport| {
-        format!(
-            "| `{name}` | {mistake} | {} | {:.3e} | {} of {} |",
-            if r.pass { "**survived**" } else { "killed" },
-            r.worst_ratio,
-            r.over,
-            r.errors.count
-        )
-    };
-    let mut wrong = Vec::new();
+    let mut table = MutationTable::default();
     for model in Model::CHECKED {
         let r = judge(lbs_candidate(correct_lbs, pose_major, model));
-        table.push(line(&format!("twin ({})", model.name()), "none", &r));
-        if !r.pass {
-            wrong.push(format!("the twin under {} fails", model.name()));
-        }
+        table.twin(&model.name(), &r);
     }
     let mutants: [(&str, &str, LbsBody, MatrixIndex); 6] = [
         (
@@ -393,13 +360,9 @@ fn lbs_every_model_passes_every_mutant_fails_and_no_bound_is_zero() {
     ];
     for (name, mistake, body, index) in mutants {
         let r = judge(lbs_candidate(body, index, Model::Nearest));
-        table.push(line(name, mistake, &r));
-        if r.pass {
-            wrong.push(format!("mutant {name} survives"));
-        }
+        table.mutant(name, mistake, &r);
     }
-    println!("{}", table.join("\n"));
-    assert!(wrong.is_empty(), "{wrong:?}\n{}", table.join("\n"));
+    table.finish();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -474,27 +437,11 @@ fn vertex_quadrics_every_model_passes_every_mutant_fails() {
     let bounds = Array::load(&dir().join(&k.bound.file)).unwrap().to_f64();
     assert_eq!(bounds.iter().filter(|&&b| b == 0.0).count(), 0);
     let judge = |a: Array| verify_array(&dir(), &k, &a, "twin").unwrap();
-    let mut table = vec![
-        "| mutant | the porter's mistake | verdict | worst error/bound | over |".to_string(),
-        "|---|---|---|---|---|".to_string(),
-    ];
-    let line = |name: &str, mistake: &str, r: &VerifyReport| {
-        format!(
-            "| `{name}` | {mistake} | {} | {:.3e} | {} of {} |",
-            if r.pass { "**survived**" } else { "killed" },
-            r.worst_ratio,
-            r.over,
-            r.errors.count
-        )
-    };
+    let mut table = MutationTable::default();
     let same_pose = |j: usize| j;
-    let mut wrong = Vec::new();
     for model in Model::CHECKED {
         let r = judge(vertex_candidate(as_stored, same_pose, model));
-        table.push(line(&format!("twin ({})", model.name()), "none", &r));
-        if !r.pass {
-            wrong.push(format!("the twin under {} fails", model.name()));
-        }
+        table.twin(&model.name(), &r);
     }
     let mutants: [(&str, &str, Gather, PoseOf); 6] = [
         (
@@ -548,11 +495,7 @@ fn vertex_quadrics_every_model_passes_every_mutant_fails() {
     ];
     for (name, mistake, gather, pose_of) in mutants {
         let r = judge(vertex_candidate(gather, pose_of, Model::Nearest));
-        table.push(line(name, mistake, &r));
-        if r.pass {
-            wrong.push(format!("mutant {name} survives"));
-        }
+        table.mutant(name, mistake, &r);
     }
-    println!("{}", table.join("\n"));
-    assert!(wrong.is_empty(), "{wrong:?}\n{}", table.join("\n"));
+    table.finish();
 }

@@ -54,17 +54,12 @@ pub fn parse_off(text: &str, path: &Path) -> Result<TriMesh> {
         message: format!("line {line}: {message}"),
     };
     let mut lines = data_lines(text).peekable();
-    if let Some((_, _, words)) = lines.peek() {
-        if words[0].ends_with("OFF") {
-            if words[0] != "OFF" && words[0] != "COFF" && words[0] != "NOFF" && words[0] != "CNOFF"
-            {
-                return Err(err(1, format!("unsupported header {}", words[0])));
-            }
-            let extra = words.len() > 1;
-            let (n, _, _) = lines.next().expect("peeked");
-            if extra {
-                return Err(err(n, "the counts must be on their own line".into()));
-            }
+    if let Some((n, _, words)) = lines.next_if(|(_, _, words)| words[0].ends_with("OFF")) {
+        if words[0] != "OFF" && words[0] != "COFF" && words[0] != "NOFF" && words[0] != "CNOFF" {
+            return Err(err(1, format!("unsupported header {}", words[0])));
+        }
+        if words.len() > 1 {
+            return Err(err(n, "the counts must be on their own line".into()));
         }
     }
     let (count_line, counts_end, counts) = lines

@@ -41,3 +41,64 @@ pub fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
         .expect("a rayon pool")
         .install(f)
 }
+
+/// The mutation tables of the twin tests (`tests/mutants_bpm.rs`, `tests/twin_*.rs`): one line
+/// per candidate judged by `verify`, the twin under each arithmetic model first (it must pass),
+/// then each mutant (it must fail). [`MutationTable::finish`] prints the table (the README's)
+/// and fails the test naming every twin that failed and every mutant that survived.
+#[cfg(feature = "gpu")]
+pub mod mutation {
+    use reparam::vectors::verify::VerifyReport;
+
+    pub struct MutationTable {
+        lines: Vec<String>,
+        wrong: Vec<String>,
+    }
+
+    impl Default for MutationTable {
+        fn default() -> Self {
+            MutationTable {
+                lines: vec![
+                    "| mutant | the porter's mistake | verdict | worst error/bound | over |".into(),
+                    "|---|---|---|---|---|".into(),
+                ],
+                wrong: Vec::new(),
+            }
+        }
+    }
+
+    fn line(name: &str, mistake: &str, r: &VerifyReport) -> String {
+        format!(
+            "| `{name}` | {mistake} | {} | {:.3e} | {} of {} |",
+            if r.pass { "**survived**" } else { "killed" },
+            r.worst_ratio,
+            r.over,
+            r.errors.count
+        )
+    }
+
+    impl MutationTable {
+        /// The twin under `model` (a model's name): it must pass.
+        pub fn twin(&mut self, model: &str, r: &VerifyReport) {
+            self.lines.push(line(&format!("twin ({model})"), "none", r));
+            if !r.pass {
+                self.wrong.push(format!("the twin under {model} fails"));
+            }
+        }
+
+        /// A mutant: it must fail.
+        pub fn mutant(&mut self, name: &str, mistake: &str, r: &VerifyReport) {
+            self.lines.push(line(name, mistake, r));
+            if r.pass {
+                self.wrong.push(format!("mutant {name} survives"));
+            }
+        }
+
+        /// Print the table; panic if a twin failed or a mutant survived.
+        pub fn finish(self) {
+            let table = self.lines.join("\n");
+            println!("{table}");
+            assert!(self.wrong.is_empty(), "{:?}\n{table}", self.wrong);
+        }
+    }
+}
