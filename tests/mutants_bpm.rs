@@ -8,6 +8,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
+use common::mutation::MutationTable;
 use reparam::twin::bpm_common::{
     blended_log, c_mul, c_zero, edge_weights, eval, eval_bpm, eval_linear, exp_sl2, fit_mobius_det,
     fit_mobius_local, log_sl2, maps_logs, maps_m_t, maps_w_origin, maps_z, mobius_apply,
@@ -50,17 +51,6 @@ fn input(k: &KernelVectors, name: &str) -> Array {
 
 fn judge(k: &KernelVectors, candidate: &Array, name: &str) -> VerifyReport {
     verify_array(&dir(), k, candidate, name).unwrap()
-}
-
-/// One line of the mutation table: the mutant, its verdict, worst error / bound, elements over.
-fn line(name: &str, mistake: &str, r: &VerifyReport) -> String {
-    format!(
-        "| `{name}` | {mistake} | {} | {:.3e} | {} of {} |",
-        if r.pass { "**survived**" } else { "killed" },
-        r.worst_ratio,
-        r.over,
-        r.errors.count
-    )
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -219,26 +209,16 @@ const EVAL_MUTANTS: [(&str, &str, EvalFn); 10] = [
 #[test]
 fn the_canonical_eval_vectors_reject_every_mutant_and_accept_the_twin() {
     let k = kernel("bpm_eval");
-    let mut table = vec![
-        "| mutant | the porter's mistake | verdict | worst error/bound | over |".to_string(),
-        "|---|---|---|---|---|".to_string(),
-    ];
+    let mut table = MutationTable::default();
     for model in Model::CHECKED {
         let r = judge(&k, &eval_candidate(&k, correct_eval, model), "twin");
-        assert!(r.pass, "the twin under {model:?}: {}", r.worst_ratio);
-        table.push(line(&format!("twin ({})", model.name()), "none", &r));
+        table.twin(&model.name(), &r);
     }
-    let mut survivors = Vec::new();
     for (name, mistake, body) in EVAL_MUTANTS {
         let r = judge(&k, &eval_candidate(&k, body, Model::Nearest), name);
-        if r.pass {
-            survivors.push(name);
-        }
-        table.push(line(name, mistake, &r));
+        table.mutant(name, mistake, &r);
     }
-    let table = table.join("\n");
-    println!("{table}");
-    assert!(survivors.is_empty(), "survived: {survivors:?}\n{table}");
+    table.finish();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -519,10 +499,7 @@ const PRECOMPUTE_MUTANTS: [(&str, &str, PrecomputeFn); 9] = [
 #[test]
 fn the_canonical_precompute_vectors_reject_every_mutant_and_accept_the_twin() {
     let k = kernel("bpm_precompute");
-    let mut table = vec![
-        "| mutant | the porter's mistake | verdict | worst error/bound | over |".to_string(),
-        "|---|---|---|---|---|".to_string(),
-    ];
+    let mut table = MutationTable::default();
     for model in Model::CHECKED {
         let twin = |s: &StarInput<F>| triangle_maps(s, FIT_LOCAL);
         let stars = twin_io::stars(
@@ -536,8 +513,7 @@ fn the_canonical_precompute_vectors_reject_every_mutant_and_accept_the_twin() {
             .map(|s| with_model(model, || twin(s)))
             .collect();
         let r = judge(&k, &twin_io::maps_candidate(&maps), "twin");
-        assert!(r.pass, "the twin under {model:?}: {}", r.worst_ratio);
-        table.push(line(&format!("twin ({})", model.name()), "none", &r));
+        table.twin(&model.name(), &r);
     }
     // The identity of the mutant harness: with nothing changed it is the twin, and passes.
     let same = |s: &StarInput<F>| {
@@ -560,17 +536,11 @@ fn the_canonical_precompute_vectors_reject_every_mutant_and_accept_the_twin() {
     .unwrap();
     let maps: Vec<TriangleMaps<F>> = stars.iter().map(same).collect();
     assert!(judge(&k, &twin_io::maps_candidate(&maps), "harness").pass);
-    let mut survivors = Vec::new();
     for (name, mistake, body) in PRECOMPUTE_MUTANTS {
         let r = judge(&k, &precompute_candidate(&k, body, Model::Nearest), name);
-        if r.pass {
-            survivors.push(name);
-        }
-        table.push(line(name, mistake, &r));
+        table.mutant(name, mistake, &r);
     }
-    let table = table.join("\n");
-    println!("{table}");
-    assert!(survivors.is_empty(), "survived: {survivors:?}\n{table}");
+    table.finish();
 }
 
 /// The twin's `bpm_eval` entry point agrees with the body the eval mutants wrap.
