@@ -9,6 +9,20 @@ use crate::maps::gpu::{base_queries, inverse_gpu, inverse_tables, normalise};
 use crate::maps::param::BasePoint;
 use crate::maps::Maps;
 
+/// `maps_inverse` for the manifest, step by step (issue #33: an implementer must be able to
+/// write a passing candidate from the manifest alone; `tests/vectors_manifest_maps.rs` does).
+const INVERSE_FORMULA: &str = "Π⁻¹ of base points (MAPS §3.3). Per query (base face q, \
+    barycentrics b): face = base_to_face[q]. While face_created_by[face] ≠ 4294967295 (not an \
+    input face): r = face_created_by[face]; u = Σ_c b_c μ_c with μ_c = (charts[face][2c], \
+    charts[face][2c + 1]) (the face's corners in r's plane); over the faces f of \
+    old_faces[removals[r][0] .. removals[r][0] + removals[r][1]] in that order, with their \
+    corners ν_c = (charts[f][6 + 2c], charts[f][7 + 2c]) in r's plane, λ = barycentric(u, ν): \
+    take the first f with min λ ≥ 0, else the f with the largest min λ (the first on ties); \
+    face = f, b = max(λ, 0) / Σ max(λ, 0). At an input face: position = Σ_c b_c \
+    positions[face_corners[face][c]] (x, y, z). barycentric(u, a, b, c) = (o(u, b, c), \
+    o(a, u, c), o(a, b, u)) / s with o(p, q, r) = (q.x − p.x)(r.y − p.y) − (q.y − p.y)(r.x − p.x) \
+    and s the sum of the three (o(a, b, c) if that sum is 0)";
+
 /// The vectors of Π⁻¹ at `points` (base face, barycentrics) of `maps`, positions in the
 /// normalised frame (centred on the bounding box, divided by its diagonal), and with a GPU
 /// reparam's own kernel's output as the candidate.
@@ -82,9 +96,7 @@ pub fn vectors(
     ];
     let kernel = KernelData {
         name: "maps_inverse".into(),
-        description: "Π⁻¹ of base points: replay the removals backwards from the base face to \
-            the input face containing the point, then Σ b_c p_c (MAPS §3.3)"
-            .into(),
+        description: INVERSE_FORMULA.into(),
         inputs,
         expected: (
             "per query, f64: x, y, z in the normalised frame".into(),
