@@ -11,10 +11,10 @@ use std::path::{Path, PathBuf};
 use common::mutation::MutationTable;
 use reparam::twin::bpm_common::{
     blended_log, c_mul, c_zero, edge_weights, eval, eval_bpm, eval_linear, exp_sl2, fit_mobius_det,
-    fit_mobius_local, log_sl2, maps_logs, maps_m_t, maps_w_origin, maps_z, mobius_apply,
+    fit_mobius_local, log_sl2, maps_logs, maps_m_t, maps_uv, maps_w_origin, maps_z, mobius_apply,
     mobius_identity, mobius_inverse, mobius_is_finite, mobius_mul, pack_triangle_maps, sl2_add,
     sl2_max_abs, sl2_scale, sl2_zero, Complex, Mobius, Sl2, TriangleMaps, FLAG_LINEAR_FALLBACK,
-    FLAG_MIRRORED, INTERP_BPM,
+    FLAG_MIRRORED, INTERP_BPM, INTERP_LINEAR,
 };
 use reparam::twin::bpm_eval::{bpm_eval, Sample};
 use reparam::twin::bpm_precompute::{
@@ -557,4 +557,72 @@ fn the_eval_harness_is_the_kernel() {
         twin_io::uv_candidate(&direct),
         eval_candidate(&k, correct_eval, Model::Nearest)
     );
+}
+
+// ---------------------------------------------------------------------------------------------
+// bpm_eval_linear
+
+fn correct_linear(t: &TriangleMaps<F>, b: V3<F>) -> Complex<F> {
+    eval(t, b, INTERP_LINEAR)
+}
+
+/// Σ b_c uv_c with the corners' UVs taken in the order `order`.
+fn linear_with(t: &TriangleMaps<F>, w: [F; 3], order: [usize; 3]) -> Complex<F> {
+    let uv = maps_uv(t);
+    V2::sum(&[
+        uv[order[0]] * w[0],
+        uv[order[1]] * w[1],
+        uv[order[2]] * w[2],
+    ])
+}
+
+const LINEAR_MUTANTS: [(&str, &str, EvalFn); 6] = [
+    (
+        "uv_jk_swapped",
+        "b_j with uv_k and b_k with uv_j",
+        |t, b| linear_with(t, [b.x, b.y, b.z], [0, 2, 1]),
+    ),
+    (
+        "bary_rotated",
+        "(b_i, b_j, b_k) read as (b_j, b_k, b_i)",
+        |t, b| linear_with(t, [b.y, b.z, b.x], [0, 1, 2]),
+    ),
+    (
+        "b_i_dropped",
+        "b_i taken as 0 (only the stored b_j, b_k used)",
+        |t, b| linear_with(t, [F::lit(0.0), b.y, b.z], [0, 1, 2]),
+    ),
+    (
+        "w_origin_added",
+        "w_origin added to the linear interpolant as to BPM's",
+        |t, b| eval(t, b, INTERP_LINEAR) + maps_w_origin(t),
+    ),
+    (
+        "layout_not_uv",
+        "the layout z interpolated instead of the UVs",
+        |t, b| {
+            let z = maps_z(t);
+            V2::sum(&[z[0] * b.x, z[1] * b.y, z[2] * b.z])
+        },
+    ),
+    (
+        "bpm_instead",
+        "the BPM interpolant where linear was asked",
+        |t, b| eval(t, b, INTERP_BPM),
+    ),
+];
+
+#[test]
+fn the_canonical_linear_vectors_reject_every_mutant_and_accept_the_twin() {
+    let k = kernel("bpm_eval_linear");
+    let mut table = MutationTable::default();
+    for model in Model::CHECKED {
+        let r = judge(&k, &eval_candidate(&k, correct_linear, model), "twin");
+        table.twin(&model.name(), &r);
+    }
+    for (name, mistake, body) in LINEAR_MUTANTS {
+        let r = judge(&k, &eval_candidate(&k, body, Model::Nearest), name);
+        table.mutant(name, mistake, &r);
+    }
+    table.finish();
 }
