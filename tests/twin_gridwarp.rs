@@ -200,21 +200,9 @@ fn judge(k: &KernelVectors, a: Array) -> VerifyReport {
     verify_array(&dir(), k, &a, "twin").unwrap()
 }
 
-#[test]
-fn every_model_passes_and_every_mutant_fails() {
-    let k = read_manifest(&dir())
-        .unwrap()
-        .kernels
-        .into_iter()
-        .find(|k| k.name == KERNEL)
-        .unwrap();
-    let x = inputs();
-    let mut table = MutationTable::default();
-    for model in Model::CHECKED {
-        let r = judge(&k, candidate(&x, correct, row_inner, model));
-        table.twin(&model.name(), &r);
-    }
-    let mutants: [(&str, &str, Body, CellOrder); 9] = [
+/// The porting mistakes of the residual path.
+fn residual_mutants() -> [(&'static str, &'static str, Body, CellOrder); 9] {
+    [
         (
             "cell_order",
             "cells read as c = j·(M − 1) + i",
@@ -271,12 +259,82 @@ fn every_model_passes_and_every_mutant_fails() {
             },
             row_inner,
         ),
-    ];
+    ]
+}
+
+#[test]
+fn every_model_passes_and_every_mutant_fails() {
+    let k = read_manifest(&dir())
+        .unwrap()
+        .kernels
+        .into_iter()
+        .find(|k| k.name == KERNEL)
+        .unwrap();
+    let x = inputs();
+    let mut table = MutationTable::default();
+    for model in Model::CHECKED {
+        let r = judge(&k, candidate(&x, correct, row_inner, model));
+        table.twin(&model.name(), &r);
+    }
+    let mutants = residual_mutants();
     for (name, mistake, body, order) in mutants {
         let r = judge(&k, candidate(&x, body, order, Model::Nearest));
         table.mutant(name, mistake, &r);
     }
     table.finish();
+}
+
+/// The per-cell energies Σ (r^s)² + (r^t)² (in f64) of a residual candidate, and F.
+fn energies_of(x: &Inputs, residuals: &Array) -> (Array, Array) {
+    let r = residuals.to_f64();
+    let cells: Vec<f64> = r
+        .chunks(2 * x.per_cell)
+        .map(|c| c.iter().map(|v| v * v).sum())
+        .collect();
+    let total: f64 = cells.iter().sum();
+    (
+        Array::f64(&[cells.len()], cells),
+        Array::f64(&[1], vec![total]),
+    )
+}
+
+/// `gridwarp_aa.cell_energy` and `.energy` of its own: the twin's residuals squared and summed
+/// pass under every model, and every residual mutant fails both (its energies are wrong too).
+#[test]
+fn the_energies_accept_the_twin_and_reject_every_residual_mutant() {
+    let manifest = read_manifest(&dir()).unwrap();
+    let kernel = |name: &str| {
+        manifest
+            .kernels
+            .iter()
+            .find(|k| k.name == name)
+            .unwrap()
+            .clone()
+    };
+    let (cell_k, energy_k) = (
+        kernel("gridwarp_aa.cell_energy"),
+        kernel("gridwarp_aa.energy"),
+    );
+    let x = inputs();
+    for (k, pick) in [(&cell_k, 0), (&energy_k, 1)] {
+        let mut table = MutationTable::default();
+        let judge_energy = |a: &Array| {
+            let (cells, total) = energies_of(&x, a);
+            verify_array(&dir(), k, if pick == 0 { &cells } else { &total }, "twin").unwrap()
+        };
+        for model in Model::CHECKED {
+            table.twin(
+                &model.name(),
+                &judge_energy(&candidate(&x, correct, row_inner, model)),
+            );
+        }
+        for (name, mistake, body, order) in residual_mutants() {
+            let r = judge_energy(&candidate(&x, body, order, Model::Nearest));
+            table.mutant(name, mistake, &r);
+        }
+        println!("{}", k.name);
+        table.finish();
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
