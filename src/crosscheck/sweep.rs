@@ -46,6 +46,10 @@ pub struct Sweep {
     pub parameter: String,
     pub unit: String,
     pub series: Vec<SweepSeries>,
+    /// Names of the steps where the parameter is a category (the arithmetic models): the
+    /// table shows them instead of the numbers; empty otherwise.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub step_names: Vec<String>,
 }
 
 impl Sweep {
@@ -57,6 +61,7 @@ impl Sweep {
             parameter: parameter.into(),
             unit: unit.into(),
             series: Vec::new(),
+            step_names: Vec::new(),
         }
     }
 
@@ -75,7 +80,8 @@ impl Sweep {
         let steps = self.series.first().map_or(0, |s| s.points.len());
         let rows = (0..steps)
             .map(|k| {
-                let mut row = vec![sig(self.series[0].points[k].0, 3)];
+                let step = self.step_names.get(k).cloned();
+                let mut row = vec![step.unwrap_or_else(|| sig(self.series[0].points[k].0, 3))];
                 row.extend(
                     self.series
                         .iter()
@@ -250,6 +256,7 @@ pub fn bpm_model_sweep(mesh: &TriMesh) -> Result<Sweep> {
     sweep.add("bpm_eval: linear uv", false, series(&|r| r.eval_linear));
     sweep.add("bpm_precompute → bpm_eval", false, series(&|r| r.pipeline));
     sweep.add("bound (ratio 1)", true, series(&|_| 1.0));
+    sweep.step_names = Model::CHECKED.iter().map(|m| m.name()).collect();
     Ok(sweep)
 }
 
