@@ -6,8 +6,6 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-
 use common::mutation::MutationTable;
 use reparam::twin::bpm_common::{
     blended_log, c_mul, c_zero, edge_weights, eval, eval_bpm, eval_linear, exp_sl2, fit_mobius_det,
@@ -24,29 +22,21 @@ use reparam::twin::real::{cross, dot, is_finite, length, select, sum};
 use reparam::twin::{with_model, Model, Real, F, V2, V3};
 use reparam::vectors::bpm::twin_io;
 use reparam::vectors::verify::{verify_array, VerifyReport};
-use reparam::vectors::{read_manifest, Array, KernelVectors};
+use reparam::vectors::{Array, KernelVectors};
 
-fn dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("reference_data/vectors/bpm")
+/// The canonical vectors' folder.
+fn dir() -> std::path::PathBuf {
+    common::canonical::dir("bpm")
 }
 
+/// Kernel `name`'s manifest entry.
 fn kernel(name: &str) -> KernelVectors {
-    read_manifest(&dir())
-        .unwrap()
-        .kernels
-        .into_iter()
-        .find(|k| k.name == name)
-        .unwrap()
+    common::canonical::kernel("bpm", name)
 }
 
-/// The kernel's input array called `name`.
+/// Kernel `k`'s input array called `name`.
 fn input(k: &KernelVectors, name: &str) -> Array {
-    let info = k
-        .inputs
-        .iter()
-        .find(|i| i.file.ends_with(&format!(".{name}.npy")))
-        .unwrap();
-    Array::load(&dir().join(&info.file)).unwrap()
+    common::canonical::input("bpm", k, name)
 }
 
 fn judge(k: &KernelVectors, candidate: &Array, name: &str) -> VerifyReport {
@@ -206,19 +196,25 @@ const EVAL_MUTANTS: [(&str, &str, EvalFn); 10] = [
     ),
 ];
 
-#[test]
-fn the_canonical_eval_vectors_reject_every_mutant_and_accept_the_twin() {
-    let k = kernel("bpm_eval");
+/// The eval kernel `name`'s canonical vectors judge `correct` under every model (it must pass)
+/// and each of `mutants` (each must fail).
+fn judge_eval_mutants(name: &str, correct: EvalFn, mutants: &[(&str, &str, EvalFn)]) {
+    let k = kernel(name);
     let mut table = MutationTable::default();
     for model in Model::CHECKED {
-        let r = judge(&k, &eval_candidate(&k, correct_eval, model), "twin");
+        let r = judge(&k, &eval_candidate(&k, correct, model), "twin");
         table.twin(&model.name(), &r);
     }
-    for (name, mistake, body) in EVAL_MUTANTS {
-        let r = judge(&k, &eval_candidate(&k, body, Model::Nearest), name);
-        table.mutant(name, mistake, &r);
+    for &(mutant, mistake, body) in mutants {
+        let r = judge(&k, &eval_candidate(&k, body, Model::Nearest), mutant);
+        table.mutant(mutant, mistake, &r);
     }
     table.finish();
+}
+
+#[test]
+fn the_canonical_eval_vectors_reject_every_mutant_and_accept_the_twin() {
+    judge_eval_mutants("bpm_eval", correct_eval, &EVAL_MUTANTS);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -614,15 +610,5 @@ const LINEAR_MUTANTS: [(&str, &str, EvalFn); 6] = [
 
 #[test]
 fn the_canonical_linear_vectors_reject_every_mutant_and_accept_the_twin() {
-    let k = kernel("bpm_eval_linear");
-    let mut table = MutationTable::default();
-    for model in Model::CHECKED {
-        let r = judge(&k, &eval_candidate(&k, correct_linear, model), "twin");
-        table.twin(&model.name(), &r);
-    }
-    for (name, mistake, body) in LINEAR_MUTANTS {
-        let r = judge(&k, &eval_candidate(&k, body, Model::Nearest), name);
-        table.mutant(name, mistake, &r);
-    }
-    table.finish();
+    judge_eval_mutants("bpm_eval_linear", correct_linear, &LINEAR_MUTANTS);
 }

@@ -44,6 +44,34 @@ struct Inputs {
     d_t: (Vec<F>, usize, usize),
 }
 
+/// A field (values, width, height) as the kernel reads it.
+fn field((values, width, height): &(Vec<F>, usize, usize)) -> Field<'_, F> {
+    Field {
+        values,
+        width: *width,
+        height: *height,
+    }
+}
+
+impl Inputs {
+    /// The fields D_s, D_t as the kernel reads them.
+    fn fields(&self) -> (Field<'_, F>, Field<'_, F>) {
+        (field(&self.d_s), field(&self.d_t))
+    }
+
+    /// Cell (i, j)'s lines and rest size.
+    fn lines(&self, i: usize, j: usize) -> CellLines<F> {
+        CellLines {
+            s0: self.s[i],
+            s1: self.s[i + 1],
+            t0: self.t[j],
+            t1: self.t[j + 1],
+            h: self.h[i],
+            k: self.k[j],
+        }
+    }
+}
+
 fn inputs() -> Inputs {
     let field = |name: &str| {
         let a = load(name);
@@ -76,28 +104,12 @@ fn column_inner(c: usize, columns: usize, _: usize) -> (usize, usize) {
 
 /// The candidate of `body` under `model`: [samples, 2].
 fn candidate(x: &Inputs, body: Body, order: CellOrder, model: Model) -> Array {
-    let d_s = Field {
-        values: &x.d_s.0,
-        width: x.d_s.1,
-        height: x.d_s.2,
-    };
-    let d_t = Field {
-        values: &x.d_t.0,
-        width: x.d_t.1,
-        height: x.d_t.2,
-    };
+    let (d_s, d_t) = x.fields();
     let (columns, rows) = (x.s.len() - 1, x.t.len() - 1);
     let mut out = Vec::new();
     for (n, v) in x.samples.chunks(5).enumerate() {
         let (i, j) = order(n / x.per_cell, columns, rows);
-        let lines = CellLines {
-            s0: x.s[i],
-            s1: x.s[i + 1],
-            t0: x.t[j],
-            t1: x.t[j + 1],
-            h: x.h[i],
-            k: x.k[j],
-        };
+        let lines = x.lines(i, j);
         let sample = RestSample {
             alpha: v[0],
             beta: v[1],
@@ -361,16 +373,7 @@ fn assemble(x: &Inputs, body: CellBody, unknown_order: UnknownOrder, model: Mode
     let t_index: Vec<i32> = load("t_index").to_f64().iter().map(|&v| v as i32).collect();
     let n = s_index.iter().chain(&t_index).filter(|&&u| u >= 0).count();
     let ns = s_index.iter().filter(|&&u| u >= 0).count();
-    let d_s = Field {
-        values: &x.d_s.0,
-        width: x.d_s.1,
-        height: x.d_s.2,
-    };
-    let d_t = Field {
-        values: &x.d_t.0,
-        width: x.d_t.1,
-        height: x.d_t.2,
-    };
+    let (d_s, d_t) = x.fields();
     let (columns, rows) = (x.s.len() - 1, x.t.len() - 1);
     let samples: Vec<RestSample<F>> = x
         .samples
@@ -391,14 +394,7 @@ fn assemble(x: &Inputs, body: CellBody, unknown_order: UnknownOrder, model: Mode
     };
     for c in 0..columns * rows {
         let (i, j) = (c / rows, c % rows);
-        let lines = CellLines {
-            s0: x.s[i],
-            s1: x.s[i + 1],
-            t0: x.t[j],
-            t1: x.t[j + 1],
-            h: x.h[i],
-            k: x.k[j],
-        };
+        let lines = x.lines(i, j);
         let cell_samples = &samples[c * x.per_cell..(c + 1) * x.per_cell];
         let cell = with_model(model, || body(&lines, cell_samples, &d_s, &d_t));
         let unknowns =

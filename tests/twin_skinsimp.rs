@@ -8,8 +8,6 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-
 use common::mutation::MutationTable;
 use reparam::twin::real::{cross, dot, length};
 use reparam::twin::skinsimp_lbs::{joint_times, skin};
@@ -19,35 +17,28 @@ use reparam::twin::skinsimp_quadrics::{
 };
 use reparam::twin::{with_model, Model, Real, F, V3, V4};
 use reparam::vectors::verify::{verify_array, VerifyReport};
-use reparam::vectors::{read_manifest, Array, KernelVectors};
+use reparam::vectors::{Array, KernelVectors};
+
+/// The canonical vectors' folder.
+fn dir() -> std::path::PathBuf {
+    common::canonical::dir("skinsimp")
+}
+
+/// Kernel `name`'s manifest entry.
+fn named(name: &str) -> KernelVectors {
+    common::canonical::kernel("skinsimp", name)
+}
+
+/// Kernel `k`'s input array called `name`.
+fn input(k: &KernelVectors, name: &str) -> Array {
+    common::canonical::input("skinsimp", k, name)
+}
 
 const KERNEL: &str = "skinsimp_quadrics.source";
 const LBS: &str = "skinsimp_lbs";
 
-fn dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("reference_data/vectors/skinsimp")
-}
-
 fn kernel() -> KernelVectors {
     named(KERNEL)
-}
-
-fn named(name: &str) -> KernelVectors {
-    read_manifest(&dir())
-        .unwrap()
-        .kernels
-        .into_iter()
-        .find(|k| k.name == name)
-        .unwrap()
-}
-
-fn input(k: &KernelVectors, name: &str) -> Array {
-    let info = k
-        .inputs
-        .iter()
-        .find(|i| i.file.ends_with(&format!(".{name}.npy")))
-        .unwrap();
-    Array::load(&dir().join(&info.file)).unwrap()
 }
 
 /// The body of one source: the twin's or a mutant's.

@@ -102,3 +102,39 @@ pub mod mutation {
         }
     }
 }
+
+/// The canonical conformance vectors (`reference_data/vectors/<algorithm>`), for the twin and
+/// mutation tests: a kernel's manifest entry and its input arrays.
+#[cfg(feature = "gpu")]
+pub mod canonical {
+    use std::path::{Path, PathBuf};
+
+    use reparam::vectors::{read_manifest, Array, KernelVectors};
+
+    /// The folder of `algorithm`'s canonical vectors.
+    pub fn dir(algorithm: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("reference_data/vectors")
+            .join(algorithm)
+    }
+
+    /// The manifest entry of kernel `name` in `algorithm`'s canonical vectors.
+    pub fn kernel(algorithm: &str, name: &str) -> KernelVectors {
+        read_manifest(&dir(algorithm))
+            .unwrap()
+            .kernels
+            .into_iter()
+            .find(|k| k.name == name)
+            .unwrap()
+    }
+
+    /// Kernel `k`'s input array called `name` (`<kernel>.<name>.npy`).
+    pub fn input(algorithm: &str, k: &KernelVectors, name: &str) -> Array {
+        let info = k
+            .inputs
+            .iter()
+            .find(|i| i.file.ends_with(&format!(".{name}.npy")))
+            .unwrap();
+        Array::load(&dir(algorithm).join(&info.file)).unwrap()
+    }
+}
