@@ -440,7 +440,7 @@ impl Real for Lin {
 mod tests {
     use super::super::model::{with_model, Model, F};
     use super::*;
-    use crate::twin::real::{exp, length, sqrt};
+    use crate::twin::test_support::{random_points, rational, root_of_length};
 
     /// f(x) over F under every checked model stays within SECOND_ORDER × the first-order
     /// bound of f(x) over Lin.
@@ -468,25 +468,9 @@ mod tests {
 
     #[test]
     fn every_model_stays_inside_the_first_order_bound() {
-        let mut seed = 7u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for _ in 0..300 {
-            let x: Vec<f64> = (0..4).map(|_| 4.0 * next() - 2.0).collect();
-            holds(
-                &x,
-                |v| (v[0] * v[1] + v[2]) / (v[3] * v[3] + F::lit(1.0)),
-                |v| (v[0] * v[1] + v[2]) / (v[3] * v[3] + Lin::lit(1.0)),
-            );
-            holds(
-                &x,
-                |v| sqrt(length([v[0], v[1], v[2]]) + exp(v[3])),
-                |v| sqrt(length([v[0], v[1], v[2]]) + exp(v[3])),
-            );
+        for x in random_points(7, 300) {
+            holds(&x, rational, rational);
+            holds(&x, root_of_length, root_of_length);
         }
     }
 

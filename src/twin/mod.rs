@@ -44,3 +44,34 @@ pub use ball::Ball;
 pub use lin::Lin;
 pub use model::{with_model, Model, F};
 pub use real::{Real, V2, V3, V4};
+
+/// What the number types' unit tests share: random inputs and the expressions they evaluate
+/// over every `Real` (the same lines over `F`, `Ball` and `Lin`).
+#[cfg(test)]
+pub(crate) mod test_support {
+    use super::real::{exp, length, sqrt, Real};
+
+    /// `count` points of 4 coordinates in [−2, 2), from a fixed LCG seeded by `seed`.
+    pub fn random_points(seed: u64, count: usize) -> Vec<[f64; 4]> {
+        let mut state = seed;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..count)
+            .map(|_| std::array::from_fn(|_| 4.0 * next() - 2.0))
+            .collect()
+    }
+
+    /// (v₀ v₁ + v₂) / (v₃² + 1): products, a sum and a division.
+    pub fn rational<R: Real>(v: &[R]) -> R {
+        (v[0] * v[1] + v[2]) / (v[3] * v[3] + R::lit(1.0))
+    }
+
+    /// √(|(v₀, v₁, v₂)| + exp v₃): a dot product, roots and a builtin.
+    pub fn root_of_length<R: Real>(v: &[R]) -> R {
+        sqrt(length([v[0], v[1], v[2]]) + exp(v[3]))
+    }
+}
