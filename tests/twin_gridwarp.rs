@@ -498,6 +498,23 @@ fn permuted(d: [F; 4]) -> [F; 4] {
     [d[2], d[3], d[0], d[1]]
 }
 
+/// The identity of the mutants' cell harness: with nothing changed it is the twin's
+/// `cell_contribution`, bit for bit (as `tests/mutants_bpm.rs` checks its precompute harness).
+#[test]
+fn the_cell_harness_with_nothing_changed_is_the_kernel() {
+    let x = inputs();
+    let same = |l: &CellLines<F>, s: &[RestSample<F>], a: &Field<F>, b: &Field<F>| {
+        cell_with(l, s, a, b, kernel_derivatives, permuted, true)
+    };
+    let (harness, kernel) = (
+        assemble(&x, same, as_numbered, Model::Nearest),
+        assemble(&x, cell_contribution, as_numbered, Model::Nearest),
+    );
+    assert_eq!(harness.jtj, kernel.jtj);
+    assert_eq!(harness.jtr, kernel.jtr);
+    assert_eq!(harness.cell_energy, kernel.cell_energy);
+}
+
 #[test]
 fn normal_equations_every_model_passes_every_mutant_fails() {
     let manifest = read_manifest(&dir()).unwrap();
