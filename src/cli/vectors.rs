@@ -74,7 +74,7 @@ pub enum VectorsAlgorithm {
         #[arg(long, default_value_t = 2)]
         uniform: u32,
     },
-    /// skinsimp_lbs and skinsimp_quadrics (source, vertex).
+    /// skinsimp_lbs, skinsimp_quadrics (source, vertex) and skinsimp_collapse_cost.
     Skinsimp {
         /// A skinned glTF/GLB; default the built-in tube.
         model: Option<PathBuf>,

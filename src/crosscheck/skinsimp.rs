@@ -19,8 +19,9 @@ use crate::crosscheck::F32_FLUSH;
 use crate::error::{Error, Result};
 use crate::skinsimp::gpu::{
     crosscheck, edge_cost_position, edge_cost_quadric, plane_quadrics_f64,
-    position_given_weights_f64, skin_f64, vertex_quadrics_f64, CrossCheckData, SkinsimpKernels,
-    COST_ABSOLUTE, COST_RELATIVE, POSITION_TOLERANCE, QUADRIC_TOLERANCE, SKIP_CONDITION,
+    position_given_weights_f64, skin_f64, vertex_quadrics_f64, CostData, CrossCheckData,
+    ReferenceCost, SkinsimpKernels, COST_ABSOLUTE, COST_RELATIVE, POSITION_TOLERANCE,
+    QUADRIC_TOLERANCE, SKIP_CONDITION,
 };
 use crate::skinsimp::{Deformation, Input, Options};
 
@@ -257,19 +258,191 @@ pub struct CostChecks {
     pub unexpected_costs_over: usize,
 }
 
-/// Per compared candidate (cond_F(B) ≤ [`SKIP_CONDITION`], B = Q̃[0:3,0:3], b = Q̃[0:3,3]),
-/// first-order bounds with T^j = |Q_a^j| + |Q_b^j| (entrywise) and Ā^j = Σ α_k |M_k^j|:
+/// The first-order bounds of one candidate's outputs, from the reference alone, with
+/// T^j = |Q_a^j| + |Q_b^j| (entrywise), Ā^j = Σ α_k |M_k^j| and T_Q = Σ_j Ā^{jT} T^j Ā^j:
 ///
 /// 1. Q̃ entries: Q_a + Q_b rounds once; an entry of A^j is a K-term sum (≤ (K + 1) u, K ≤ 8);
 ///    (AᵀQA)_rc is two 4-term dot products deep (≤ 8u); P poses add ≤ P u. So
-///    |ΔQ̃| ≤ η_Q Σ_j Ā^{jT} T^j Ā^j, η_Q = (1 + 2·9 + 8 + P) u, rounded up to (30 + P) u.
+///    |ΔQ̃| ≤ η_Q T_Q, η_Q = (1 + 2·9 + 8 + P) u, rounded up to (30 + P) u ([`Self::quadric`]).
 /// 2. The solve: perturbing B, b by ΔB, Δb moves v by ≤ ‖B⁻¹‖_F (‖ΔB‖_F |v| + |Δb|). The
 ///    adjugate solve itself (cofactors c_j × c_k: 3 roundings each; det = c0·(c1 × c2): 5 more;
-///    the quotient: 2) adds ≤ u (12 ‖B‖_F² |b| + 10 ‖B‖_F³ |v|) / |det B|.
-/// 3. The cost at the GPU's own position ṽ: E is quadratic in v with zero gradient at the
+///    the quotient: 2) adds ≤ u (12 ‖B‖_F² |b| + 10 ‖B‖_F³ |v|) / |det B| ([`Self::solve`]).
+/// 3. A value v̂ᵀQ̃v̂ at a point: Q̃'s error, then Q̃ h and h·(Q̃ h) (4-term dot products, 8
+///    roundings), with |Q̃| ≤ T_Q: ≤ (η_Q + 8u) |v̂|ᵀ T_Q |v̂| ([`Self::value`]).
+/// 4. The cost at the GPU's own position ṽ: E is quadratic in v with zero gradient at the
 ///    reference's v, so E(ṽ) − E(v) = Δvᵀ B Δv ≤ ‖B‖_F |Δv|²; evaluating E in f32 adds
 ///    ≤ η_E Σ_j (Ā^j |v̂|)ᵀ T^j (Ā^j |v̂|), η_E = (1 + 9 + 4 + 4 + 4 + P) u, rounded up to
-///    (25 + P) u (A^j, A^j v̂, Q p, p·Qp, the pose sum).
+///    (25 + P) u (A^j, A^j v̂, Q p, p·Qp, the pose sum) ([`Self::cost`]).
+#[derive(Clone, Debug)]
+pub struct CostBound {
+    /// T_Q.
+    pub t_q: Matrix4<f64>,
+    /// (Ā^j, T^j) per pose.
+    pub t_mats: Vec<(Matrix4<f64>, Matrix4<f64>)>,
+    pub eta_q: f64,
+    pub eta_e: f64,
+    /// ‖B‖_F of the reference's B.
+    pub b_norm: f64,
+    /// How far the f32 solution may land from the reference's (steps 1–2; ∞ when B is
+    /// singular).
+    pub solve: f64,
+    /// How far the f32 midpoint (a + b) · 0.5 may land from the exact one: a + b rounds once,
+    /// up or down (one ULP, 2u relative per coordinate), the halving is exact: ≤ u |a + b|.
+    pub midpoint: f64,
+    /// The reference's Q̃ (for the gradient of v̂ᵀQ̃v̂ at a moved point).
+    pub quadric: Matrix4<f64>,
+}
+
+impl CostBound {
+    /// The bounds of candidate `item` (the kernel's input) whose reference result is `r`.
+    pub fn new(cd: &CostData, item: &EdgeItem, r: &ReferenceCost) -> CostBound {
+        let p = cd.mats.len();
+        let eta_q = (30.0 + p as f64) * U32;
+        let eta_e = (25.0 + p as f64) * U32;
+        let (a, b) = (item.a as usize, item.b as usize);
+        let mut t_q = Matrix4::zeros();
+        let mut t_mats = Vec::with_capacity(p);
+        for j in 0..p {
+            let t = cd.vertex_quadrics[a * p + j].matrix().abs()
+                + cd.vertex_quadrics[b * p + j].matrix().abs();
+            let abar = abs_blend(&cd.mats[j], item);
+            t_q += abar.transpose() * t * abar;
+            t_mats.push((abar, t));
+        }
+        let bm = r.quadric.fixed_view::<3, 3>(0, 0).into_owned();
+        let bv = Vector3::new(r.quadric[(0, 3)], r.quadric[(1, 3)], r.quadric[(2, 3)]);
+        let tb = t_q.fixed_view::<3, 3>(0, 0).into_owned();
+        let tbv = Vector3::new(t_q[(0, 3)], t_q[(1, 3)], t_q[(2, 3)]);
+        let v = r.position.coords.norm();
+        let solve = match bm.try_inverse() {
+            Some(inv) => {
+                let perturbation = inv.norm() * eta_q * (tb.norm() * v + tbv.norm());
+                let rounding = U32
+                    * (12.0 * bm.norm_squared() * bv.norm() + 10.0 * bm.norm().powi(3) * v)
+                    / bm.determinant().abs();
+                perturbation + rounding
+            }
+            None => f64::INFINITY,
+        };
+        CostBound {
+            t_q,
+            t_mats,
+            eta_q,
+            eta_e,
+            b_norm: bm.norm(),
+            solve,
+            midpoint: U32 * (cd.rest[a].coords + cd.rest[b].coords).norm(),
+            quadric: r.quadric,
+        }
+    }
+
+    /// Step 1: the bound of each entry of Q̃, upper triangle row by row.
+    pub fn quadric(&self) -> [f64; 10] {
+        let mut out = [0.0; 10];
+        let mut k = 0;
+        for r in 0..4 {
+            for c in r..4 {
+                out[k] = self.eta_q * self.t_q[(r, c)];
+                k += 1;
+            }
+        }
+        out
+    }
+
+    /// Step 3: the bound of v̂ᵀQ̃v̂ evaluated in f32 at the f32 point `v`.
+    pub fn value(&self, v: &Point3<f64>) -> f64 {
+        let h = v.to_homogeneous().abs();
+        (self.eta_q + 8.0 * U32) * h.dot(&(self.t_q * h))
+    }
+
+    /// Steps 1–2: the bound of the kept position, when both sides keep the point `choice`:
+    /// the solve's (0), the midpoint's rounding (3); the ends a, b (1, 2) are inputs, copied,
+    /// where only a subnormal coordinate may be flushed (≤ 2⁻¹²⁶, [`F32_FLUSH`]), as in every
+    /// case.
+    pub fn position(&self, choice: u32) -> f64 {
+        let computed = match choice {
+            0 => self.solve * (1.0 + 1e-6),
+            3 => self.midpoint * (1.0 + 1e-6),
+            _ => 0.0,
+        };
+        computed + F32_FLUSH
+    }
+
+    /// How much v̂ᵀQ̃v̂ (or E, equal to it) may change when the kept point `choice`, at `v`,
+    /// moves by Δv ≤ [`Self::position`]: 2 |g| Δv + ‖B‖_F Δv², g = (Q̃ v̂)[0:3] the half
+    /// gradient (0 at the solution, the minimum) (step 4).
+    pub fn moved(&self, choice: u32, v: &Point3<f64>) -> f64 {
+        let dv = self.position(choice);
+        let g = (self.quadric * v.to_homogeneous()).xyz().norm();
+        2.0 * g * dv + self.b_norm * dv * dv
+    }
+
+    /// Step 4: the bound of E(v̂, α) when both sides keep point `choice` of the reference's
+    /// result `r`.
+    pub fn cost(&self, r: &ReferenceCost) -> f64 {
+        let h = r.position.to_homogeneous().abs();
+        let terms: f64 = self
+            .t_mats
+            .iter()
+            .map(|(abar, t)| {
+                let ph = abar * h;
+                ph.dot(&(t * ph))
+            })
+            .sum();
+        self.eta_e * terms + self.moved(r.choice, &r.position)
+    }
+
+    /// How far (relatively) an f32 cond_F(B) may be from the reference's `condition`: the
+    /// perturbation ΔB (≤ η_Q T_B) moves ‖B‖_F by ≤ ε ‖B‖_F, ε = η_Q ‖T_B‖_F / ‖B‖_F, and
+    /// ‖B⁻¹‖_F by ≤ cond ε ‖B⁻¹‖_F; the adjugate's cofactors, det and norms round ≤ 20u
+    /// relative each, amplified by the cancellation in det up to cond. Doubled for the
+    /// second-order terms: 2 ((1 + cond) ε + 20u (1 + cond)).
+    pub fn condition_error(&self, condition: f64) -> f64 {
+        let tb = self.t_q.fixed_view::<3, 3>(0, 0).norm();
+        let epsilon = self.eta_q * tb / self.b_norm;
+        2.0 * (1.0 + condition) * (epsilon + 20.0 * U32)
+    }
+
+    /// Whether every conforming f32 evaluation keeps the reference's point: the solve's
+    /// `cond ≤ max_condition` is decided beyond [`Self::condition_error`], and the kept point's
+    /// value v̂ᵀQ̃v̂ is apart from every other compared point's by more than both values' bounds
+    /// ([`Self::value`]) plus, for the solution, [`Self::moved`].
+    pub fn decided(
+        &self,
+        r: &ReferenceCost,
+        fallbacks: &[Point3<f64>; 3],
+        solution: Option<Point3<f64>>,
+        max_condition: f64,
+    ) -> bool {
+        let rho = self.condition_error(r.condition);
+        let cond_decided = r.condition.is_finite()
+            && rho < 0.5
+            && (r.condition * (1.0 + rho) < max_condition
+                || r.condition * (1.0 - rho) > max_condition);
+        if !cond_decided {
+            return false;
+        }
+        let value = |v: &Point3<f64>| {
+            let h = v.to_homogeneous();
+            h.dot(&(r.quadric * h))
+        };
+        let points: Vec<(u32, Point3<f64>)> = solution
+            .map(|s| (0, s))
+            .into_iter()
+            .chain((1..4).map(|k| (k, fallbacks[k as usize - 1])))
+            .collect();
+        let slack = |k: u32, v: &Point3<f64>| self.value(v) + self.moved(k, v);
+        let kept = slack(r.choice, &r.position);
+        points
+            .iter()
+            .all(|(k, v)| *k == r.choice || (value(v) - r.value).abs() > kept + slack(*k, v))
+    }
+}
+
+/// Per compared candidate (cond_F(B) ≤ [`SKIP_CONDITION`]) the checks of [`CostBound`]: Q̃'s
+/// entries, then, when both sides kept the same point, its position and cost; when they kept
+/// different points, a near tie: the reference's values at the two points differ by ≤ both
+/// values' bounds plus, when one side kept the solution, ‖B‖_F Δv².
 ///
 /// The notes' tolerances ([`POSITION_TOLERANCE`], max(1e-4|E|, 1e-7)) must hold where the
 /// expected error, bound/√k (k = 30 + P or 25 + P roundings adding up like √k u), is below
@@ -278,8 +451,6 @@ pub fn cost_checks(data: &CrossCheckData) -> Result<CostChecks> {
     let cd = &data.cost_data;
     let p = cd.mats.len();
     let items = cd.edge_items(&data.candidates)?;
-    let eta_q = (30.0 + p as f64) * U32;
-    let eta_e = (25.0 + p as f64) * U32;
     let mut out = CostChecks::default();
     for ((c, item), (r, g)) in data
         .candidates
@@ -293,86 +464,42 @@ pub fn cost_checks(data: &CrossCheckData) -> Result<CostChecks> {
         }
         let (a, b) = (c.a as usize, c.b as usize);
         let what = format!("edge ({a}, {b}) endpoint {}", c.endpoint);
-        let mut t_q = Matrix4::zeros();
-        let mut t_mats = Vec::with_capacity(p);
-        for j in 0..p {
-            let t = cd.vertex_quadrics[a * p + j].matrix().abs()
-                + cd.vertex_quadrics[b * p + j].matrix().abs();
-            let abar = abs_blend(&cd.mats[j], item);
-            t_q += abar.transpose() * t * abar;
-            t_mats.push((abar, t));
-        }
+        let bound = CostBound::new(cd, item, r);
         let q_gpu = edge_cost_quadric(g);
+        let mut k = 0;
+        let entry_bounds = bound.quadric();
         for rr in 0..4 {
             for cc in rr..4 {
                 out.quadric.push(Checked::new(
                     format!("{what} Q̃[{rr},{cc}]"),
                     (r.quadric[(rr, cc)] - q_gpu[(rr, cc)]).abs(),
-                    eta_q * t_q[(rr, cc)],
+                    entry_bounds[k],
                 ));
+                k += 1;
             }
         }
         let v_gpu = edge_cost_position(g);
-        let bm = r.quadric.fixed_view::<3, 3>(0, 0).into_owned();
-        let bv = Vector3::new(r.quadric[(0, 3)], r.quadric[(1, 3)], r.quadric[(2, 3)]);
-        let tb = t_q.fixed_view::<3, 3>(0, 0).into_owned();
-        let tbv = Vector3::new(t_q[(0, 3)], t_q[(1, 3)], t_q[(2, 3)]);
-        let v = r.position.coords.norm();
-        // How far the f32 solution may land from the reference's (steps 1–2).
-        let solve_bound = match bm.try_inverse() {
-            Some(inv) => {
-                let perturbation = inv.norm() * eta_q * (tb.norm() * v + tbv.norm());
-                let solve = U32
-                    * (12.0 * bm.norm_squared() * bv.norm() + 10.0 * bm.norm().powi(3) * v)
-                    / bm.determinant().abs();
-                perturbation + solve
-            }
-            None => f64::INFINITY,
-        };
         if r.choice != g.choice {
-            // Both sides compared the same candidates, each value off by ≤ δ = η_E size; when
-            // one side kept the solution, it did so at a position off by ≤ Δv (the solve
-            // bound), where E is higher by Δvᵀ B Δv ≤ ‖B‖_F Δv² (step 3). So the reference's
-            // values at the two kept points differ by ≤ 2δ + ‖B‖_F Δv².
             let value = |v: &Point3<f64>| {
                 let h = v.to_homogeneous();
                 h.dot(&(r.quadric * h))
             };
-            let size = |v: &Point3<f64>| {
-                let h = v.to_homogeneous().abs();
-                h.dot(&(t_q * h))
-            };
-            let moved = if r.choice == 0 || g.choice == 0 {
-                let dv = solve_bound * (1.0 + 1e-6);
-                bm.norm() * dv * dv
-            } else {
-                0.0
-            };
+            let moved = bound.moved(r.choice, &r.position) + bound.moved(g.choice, &v_gpu);
             out.ties.push(Checked::new(
                 format!("{what}: choice {} vs {}", r.choice, g.choice),
                 (value(&r.position) - value(&v_gpu)).abs(),
-                2.0 * eta_e * size(&r.position).max(size(&v_gpu)) + moved,
+                bound.value(&r.position) + bound.value(&v_gpu) + moved,
             ));
             continue;
         }
-        // Exact for a fallback point (solution choice ≠ 0), which is an input.
-        let position_bound = if r.choice == 0 { solve_bound } else { 0.0 };
+        let position_bound = bound.position(r.choice);
         let position_error = (r.position - v_gpu).norm();
         out.positions.push(Checked::new(
             format!("{what} (cond {:.1e})", r.condition),
             position_error,
             position_bound,
         ));
-        let h = r.position.to_homogeneous().abs();
-        let terms: f64 = t_mats
-            .iter()
-            .map(|(abar, t)| {
-                let ph = abar * h;
-                ph.dot(&(t * ph))
-            })
-            .sum();
-        let position_bound = position_bound * (1.0 + 1e-6);
-        let cost_bound = eta_e * terms + bm.norm() * position_bound * position_bound;
+        let cost_bound = bound.cost(r);
         let cost_error = (r.cost - g.cost as f64).abs();
         out.costs.push(Checked::new(what, cost_error, cost_bound));
         let notes_cost = (COST_RELATIVE * r.cost.abs()).max(COST_ABSOLUTE);

@@ -28,15 +28,18 @@
 //! | [`gridwarp_aa`] | `gridwarp_aa.wgsl`, `gridwarp_aa_residuals.wgsl` | `gridwarp::plain::aa` |
 //! | [`skinsimp_lbs`] | `skinsimp_lbs.wgsl` | [`crate::mesh::skin::skin_positions`] |
 //! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` | `skinsimp::quadric` (`Quadric::from_plane`, …) |
+//! | [`skinsimp_collapse_cost`] | `skinsimp_collapse_cost.wgsl` | [`crate::skinsimp::gpu::position_given_weights_f64`] |
 
 pub mod ball;
 pub mod bpm_common;
 pub mod bpm_eval;
 pub mod bpm_precompute;
+pub mod candidate;
 pub mod gridwarp_aa;
 pub mod lin;
 pub mod model;
 pub mod real;
+pub mod skinsimp_collapse_cost;
 pub mod skinsimp_lbs;
 pub mod skinsimp_quadrics;
 

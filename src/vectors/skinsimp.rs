@@ -3,13 +3,16 @@
 //! from the inputs the kernels receive, with the bounds of [`crate::crosscheck::skinsimp`].
 
 use super::{Array, KernelData, Metric, VectorsAndCandidates};
-use crate::crosscheck::skinsimp::{lbs_bound, lbs_bound_of, quadric_checks};
+use crate::crosscheck::skinsimp::{lbs_bound, lbs_bound_of, quadric_checks, CostBound};
 use crate::error::Result;
+use crate::skinsimp::cost::solve_position;
 use crate::skinsimp::gpu::{
-    crosscheck, lbs_input, normalise, plane_quadrics_f64, quadric_input, round_input, skin_f64,
-    vertex_quadrics_f64, CostData, CrossCheckData, SkinsimpKernels,
+    crosscheck, edge_cost_position, edge_cost_quadric, endpoint_candidates, lbs_input, normalise,
+    plane_quadrics_f64, position_given_weights_f64, quadric_input, round_input, skin_f64,
+    vertex_quadrics_f64, CostData, CrossCheckData, EdgeCandidate, ReferenceCost, SkinsimpKernels,
 };
 use crate::skinsimp::{Input, Options};
+use reparam_gpu::skinsimp::EdgeItem;
 
 fn points(p: &[nalgebra::Point3<f64>]) -> Vec<f64> {
     p.iter().flat_map(|q| [q.x, q.y, q.z]).collect()
@@ -245,7 +248,13 @@ pub fn vectors(input: &Input, kernels: Option<&SkinsimpKernels>) -> Result<Vecto
             ),
         ]
     };
-    Ok((vec![lbs_kernel, plane_kernel, vertex_kernel], candidates))
+    let (collapse_kernel, collapse_candidate) = collapse_cost_vectors(&data, kernels)?;
+    let mut candidates = candidates;
+    candidates.extend(collapse_candidate.map(|c| ("skinsimp_collapse_cost".to_string(), c)));
+    Ok((
+        vec![lbs_kernel, plane_kernel, vertex_kernel, collapse_kernel],
+        candidates,
+    ))
 }
 
 /// Per vertex the largest displacement ‖Δp‖ ≤ √3 max_r (bound of coordinate r) that f32
@@ -459,4 +468,199 @@ pub fn all_vectors(
         c.extend(run_candidates);
     }
     Ok((k, c))
+}
+
+/// The `max_condition` of the `skinsimp_collapse_cost` vectors. The simplifier's default
+/// (1e10) keeps the solve wherever f32 can tell; the vectors use a small one so that the
+/// fallbacks a, b and the midpoint are exercised as well (an input of the kernel like any
+/// other: the solve is kept when cond_F(B) ≤ max_condition).
+pub const COLLAPSE_VECTORS_MAX_CONDITION: f64 = 64.0;
+
+/// The candidates of the `skinsimp_collapse_cost` vectors, their reference results and bounds:
+/// every (edge, endpoint) of the mesh whose kept point every conforming f32 evaluation keeps
+/// too ([`CostBound::decided`]: the solve's condition and the compared values are apart by
+/// more than their bounds); the others are near ties whose output is not a function of the
+/// inputs in f32.
+fn collapse_candidates(
+    cd: &CostData,
+    mesh: &crate::mesh::TriMesh,
+    max_condition: f64,
+) -> Result<Vec<(EdgeCandidate, EdgeItem, ReferenceCost, CostBound)>> {
+    let candidates = endpoint_candidates(mesh);
+    let items = cd.edge_items(&candidates)?;
+    Ok(candidates
+        .into_iter()
+        .zip(items)
+        .filter_map(|(c, item)| {
+            let r = position_given_weights_f64(cd, &c, max_condition);
+            let bound = CostBound::new(cd, &item, &r);
+            let (a, b) = (cd.rest[c.a as usize], cd.rest[c.b as usize]);
+            let fallbacks = [a, b, nalgebra::Point3::from((a.coords + b.coords) * 0.5)];
+            let solution = solve_position(&r.quadric, max_condition);
+            bound
+                .decided(&r, &fallbacks, solution, max_condition)
+                .then_some((c, item, r, bound))
+        })
+        .collect())
+}
+
+/// The 14 values of one result: Q̃'s upper triangle row by row, v̂, E(v̂, α).
+fn collapse_row(
+    quadric: &nalgebra::Matrix4<f64>,
+    position: &nalgebra::Point3<f64>,
+    cost: f64,
+) -> [f64; 14] {
+    let mut row = [0.0; 14];
+    let mut k = 0;
+    for r in 0..4 {
+        for c in r..4 {
+            row[k] = quadric[(r, c)];
+            k += 1;
+        }
+    }
+    row[10..13].copy_from_slice(&[position.x, position.y, position.z]);
+    row[13] = cost;
+    row
+}
+
+/// The `skinsimp_collapse_cost` vectors of `data` (the cross-check's cost inputs: rest
+/// positions, vertex quadrics rounded to f32, joint matrices), and reparam's own GPU output on
+/// them when `kernels` is given.
+fn collapse_cost_vectors(
+    data: &CrossCheckData,
+    kernels: Option<&SkinsimpKernels>,
+) -> Result<(KernelData, Option<Array>)> {
+    let cd = &data.cost_data;
+    let max_condition = COLLAPSE_VECTORS_MAX_CONDITION;
+    let chosen = collapse_candidates(cd, &data.input.mesh, max_condition)?;
+    let input = cd.cost_input(max_condition)?;
+    let (v, p, j) = (
+        input.rest.len(),
+        input.pose_count as usize,
+        input.joint_count as usize,
+    );
+    let n = chosen.len();
+    let mut counts = [0usize; 4];
+    for (_, _, r, _) in &chosen {
+        counts[r.choice as usize] += 1;
+    }
+    let expected: Vec<f64> = chosen
+        .iter()
+        .flat_map(|(_, _, r, _)| collapse_row(&r.quadric, &r.position, r.cost))
+        .collect();
+    let bound: Vec<f64> = chosen
+        .iter()
+        .flat_map(|(_, _, r, b)| {
+            let mut row = [0.0; 14];
+            row[..10].copy_from_slice(&b.quadric());
+            row[10..13].fill(b.position(r.choice));
+            row[13] = b.cost(r);
+            row
+        })
+        .collect();
+    let inputs =
+        vec![
+        (
+            "rest".into(),
+            "per vertex (0-based), f32: x, y, z of the rest position (unit box)".into(),
+            Array::f32(&[v, 3], input.rest.iter().flatten().copied().collect()),
+        ),
+        (
+            "vertex_quadrics".into(),
+            format!("per vertex i, per pose j, f32: Q_i^j, {QUADRIC_ORDER}"),
+            Array::f32(
+                &[v, p, 10],
+                input.vertex_quadrics.iter().flatten().copied().collect(),
+            ),
+        ),
+        (
+            "matrices".into(),
+            "per pose j, per joint, f32: the 3×4 top of the joint matrix M, row by row (the \
+             last row is (0, 0, 0, 1))"
+                .into(),
+            Array::f32(&[p, j, 12], input.joints.iter().flatten().copied().collect()),
+        ),
+        (
+            "edges".into(),
+            "per candidate, u32: the edge's vertices a, b (0-based)".into(),
+            Array::u32(&[n, 2], chosen.iter().flat_map(|(c, ..)| [c.a, c.b]).collect()),
+        ),
+        (
+            "bones".into(),
+            "per candidate, u32: the K ≤ 8 candidate bones (joint indices) in slots 0..K, then 0"
+                .into(),
+            Array::u32(&[n, 8], chosen.iter().flat_map(|(_, i, ..)| i.joints).collect()),
+        ),
+        (
+            "alpha".into(),
+            "per candidate, f32: the weights α_k of the bones' slots (0 past K and for bones \
+             that do not influence the endpoint; they sum to 1)"
+                .into(),
+            Array::f32(&[n, 8], chosen.iter().flat_map(|(_, i, ..)| i.alpha).collect()),
+        ),
+        (
+            "max_condition".into(),
+            "f32, one value: the solve is kept when cond_F(B) = ‖B‖_F ‖B⁻¹‖_F ≤ max_condition"
+                .into(),
+            Array::f32(&[1], vec![max_condition as f32]),
+        ),
+    ];
+    let kernel = KernelData {
+        name: "skinsimp_collapse_cost".into(),
+        description: "per candidate (edge (a, b), weights α over bones k): A^j = Σ_k α_k M_k^j, \
+            Q^j = Q_a^j + Q_b^j, Q̃ = Σ_j A^{jT} Q^j A^j (poses in order); with B = Q̃[0:3,0:3], \
+            b = Q̃[0:3,3]: v = −B⁻¹ b if det B ≠ 0 and cond_F(B) ≤ max_condition; v̂ = the point \
+            of least v̂ᵀQ̃v̂ among (v if solved, a, b, (a + b)·0.5), in that order, a later point \
+            kept only when strictly less; E(v̂, α) = Σ_j (A^j v̂)ᵀ Q^j (A^j v̂) with v̂ = (v, 1) \
+            homogeneous (seed 003 §5, the position step given the weights)"
+            .into(),
+        inputs,
+        expected: (
+            "per candidate, f64: Q̃'s 10 entries (upper triangle row by row: (0,0), (0,1), \
+             (0,2), (0,3), (1,1), (1,2), (1,3), (2,2), (2,3), (3,3)), then the kept point v̂'s \
+             x, y, z, then E(v̂, α)"
+                .into(),
+            Array::f64(&[n, 14], expected),
+        ),
+        bound: (
+            "per value, unit box² for Q̃ and E, unit box for v̂".into(),
+            Array::f64(&[n, 14], bound),
+        ),
+        metric: Metric::Absolute {
+            unit: "unit box (v̂), unit box² (Q̃, E)".into(),
+        },
+        bound_formula: "Q̃: (30 + P) u T_Q per entry; v̂: ‖B⁻¹‖(η_Q(‖T_B‖|v| + |T_b|)) + \
+            u(12‖B‖²|b| + 10‖B‖³|v|)/|det B| for the solution, u|a + b| for the midpoint, 2⁻¹²⁶ (a flushed subnormal) for a 
+            or b; E: (25 + P) u Σ_j (Ā^j|v̂|)ᵀT^j(Ā^j|v̂|) + 2|g|Δv + ‖B‖Δv²"
+            .into(),
+        derivation: "crosscheck::skinsimp::CostBound (T^j = |Q_a^j| + |Q_b^j|, Ā^j = Σ α_k \
+            |M_k^j|, T_Q = Σ_j Ā^{jT} T^j Ā^j, u = 2⁻²⁴); candidates whose kept point f32 could \
+            change (cond_F near max_condition, values nearer than their bounds) are left out"
+            .into(),
+        per_element: vec!["edges".into(), "bones".into(), "alpha".into()],
+        covers: vec![
+            format!("the solve kept (cond_F(B) ≤ max_condition): {} candidates", counts[0]),
+            format!("fallback a: {} candidates", counts[1]),
+            format!("fallback b: {} candidates", counts[2]),
+            format!("fallback midpoint (a + b)·0.5: {} candidates", counts[3]),
+            format!("{p} poses (the pose sums), up to 8 bones per candidate, zero weights"),
+        ],
+    };
+    let candidate = match kernels {
+        Some(k) => {
+            let candidates: Vec<EdgeCandidate> = chosen.iter().map(|(c, ..)| *c).collect();
+            let out = k.costs(cd, &candidates, max_condition)?;
+            Some(Array::f32(
+                &[n, 14],
+                out.iter()
+                    .flat_map(|g| {
+                        collapse_row(&edge_cost_quadric(g), &edge_cost_position(g), g.cost as f64)
+                    })
+                    .map(|x| x as f32)
+                    .collect(),
+            ))
+        }
+        None => None,
+    };
+    Ok((kernel, candidate))
 }

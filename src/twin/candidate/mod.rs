@@ -1,0 +1,32 @@
+//! The twins run over a kernel's conformance-vector inputs: the candidate array a conforming
+//! GPU under a given arithmetic model would hand to verify.
+//!
+//! One file per kernel. Each reads the kernel's inputs from the vectors' folder, runs the
+//! twin's entry point once per element (as the WGSL's invocations do) under a [`Model`], and
+//! lays the outputs out as the manifest's `expected` array. `crosscheck --sweep` and the twin
+//! tests (`tests/twin_*.rs`) call them; the tests' mutants plug their own body in.
+//!
+//! [`Model`]: super::Model
+
+pub mod skinsimp_collapse_cost;
+
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::vectors::{Array, KernelVectors};
+
+/// Kernel `k`'s input array called `name` (`<kernel>.<name>.npy` in `dir`).
+pub fn input(dir: &Path, k: &KernelVectors, name: &str) -> Result<Array> {
+    let info = k
+        .inputs
+        .iter()
+        .find(|i| i.file.ends_with(&format!(".{name}.npy")))
+        .ok_or_else(|| {
+            Error::InvalidArgument(format!(
+                "{}: kernel {} has no input '{name}'",
+                dir.display(),
+                k.name
+            ))
+        })?;
+    Array::load(&dir.join(&info.file))
+}
