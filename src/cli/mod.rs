@@ -1,10 +1,10 @@
 //! Command-line parsing (clap derive) and dispatch. Each subcommand lives in its own file and
 //! only glues the library together: parse, call, print (or `--json`), save.
 //!
-//! Everything meant for stdout goes through [`outln!`] / [`out!`] ([`write_out`]): on a closed
+//! Everything meant for stdout goes through `outln!` / `out!` ([`crate::cli::write_out`]): on a closed
 //! stdout (`reparam verify … | head`) the rest of the output is dropped and the command runs to
 //! its verdict, whose exit status is kept (a closed pipe may make a run quiet, never make a
-//! failing one succeed); [`run_captured`] collects it in a buffer to run a command in-process
+//! failing one succeed); [`crate::cli::run_captured`] collects it in a buffer to run a command in-process
 //! (the command fuzzer, `tests/fuzz_commands.rs`). `println!` is denied here by clippy's
 //! `print_stdout`.
 

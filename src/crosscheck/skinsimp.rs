@@ -257,7 +257,7 @@ pub struct CostChecks {
     pub unexpected_costs_over: usize,
 }
 
-/// Per compared candidate (cond_F(B) ≤ [`SKIP_CONDITION`], B = Q̃[0:3,0:3], b = Q̃[0:3,3]),
+/// Per compared candidate (cond_F(B) ≤ [`SKIP_CONDITION`], B = Q̃\[0:3,0:3\], b = Q̃\[0:3,3\]),
 /// first-order bounds with T^j = |Q_a^j| + |Q_b^j| (entrywise) and Ā^j = Σ α_k |M_k^j|:
 ///
 /// 1. Q̃ entries: Q_a + Q_b rounds once; an entry of A^j is a K-term sum (≤ (K + 1) u, K ≤ 8);
