@@ -15,6 +15,7 @@
 //!   folder, no symbolic link out of it ([`ReferencePolicy`]). A viewer opening a user's own
 //!   files may widen this ([`with_reference_policy`], `reparam --allow-outside-references`); a
 //!   batch tool run on downloaded assets should not.
+#![doc = include_str!("input.md")]
 
 use std::cell::Cell;
 use std::fs::{File, Metadata};

@@ -28,6 +28,7 @@
 //! | [`gridwarp_aa`] | `gridwarp_aa.wgsl`, `gridwarp_aa_residuals.wgsl` | `gridwarp::plain::aa` |
 //! | [`skinsimp_lbs`] | `skinsimp_lbs.wgsl` | [`crate::mesh::skin::skin_positions`] |
 //! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` | `skinsimp::quadric` (`Quadric::from_plane`, …) |
+#![doc = include_str!("README.md")]
 
 pub mod ball;
 pub mod bpm_common;
