@@ -94,7 +94,8 @@ pub struct MapsOptions {
     /// charts use z^a whatever this says. Measured at base 96, J = 3 (Hausdorff, % of the
     /// diagonal), z^a → polar: spot 4.37 → 2.91, bob 1.51 → 1.35, nefertiti 2.09 → 1.80, blub
     /// 13.8 → 11.4, genus-2 0.33 → 0.43, genus-3 0.65 → 0.53; the wrong-facing area higher on
-    /// spot, nefertiti and blub (README, with bases 64 to 250): not the default.
+    /// spot, nefertiti and blub (the guide, `src/maps/README.md`, with bases 64 to 250): not the
+    /// default.
     pub flattening: flatten::Flattening,
 }
 

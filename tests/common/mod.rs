@@ -44,8 +44,9 @@ pub fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
 
 /// The mutation tables of the twin tests (`tests/mutants_bpm.rs`, `tests/twin_*.rs`): one line
 /// per candidate judged by `verify`, the twin under each arithmetic model first (it must pass),
-/// then each mutant (it must fail). [`MutationTable::finish`] prints the table (the README's)
-/// and fails the test naming every twin that failed and every mutant that survived.
+/// then each mutant (it must fail). [`MutationTable::finish`] prints the table (the conformance
+/// guide's, `src/vectors/README.md`) and fails the test naming every twin that failed and every
+/// mutant that survived.
 #[cfg(feature = "gpu")]
 pub mod mutation {
     use reparam::vectors::verify::VerifyReport;
