@@ -1,8 +1,9 @@
-//! Every relative link in the README, the guides (`src/**/*.md`) and `benches/README.md` points
-//! to a file that exists, and every `#fragment` into a Markdown file names one of its headings
-//! (issue #38: links that work on a forge). Rust paths are checked by `cargo doc` instead
-//! (`RUSTDOCFLAGS="-D warnings"` in `.ci/run`): the guides write them as shortcut links
-//! (`` [`crate::twin`] ``), which a forge shows as text and this test does not see.
+//! Every relative link in the README, the guides (`src/**/*.md`), `benches/README.md` and the
+//! other Markdown files of the repository points to a file that exists, and every `#fragment`
+//! into a Markdown file names one of its headings (issue #38: links that work on a forge).
+//! Rust paths are checked by `cargo doc` instead (`RUSTDOCFLAGS="-D warnings"` in `.ci/run`):
+//! the guides write them as shortcut links (`` [`crate::twin`] ``), which a forge shows as text
+//! and this test does not see.
 //!
 //! Pictures in a guide `src/<module>/README.md` must be `../../reference_data/pictures/…`: on a
 //! forge that is the repository's folder, and rustdoc, which renders the guide at
@@ -150,8 +151,8 @@ fn broken_links(text: &str, dir: &Path) -> Vec<String> {
     broken
 }
 
-/// The Markdown files the test covers: the repository root's, every one under `src/`, and
-/// `benches/README.md`.
+/// The Markdown files the test covers: the repository root's and every one under `src/`,
+/// `benches/`, `reference_data/` and `tools/`.
 fn documents(root: &Path) -> Vec<PathBuf> {
     fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
         let mut entries: Vec<_> = std::fs::read_dir(dir)
@@ -173,8 +174,9 @@ fn documents(root: &Path) -> Vec<PathBuf> {
         .filter(|p| p.is_file() && p.extension().is_some_and(|e| e == "md"))
         .collect();
     files.sort();
-    walk(&root.join("src"), &mut files);
-    files.push(root.join("benches/README.md"));
+    for dir in ["src", "benches", "reference_data", "tools"] {
+        walk(&root.join(dir), &mut files);
+    }
     files
 }
 
