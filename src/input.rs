@@ -7,7 +7,7 @@
 //!   what the file can hold before anything is reserved: [`check_count`].
 //! - **Files.** Inputs are read only when they are regular files (not a device, a FIFO, a socket
 //!   or a directory) and never beyond a bound: [`read_input`] for the files named on the
-//!   command line, [`read_reference`] for the files a model names. The file is opened without
+//!   command line, [`Reference::read`] for the files a model names. The file is opened without
 //!   blocking (a FIFO without a writer would stall `open` forever) and checked on the open
 //!   descriptor, so nothing can be swapped in between the check and the read.
 //! - **References** inside a model (glTF buffer and image URIs, OBJ `mtllib`, MTL `map_Kd`) are
@@ -15,6 +15,7 @@
 //!   folder, no symbolic link out of it ([`ReferencePolicy`]). A viewer opening a user's own
 //!   files may widen this ([`with_reference_policy`], `reparam --allow-outside-references`); a
 //!   batch tool run on downloaded assets should not.
+#![doc = include_str!("input.md")]
 
 use std::cell::Cell;
 use std::fs::{File, Metadata};

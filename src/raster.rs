@@ -198,7 +198,7 @@ const BAND_ROWS: usize = 16;
 /// - Triangles with a corner in front of the near plane (clip z < 0), behind the eye (w ≤ 0)
 ///   or non-finite are skipped whole, not clipped: keep the mesh inside the view volume
 ///   ([`Camera::frame_mesh`] does). Zero-area triangles are skipped, and so are exact repeats
-///   of an earlier face (which could never win a pixel, see [`repeated_faces`]). No back-face
+///   of an earlier face (which could never win a pixel, see `repeated_faces`). No back-face
 ///   culling.
 /// - Parallel over bands of 16 rows; the result does not depend on the number of threads.
 ///

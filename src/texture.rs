@@ -208,7 +208,7 @@ fn open_image(path: &Path) -> Result<image::DynamicImage> {
 }
 
 /// Decode a PNG or JPEG held in memory (an image embedded in a glTF buffer) with the checks of
-/// a file ([`decode_checked`]); `name` names it in errors.
+/// a file (`decode_checked`); `name` names it in errors.
 pub fn decode_image(bytes: &[u8], name: &Path) -> Result<image::DynamicImage> {
     decode_checked(name, bytes.len() as u64, || {
         guessed(name, std::io::Cursor::new(bytes))

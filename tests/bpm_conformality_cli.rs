@@ -1,7 +1,9 @@
 //! Issue #36 end to end: `bpm qc` and `bpm render` report the input map's conformality, write
 //! the per-face figures and the s picture, and refuse bad output names with typed errors.
 
-use std::process::Command;
+mod common;
+
+use common::cli::reparam;
 
 /// Shape and values of a float64 `.npy` file.
 fn load_npy(path: &std::path::Path) -> (Vec<u64>, Vec<f64>) {
@@ -11,22 +13,9 @@ fn load_npy(path: &std::path::Path) -> (Vec<u64>, Vec<f64>) {
     (shape, npy.into_vec::<f64>().unwrap())
 }
 
-fn reparam(args: &[&str]) -> (Option<i32>, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_reparam"))
-        .args(args)
-        .env("REPARAM_NO_PROGRESS", "1")
-        .output()
-        .expect("the binary runs");
-    (
-        out.status.code(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 fn json(args: &[&str]) -> serde_json::Value {
     let (code, stdout, stderr) = reparam(args);
-    assert_eq!(code, Some(0), "{stderr}");
+    assert_eq!(code, 0, "{stderr}");
     serde_json::from_str(&stdout).expect("valid JSON")
 }
 
@@ -88,14 +77,14 @@ fn bpm_qc_reports_the_s_distribution_and_the_per_face_figures() {
 #[test]
 fn bpm_qc_warns_on_a_map_far_from_conformal_and_not_on_a_mobius_map() {
     let (code, stdout, stderr) = reparam(&["bpm", "qc", "procedural:star_affine", "--subdiv", "2"]);
-    assert_eq!(code, Some(0), "{stderr}");
+    assert_eq!(code, 0, "{stderr}");
     assert!(stdout.contains("input map conformality"), "{stdout}");
     assert!(
         stdout.contains("warning: BPM assumes a near-conformal"),
         "{stdout}"
     );
     let (code, stdout, stderr) = reparam(&["bpm", "qc", "procedural:mobius", "--subdiv", "2"]);
-    assert_eq!(code, Some(0), "{stderr}");
+    assert_eq!(code, 0, "{stderr}");
     assert!(stdout.contains("input map conformality"), "{stdout}");
     assert!(!stdout.contains("warning"), "{stdout}");
 }
@@ -146,7 +135,7 @@ fn bpm_qc_refuses_output_names_with_the_wrong_extension() {
         txt.to_str().unwrap(),
     ]);
     // A refused argument is bad input: exit status 2 (`Error::exit_status`).
-    assert_eq!(code, Some(2), "{stderr}");
+    assert_eq!(code, 2, "{stderr}");
     assert!(
         stderr.contains("--per-face") && stderr.contains(".npy"),
         "{stderr}"
@@ -161,7 +150,7 @@ fn bpm_qc_refuses_output_names_with_the_wrong_extension() {
             "--s-picture",
             jpg.to_str().unwrap(),
         ]);
-        assert_eq!(code, Some(2), "{command}: {stderr}");
+        assert_eq!(code, 2, "{command}: {stderr}");
         assert!(
             stderr.contains("--s-picture") && stderr.contains(".png"),
             "{stderr}"
@@ -169,7 +158,7 @@ fn bpm_qc_refuses_output_names_with_the_wrong_extension() {
     }
     // --json-faces needs --json (a usage error).
     let (code, _, stderr) = reparam(&["bpm", "qc", "procedural:cone", "--json-faces"]);
-    assert_eq!(code, Some(2), "{stderr}");
+    assert_eq!(code, 2, "{stderr}");
 }
 
 #[test]

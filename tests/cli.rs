@@ -1,25 +1,14 @@
 //! The `reparam` binary end to end: JSON output, and clear errors (never a panic) on bad files.
 
-use std::process::Command;
+mod common;
 
-fn reparam(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_reparam"))
-        .args(args)
-        .env("REPARAM_NO_PROGRESS", "1")
-        .output()
-        .expect("the binary runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+use common::cli::reparam;
 
 #[test]
 fn bpm_qc_prints_json() {
-    let (ok, stdout, stderr) =
+    let (code, stdout, stderr) =
         reparam(&["bpm", "qc", "procedural:cone", "--subdiv", "2", "--json"]);
-    assert!(ok, "{stderr}");
+    assert_eq!(code, 0, "{stderr}");
     let v: serde_json::Value = serde_json::from_str(&stdout).expect("valid JSON");
     for interp in ["linear", "bpm"] {
         let mean = v[interp]["mean"].as_f64().unwrap();
@@ -34,7 +23,7 @@ fn bpm_qc_prints_json() {
 #[test]
 fn bpm_qc_reports_folded_neighbours_and_both_unfoldings() {
     let qc = |unfold: &str| {
-        let (ok, stdout, stderr) = reparam(&[
+        let (code, stdout, stderr) = reparam(&[
             "bpm",
             "qc",
             "procedural:folded_star",
@@ -44,7 +33,7 @@ fn bpm_qc_reports_folded_neighbours_and_both_unfoldings() {
             unfold,
             "--json",
         ]);
-        assert!(ok, "{stderr}");
+        assert_eq!(code, 0, "{stderr}");
         serde_json::from_str::<serde_json::Value>(&stdout).expect("valid JSON")
     };
     let (correct, authors) = (qc("correct"), qc("authors"));
@@ -59,7 +48,7 @@ fn bpm_qc_reports_folded_neighbours_and_both_unfoldings() {
     assert_eq!(correct["linear"], authors["linear"]);
     assert_ne!(correct["bpm"]["mean"], authors["bpm"]["mean"]);
     // The default is the correct unfolding.
-    let (ok, stdout, stderr) = reparam(&[
+    let (code, stdout, stderr) = reparam(&[
         "bpm",
         "qc",
         "procedural:folded_star",
@@ -67,7 +56,7 @@ fn bpm_qc_reports_folded_neighbours_and_both_unfoldings() {
         "2",
         "--json",
     ]);
-    assert!(ok, "{stderr}");
+    assert_eq!(code, 0, "{stderr}");
     let default: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(default["unfold"], "Correct");
     assert_eq!(default["bpm"], correct["bpm"]);
@@ -75,7 +64,7 @@ fn bpm_qc_reports_folded_neighbours_and_both_unfoldings() {
 
 #[test]
 fn bpm_render_refuses_the_authors_unfolding_on_the_gpu() {
-    let (ok, _, stderr) = reparam(&[
+    let (code, _, stderr) = reparam(&[
         "bpm",
         "render",
         "procedural:folded_star",
@@ -84,7 +73,7 @@ fn bpm_render_refuses_the_authors_unfolding_on_the_gpu() {
         "--unfold",
         "authors",
     ]);
-    assert!(!ok);
+    assert_ne!(code, 0);
     assert!(
         stderr.contains("--unfold authors needs --backend cpu"),
         "{stderr}"
@@ -96,7 +85,7 @@ fn bpm_render_refuses_the_authors_unfolding_on_the_gpu() {
 fn bpm_render_writes_a_png() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("cone.png");
-    let (ok, stdout, stderr) = reparam(&[
+    let (code, stdout, stderr) = reparam(&[
         "bpm",
         "render",
         "procedural:cone",
@@ -106,7 +95,7 @@ fn bpm_render_writes_a_png() {
         out.to_str().unwrap(),
         "--json",
     ]);
-    assert!(ok, "{stderr}");
+    assert_eq!(code, 0, "{stderr}");
     let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(v["width"], 64);
     let img = reparam::texture::load_rgba8(&out).unwrap();
@@ -118,8 +107,8 @@ fn an_obj_without_uvs_gives_a_clear_error_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("no_uv.obj");
     std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
-    let (ok, _, stderr) = reparam(&["bpm", "qc", path.to_str().unwrap()]);
-    assert!(!ok);
+    let (code, _, stderr) = reparam(&["bpm", "qc", path.to_str().unwrap()]);
+    assert_ne!(code, 0);
     assert!(
         stderr.contains("no_uv.obj") && stderr.contains("texture coordinates"),
         "{stderr}"
@@ -134,28 +123,28 @@ fn a_missing_texture_and_a_missing_file_give_clear_errors() {
     std::fs::write(dir.path().join("m.mtl"), "newmtl a\nmap_Kd gone.png\n").unwrap();
     std::fs::write(&obj, "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl a\nf 1/1 2/2 3/3\n").unwrap();
     let out = dir.path().join("x.png");
-    let (ok, _, stderr) = reparam(&[
+    let (code, _, stderr) = reparam(&[
         "bpm",
         "render",
         obj.to_str().unwrap(),
         "-o",
         out.to_str().unwrap(),
     ]);
-    assert!(!ok);
+    assert_ne!(code, 0);
     assert!(
         stderr.contains("gone.png") && stderr.contains("--texture"),
         "{stderr}"
     );
 
-    let (ok, _, stderr) = reparam(&["bpm", "qc", "/definitely/not/here.obj"]);
-    assert!(!ok);
+    let (code, _, stderr) = reparam(&["bpm", "qc", "/definitely/not/here.obj"]);
+    assert_ne!(code, 0);
     assert!(
         stderr.contains("/definitely/not/here.obj") && !stderr.contains("panicked"),
         "{stderr}"
     );
 
-    let (ok, _, stderr) = reparam(&["bpm", "qc", "procedural:no_such_mesh"]);
-    assert!(!ok);
+    let (code, _, stderr) = reparam(&["bpm", "qc", "procedural:no_such_mesh"]);
+    assert_ne!(code, 0);
     assert!(
         stderr.contains("no_such_mesh") && stderr.contains("cone"),
         "{stderr}"
@@ -165,7 +154,7 @@ fn a_missing_texture_and_a_missing_file_give_clear_errors() {
 #[test]
 fn gridwarp_prints_json_and_reduces_rigid_stretch() {
     let dir = tempfile::tempdir().unwrap();
-    let (ok, stdout, stderr) = reparam(&[
+    let (code, stdout, stderr) = reparam(&[
         "gridwarp",
         "--scene",
         "plane",
@@ -177,7 +166,7 @@ fn gridwarp_prints_json_and_reduces_rigid_stretch() {
         dir.path().to_str().unwrap(),
         "--json",
     ]);
-    assert!(ok, "{stderr}");
+    assert_eq!(code, 0, "{stderr}");
     let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     let last = &v["rois"][0]["frames"][1];
     // The warp must lower the stretch of rigid features (the point of the method).
@@ -190,7 +179,7 @@ fn gridwarp_prints_json_and_reduces_rigid_stretch() {
         dir.path().join("gridwarp_plane_grid.png").exists()
             && dir.path().join("gridwarp_plane_lines.json").exists()
     );
-    let (ok, _, stderr) = reparam(&[
+    let (code, _, stderr) = reparam(&[
         "gridwarp",
         "--scene",
         "plane",
@@ -199,7 +188,7 @@ fn gridwarp_prints_json_and_reduces_rigid_stretch() {
         "--out",
         dir.path().to_str().unwrap(),
     ]);
-    assert!(!ok && stderr.contains("--grid"), "{stderr}");
+    assert!(code != 0 && stderr.contains("--grid"), "{stderr}");
 }
 
 #[test]
@@ -212,8 +201,8 @@ fn bpm_qc_on_only_degenerate_faces_is_an_error_not_null_figures() {
         "v 0 0 0\nv 1 0 0\nv 2 0 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n",
     )
     .unwrap();
-    let (ok, stdout, stderr) = reparam(&["bpm", "qc", path.to_str().unwrap(), "--json"]);
-    assert!(!ok, "{stdout}");
+    let (code, stdout, stderr) = reparam(&["bpm", "qc", path.to_str().unwrap(), "--json"]);
+    assert_ne!(code, 0, "{stdout}");
     assert!(!stdout.contains("null"), "{stdout}");
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
     assert!(
@@ -234,7 +223,7 @@ fn the_200000_corner_polygon_of_issue_25_is_measured_and_rendered_quickly() {
     }
     std::fs::write(&path, text + "\n").unwrap();
     let start = std::time::Instant::now();
-    let (ok, stdout, stderr) = reparam(&[
+    let (code, stdout, stderr) = reparam(&[
         "bpm",
         "qc",
         path.to_str().unwrap(),
@@ -242,13 +231,13 @@ fn the_200000_corner_polygon_of_issue_25_is_measured_and_rendered_quickly() {
         "0",
         "--json",
     ]);
-    assert!(ok, "{stderr}");
+    assert_eq!(code, 0, "{stderr}");
     let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert_eq!(v["precompute"]["faces"], 199_998);
     assert_eq!(v["precompute"]["non_manifold_edges"], 4);
     assert!(v["bpm"]["mean"].as_f64().unwrap().is_finite(), "{stdout}");
     let out = dir.path().join("polygon.png");
-    let (ok, _, stderr) = reparam(&[
+    let (code, _, stderr) = reparam(&[
         "bpm",
         "render",
         path.to_str().unwrap(),
@@ -257,7 +246,7 @@ fn the_200000_corner_polygon_of_issue_25_is_measured_and_rendered_quickly() {
         "-o",
         out.to_str().unwrap(),
     ]);
-    assert!(ok, "{stderr}");
+    assert_eq!(code, 0, "{stderr}");
     // About 1 s in a debug build on a loaded machine; the quadratic code took minutes.
     let took = start.elapsed();
     assert!(took < std::time::Duration::from_secs(30), "took {took:?}");

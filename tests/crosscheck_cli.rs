@@ -7,24 +7,11 @@
 //! REPARAM_REQUIRE_GPU=1 they fail instead. Bad-input cases run either way (exit 2).
 #![cfg(feature = "gpu")]
 
-use std::process::Command;
+mod common;
 
+use common::cli::reparam;
 use reparam_gpu::gpu_or_skip;
 use serde_json::Value;
-
-/// Run the binary: (exit code, stdout, stderr).
-fn reparam(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_reparam"))
-        .args(args)
-        .env("REPARAM_NO_PROGRESS", "1")
-        .output()
-        .expect("the binary runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 /// The rows of the first adapter of a `--json` report.
 fn rows(stdout: &str) -> Vec<Value> {

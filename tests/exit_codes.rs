@@ -6,66 +6,20 @@
 //! error/bound ratio, the count over and the NaN/∞ count.
 #![cfg(feature = "gpu")]
 
-use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+mod common;
 
+use std::path::{Path, PathBuf};
+
+use common::cli::{reparam_with_stdout as reparam, Stdout};
 use reparam::vectors::{read_manifest, Array, Metric};
 use reparam_gpu::gpu_or_skip;
 use serde_json::Value;
-
-/// What happens to the command's stdout.
-#[derive(Clone, Copy, Debug)]
-enum Stdout {
-    /// Read to the end.
-    Read,
-    /// Closed before the command writes anything (`| head -0`).
-    ClosedAtOnce,
-    /// One line read, then closed (`| head -1`).
-    ClosedAfterOneLine,
-}
 
 const ALL: [Stdout; 3] = [
     Stdout::Read,
     Stdout::ClosedAtOnce,
     Stdout::ClosedAfterOneLine,
 ];
-
-/// Run the binary with `args` and `stdout` handled as asked: (exit code, stdout read, stderr).
-fn reparam(args: &[&str], stdout: Stdout) -> (i32, String, String) {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_reparam"));
-    command.args(args).stderr(Stdio::piped());
-    let mut read = String::new();
-    if let Stdout::ClosedAtOnce = stdout {
-        // A pipe whose read end is closed before the command starts: its first write fails
-        // (EPIPE), whatever the scheduling (closing after the spawn would race the write).
-        let (reader, writer) = std::io::pipe().unwrap();
-        drop(reader);
-        let out = command.stdout(writer).output().unwrap();
-        return (
-            out.status.code().unwrap_or(-1),
-            read,
-            String::from_utf8_lossy(&out.stderr).into_owned(),
-        );
-    }
-    let mut child = command.stdout(Stdio::piped()).spawn().unwrap();
-    let pipe = child.stdout.take().unwrap();
-    match stdout {
-        Stdout::Read => {
-            std::io::Read::read_to_string(&mut BufReader::new(pipe), &mut read).unwrap();
-        }
-        Stdout::ClosedAtOnce => unreachable!(),
-        Stdout::ClosedAfterOneLine => {
-            BufReader::new(pipe).read_line(&mut read).unwrap();
-        }
-    }
-    let out = child.wait_with_output().unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        read,
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 /// A kernel of the canonical BPM vectors with a per-element vector metric (`bpm_eval`): the
 /// folder, its name, the expected array and the per-element bounds.

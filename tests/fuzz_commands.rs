@@ -31,7 +31,7 @@
 //!
 //! CI runs `CI_CASES` per target (about a minute in all, debug build, 2 cores). A long run:
 //! `REPARAM_FUZZ_SECS=600 cargo test --release --test fuzz_commands -- --nocapture
-//! --test-threads 1` (or `REPARAM_FUZZ_CASES=10000`); see the README.
+//! --test-threads 1` (or `REPARAM_FUZZ_CASES=10000`); see `src/input.md`.
 
 #[path = "fuzz/mod.rs"]
 mod fuzz;

@@ -1,21 +1,10 @@
 //! `reparam gridwarp` end to end: the NAA variant, mesh inputs with several ROIs and rigidity
 //! maps, and bad input (typed errors, never a panic).
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
 
-fn reparam(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_reparam"))
-        .args(args)
-        .env("REPARAM_NO_PROGRESS", "1")
-        .output()
-        .expect("the binary runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+use common::cli::reparam;
+use std::path::{Path, PathBuf};
 
 /// An OBJ of an `n`×`n` quad grid over UV [0, 1]², positions x(u, v).
 fn write_grid_obj(dir: &Path, name: &str, n: usize, x: impl Fn(f64, f64) -> [f64; 3]) -> PathBuf {
@@ -48,7 +37,7 @@ fn plane_frames(dir: &Path) -> (PathBuf, PathBuf) {
 
 /// `reparam gridwarp` on the OBJ frames `rest`, `frame` with 16² fields, writing to `out`,
 /// with `extra` arguments.
-fn gridwarp_on(rest: &Path, frame: &Path, out: &Path, extra: &[&str]) -> (bool, String, String) {
+fn gridwarp_on(rest: &Path, frame: &Path, out: &Path, extra: &[&str]) -> (i32, String, String) {
     let mut args = vec![
         "gridwarp",
         "--obj",
@@ -80,8 +69,8 @@ fn naa_scene_reports_every_frame_and_lowers_the_energy() {
 
 #[test]
 fn naa_model_without_the_naa_variant_is_an_error() {
-    let (ok, _, stderr) = reparam(&["gridwarp", "--scene", "plane", "--naa-model", "newton"]);
-    assert!(!ok);
+    let (code, _, stderr) = reparam(&["gridwarp", "--scene", "plane", "--naa-model", "newton"]);
+    assert_ne!(code, 0);
     assert!(
         stderr.contains("--naa-model") && stderr.contains("--variant naa"),
         "{stderr}"
@@ -110,8 +99,8 @@ fn naa_scene_with_model(flag: Option<&str>, model: &str) {
     if let Some(flag) = flag {
         args.extend(["--naa-model", flag]);
     }
-    let (ok, stdout, stderr) = reparam(&args);
-    assert!(ok, "{stderr}");
+    let (code, stdout, stderr) = reparam(&args);
+    assert_eq!(code, 0, "{stderr}");
     let v = json(&stdout);
     assert_eq!(v["variant"], "naa");
     assert_eq!(v["naa_model"], model);
@@ -145,7 +134,7 @@ fn two_rois_on_a_mesh_are_solved_independently_and_combined() {
     let (rest, frame) = plane_frames(dir.path());
     let out = dir.path().join("out");
     for variant in ["aa", "naa"] {
-        let (ok, stdout, stderr) = reparam(&[
+        let (code, stdout, stderr) = reparam(&[
             "gridwarp",
             "--obj",
             rest.to_str().unwrap(),
@@ -168,7 +157,7 @@ fn two_rois_on_a_mesh_are_solved_independently_and_combined() {
             out.to_str().unwrap(),
             "--json",
         ]);
-        assert!(ok, "{stderr}");
+        assert_eq!(code, 0, "{stderr}");
         let v = json(&stdout);
         let rois = v["rois"].as_array().unwrap();
         assert_eq!(rois.len(), 2);
@@ -205,13 +194,13 @@ fn a_uniform_rigidity_map_leaves_nothing_to_warp_and_says_so() {
     let dir = tempfile::tempdir().unwrap();
     let (rest, frame) = plane_frames(dir.path());
     let out = dir.path().join("out");
-    let (ok, stdout, stderr) = gridwarp_on(&rest, &frame, &out, &["--samples", "2"]);
-    assert!(ok, "{stderr}");
+    let (code, stdout, stderr) = gridwarp_on(&rest, &frame, &out, &["--samples", "2"]);
+    assert_eq!(code, 0, "{stderr}");
     assert!(stdout.contains("0 unknowns"), "{stdout}");
     assert!(stdout.contains("nothing to warp"), "{stdout}");
     assert!(stdout.contains("--rigidity"), "{stdout}");
-    let (ok, stdout, stderr) = gridwarp_on(&rest, &frame, &out, &["--samples", "2", "--json"]);
-    assert!(ok, "{stderr}");
+    let (code, stdout, stderr) = gridwarp_on(&rest, &frame, &out, &["--samples", "2", "--json"]);
+    assert_eq!(code, 0, "{stderr}");
     let v = json(&stdout);
     let roi = &v["rois"][0];
     assert_eq!(roi["unknowns"].as_u64().unwrap(), 0);
@@ -226,8 +215,8 @@ fn bad_rois_and_rigidity_maps_are_errors_naming_the_culprit() {
     let (rest, frame) = plane_frames(dir.path());
     let out = dir.path().join("out");
     let run = |extra: &[&str]| {
-        let (ok, _, stderr) = gridwarp_on(&rest, &frame, &out, extra);
-        assert!(!ok, "{extra:?} succeeded");
+        let (code, _, stderr) = gridwarp_on(&rest, &frame, &out, extra);
+        assert_ne!(code, 0, "{extra:?} succeeded");
         assert!(!stderr.contains("panicked"), "{stderr}");
         stderr
     };
@@ -259,9 +248,9 @@ fn bad_rois_and_rigidity_maps_are_errors_naming_the_culprit() {
     assert!(e.contains("discs") || e.contains("three numbers"), "{e}");
     // Frames with a different connectivity.
     let other = write_grid_obj(dir.path(), "other.obj", 8, |u, v| [u, v, 0.0]);
-    let (ok, _, stderr) = gridwarp_on(&rest, &other, &out, &[]);
+    let (code, _, stderr) = gridwarp_on(&rest, &other, &out, &[]);
     assert!(
-        !ok && stderr.contains("frame 0") && stderr.contains("faces"),
+        code != 0 && stderr.contains("frame 0") && stderr.contains("faces"),
         "{stderr}"
     );
     // With a texture (map_Kd), a rigidity map must have the size of the region it covers.
@@ -277,13 +266,13 @@ fn bad_rois_and_rigidity_maps_are_errors_naming_the_culprit() {
         .save(&map)
         .unwrap();
     let extra = ["--roi", "0,0.5,0,0.5", "--rigidity", map.to_str().unwrap()];
-    let (ok, _, stderr) = gridwarp_on(&textured, &frame, &out, &extra);
+    let (code, _, stderr) = gridwarp_on(&textured, &frame, &out, &extra);
     // The ROI covers 16×16 texture pixels.
     assert!(
-        !ok && stderr.contains("10x10") && stderr.contains("16x16"),
+        code != 0 && stderr.contains("10x10") && stderr.contains("16x16"),
         "{stderr}"
     );
     // --roi on a built-in scene is refused rather than ignored.
-    let (ok, _, stderr) = reparam(&["gridwarp", "--scene", "plane", "--roi", "0,1,0,1"]);
-    assert!(!ok && stderr.contains("--roi"), "{stderr}");
+    let (code, _, stderr) = reparam(&["gridwarp", "--scene", "plane", "--roi", "0,1,0,1"]);
+    assert!(code != 0 && stderr.contains("--roi"), "{stderr}");
 }

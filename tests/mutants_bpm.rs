@@ -1,7 +1,8 @@
 //! Mutation tests of the canonical BPM vectors (`reference_data/vectors/bpm`): each mutant is a
 //! mistake a porter makes, built from the kernels' f32 twins (`src/twin/bpm_*.rs`); `verify`
 //! must reject every one (a fail verdict), and accept the twins themselves under every
-//! arithmetic model a conforming GPU may use. The table printed by each test is the README's.
+//! arithmetic model a conforming GPU may use. The table printed by each test is the conformance
+//! guide's (`src/vectors/README.md`).
 #![cfg(feature = "gpu")]
 
 mod common;

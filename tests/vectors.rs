@@ -6,9 +6,11 @@
 // `!(e <= bound)` is meant: a NaN counts as a difference.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
 
+use std::path::{Path, PathBuf};
+
+use common::cli::reparam;
 use reparam::vectors::verify::verify;
 use reparam::vectors::{canonical, read_manifest, write_vectors, Array, Metric, ALGORITHMS};
 use reparam_gpu::gpu_or_skip;
@@ -188,18 +190,6 @@ fn a_candidate_off_by_twice_its_bound_at_one_element_fails_naming_it() {
     assert!(!r.pass);
     assert_eq!(r.errors.non_finite, 1);
     assert_eq!(r.worst[0].index, vec![17]);
-}
-
-fn reparam(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_reparam"))
-        .args(args)
-        .output()
-        .expect("the binary runs");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
 }
 
 #[test]

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """bpm_eval written from the manifest alone (reference_data/vectors/bpm/manifest.json), as an
-outside implementer would: the README's walkthrough. Usage:
+outside implementer would: the walk-through in src/vectors/README.md. Usage:
 
     python3 tools/bpm_eval_from_manifest.py reference_data/vectors/bpm out.npy
     reparam verify reference_data/vectors/bpm --candidate out.npy --kernel bpm_eval

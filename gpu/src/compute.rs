@@ -12,9 +12,9 @@ use crate::error::GpuError;
 /// Invocations per workgroup of every compute kernel (`WORKGROUP_SIZE` in `dispatch.wgsl`).
 pub const WORKGROUP_SIZE: u32 = 64;
 
-/// How long [`Gpu::read_back`] waits for the GPU before giving up with [`GpuError::Timeout`]
-/// (generous: lavapipe runs shaders on the CPU).
-pub const READBACK_TIMEOUT: Duration = Duration::from_secs(120);
+/// How long [`Gpu::read_back`] waits for the GPU (defined with the context, the layer below,
+/// which also waits on submissions; re-exported here where the kernels' users look for it).
+pub use crate::context::READBACK_TIMEOUT;
 
 /// Upper bound on the items of one chunk of [`Gpu::run_per_item`] (4 Mi), so that a chunk's
 /// buffers stay around a few hundred MB whatever the device allows.

@@ -3,9 +3,14 @@
 use std::any::Any;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, PoisonError};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use crate::error::GpuError;
+
+/// How long a wait for the GPU (a read-back, a timed submission) lasts before giving up with
+/// [`GpuError::Timeout`] (generous: lavapipe runs shaders on the CPU). Defined here, in the
+/// lowest layer, so that the context never imports `compute`: `compute` builds on `context`.
+pub const READBACK_TIMEOUT: Duration = Duration::from_secs(120);
 
 /// A headless wgpu device and its queue, with the adapter's description and the limits the
 /// device was created with. Cheap to clone (wgpu handles are reference counted) and shareable
@@ -179,7 +184,7 @@ impl Gpu {
         if timing {
             let _ = self.device.poll(wgpu::PollType::Wait {
                 submission_index: Some(index.clone()),
-                timeout: Some(crate::compute::READBACK_TIMEOUT),
+                timeout: Some(READBACK_TIMEOUT),
             });
             let seconds = start.elapsed().as_secs_f64();
             if let Some(c) = self

@@ -17,6 +17,10 @@
 //! - [`gpu_or_skip`]: what tests call to get a context or skip.
 //!
 //! WGSL has no includes: shared WGSL lives in its own file and the host concatenates sources.
+//!
+//! Layers, bottom up; each module imports only the ones below it: `error` ([`GpuError`]) →
+//! `context` ([`Gpu`], adapters, limits, [`compute::READBACK_TIMEOUT`]) → [`compute`] (buffers,
+//! dispatch, read-back, [`ComputeKernel`]) → one module per algorithm.
 
 pub mod bpm;
 pub mod compute;
@@ -32,7 +36,7 @@ use std::sync::OnceLock;
 pub use bpm::{bpm_eval, bpm_precompute, bpm_render};
 pub use compute::ComputeKernel;
 pub use context::{
-    adapter_rank, device_limits, list_adapters, AdapterDescription, Gpu, ADAPTER_ENV,
+    adapter_rank, device_limits, list_adapters, AdapterDescription, Clock, Gpu, ADAPTER_ENV,
 };
 pub use error::GpuError;
 

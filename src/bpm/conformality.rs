@@ -83,7 +83,7 @@ pub fn cross_ratio(a: C, b: C, c: C, d: C) -> C {
 /// a→b, t's third corner c and the neighbour's apex d, in the flat layout z (the isometric
 /// unfolding, seed step 2) and in UV w. 0 for a discrete conformal map; symmetric under
 /// m ↦ 1/m, so the order of a, b and of c, d does not matter. Each quad is first moved to a
-/// at the origin and scaled to unit size ([`unit_quad`]; the cross-ratio is invariant under
+/// at the origin and scaled to unit size (`unit_quad`; the cross-ratio is invariant under
 /// both), so coordinates of any finite size give finite products; then ln|CR_w| − ln|CR_z| and
 /// arg(CR_w · conj CR_z), without forming the quotient. NaN when a quad cannot be normalised
 /// (coinciding or overflowing points).

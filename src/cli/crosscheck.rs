@@ -60,7 +60,7 @@ pub enum Algorithm {
 /// Flags every algorithm takes.
 #[derive(Args, Clone, Default)]
 pub struct Common {
-    /// Print machine-readable results (schema in the README).
+    /// Print machine-readable results (schema in `src/crosscheck/README.md`).
     #[arg(long)]
     pub json: bool,
     /// Also sweep the error against a conditioning parameter (table and log–log plot).

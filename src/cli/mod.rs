@@ -1,11 +1,11 @@
 //! Command-line parsing (clap derive) and dispatch. Each subcommand lives in its own file and
 //! only glues the library together: parse, call, print (or `--json`), save.
 //!
-//! Everything meant for stdout goes through [`outln!`] / [`out!`] ([`write_out`]): on a closed
-//! stdout (`reparam verify … | head`) the rest of the output is dropped and the command runs to
-//! its verdict, whose exit status is kept (a closed pipe may make a run quiet, never make a
-//! failing one succeed); [`run_captured`] collects it in a buffer to run a command in-process
-//! (the command fuzzer, `tests/fuzz_commands.rs`). `println!` is denied here by clippy's
+//! Everything meant for stdout goes through `outln!` / `out!` ([`crate::cli::write_out`]): on a
+//! closed stdout (`reparam verify … | head`) the rest of the output is dropped and the command
+//! runs to its verdict, whose exit status is kept (a closed pipe may make a run quiet, never make
+//! a failing one succeed); [`crate::cli::run_captured`] collects it in a buffer to run a command
+//! in-process (the command fuzzer, `tests/fuzz_commands.rs`). `println!` is denied here by clippy's
 //! `print_stdout`.
 
 #![deny(clippy::print_stdout)]
@@ -101,7 +101,7 @@ use clap::{Parser, Subcommand};
 struct Cli {
     /// Follow files that a model names (glTF buffer and image URIs, OBJ `mtllib`, MTL `map_Kd`)
     /// outside the model's folder too: absolute paths, `..` above it, links out of it. Refused
-    /// by default (README, "Limits on input").
+    /// by default (`src/input.md`, "Limits on input").
     #[arg(long, global = true)]
     allow_outside_references: bool,
     #[command(subcommand)]

@@ -394,7 +394,7 @@ fn field_slope(f: &Field) -> f64 {
 /// How far the rigid-stretch figures (mean and max) can move when every line of `warped` moves
 /// by at most δ (texture widths). A point's stretch is v = |‖D(p)‖ a / ‖O‖ − 1| with a = Δwarped
 /// / Δrest its cell's slope and p its warped position: a moves by ≤ 2δ/h_min (h_min the smallest
-/// rest cell) and p by ≤ δ, so ‖D(p)‖ by ≤ G δ (G the fields' largest slope, [`field_slope`]);
+/// rest cell) and p by ≤ δ, so ‖D(p)‖ by ≤ G δ (G the fields' largest slope, `field_slope`);
 /// hence |Δv| ≤ (D_max · 2δ/h_min + (a_max + 2δ/h_min) G δ) / O_min, which bounds both the
 /// R-weighted mean and the max. `None` where some ‖O‖ ≤ 0.
 pub fn stretch_bound(

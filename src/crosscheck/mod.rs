@@ -5,7 +5,7 @@
 //! reference then runs on those rounded values, so the summary measures the kernel's f32
 //! arithmetic and nothing else. Summaries are rounded to significant digits (never to decimal
 //! places, which would turn 3.7e-7 into 0) before they are snapshotted or printed.
-
+#![doc = include_str!("README.md")]
 // `!(e <= tolerance)` is meant throughout: a NaN error counts as over any tolerance.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 

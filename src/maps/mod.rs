@@ -1,30 +1,4 @@
-//! # MAPS — Multiresolution Adaptive Parameterization of Surfaces
-//!
-//! Lee, Sweldens, Schröder, Cowsar, Dobkin, SIGGRAPH 98 (seed 002, notes `maps.md`). A
-//! 2-manifold triangle mesh (any genus, with or without boundary) is simplified by levels of
-//! maximal independent vertex removals down to a coarse *base domain*; every input vertex is
-//! carried along as (base triangle, barycentrics), which defines the parameterisation
-//! Π: input surface → base domain, a bijection, and its inverse Π⁻¹. Remeshing samples Π⁻¹.
-//!
-//! | stage | notes / seed section | file |
-//! |---|---|---|
-//! | loading, 2-manifold check (typed errors listing bad edges/vertices) | issue #5 "Input" | `mesh/{ply,off,manifold}.rs` |
-//! | priority w(λ, i) = λ a/max a + (1−λ) κ/max κ | notes "Hierarchy"; seed "Constructing (2/5)", "Notation (4/4)" | [`priority`] |
-//! | features: tags, sidecar file, detection by curvature and dihedral angle | notes "Features"; seed "Preserving Image Features" | [`features`] |
-//! | z^a flattening of a 1-ring (disk, boundary half-disk, feature-line split) | notes "Flattening a 1-ring"; seed "Constructing (4/5)" | [`flatten`] |
-//! | constrained Delaunay retriangulation (spade), fans, robust location | notes "Retriangulating the hole"; seed "Constructing (5/5)" | [`retriangulate`] |
-//! | levels, maximal independent sets, validity checks, bookkeeping | notes "Hierarchy", "Parameter bookkeeping"; seed "Parameterization" | [`hierarchy`] |
-//! | Π and Π⁻¹: the level maps composed forwards and backwards | notes "Parameter bookkeeping"; seed "Parameterization", "Remeshing (1/5)" | [`param`] |
-//! | point–triangle distance, BVH (parry3d), sampled two-sided Hausdorff and mean distances, wrong-facing area | issues #5 "Remeshing", #23 | [`crate::mesh::distance`] |
-//! | remesh quality: distances relative to the diagonal, smallest-angle distribution | issue #23 | [`quality`] |
-//! | distortion of Π per level and at the end: area (log of the normalised area ratio), conformal (σ_max/σ_min), folds | issue #23 | [`distortion`] |
-//! | pictures: levels, base domain, iso-parameter lines, remeshes | issue #5 "Pictures" | [`picture`] |
-//! | uniform and adaptive remeshing | notes "Smoothing and remeshing"; seed "Remeshing" | [`remesh`] |
-//! | Loop smoothing of the parameterisation in the parameter domain (charts, crease rules), smoothed uniform remesh | notes "Smoothing and remeshing"; seed "Remeshing (2/5), (3/5)" | [`smooth`] |
-//! | relaxation of a uniform remesh's parameters towards the surface's area, u_c ← (1 − ω) u_c + ω Σ ρ_f g_f / Σ ρ_f (beyond the paper) | issue #23 | [`relax`] |
-//!
-//! Entry point: [`build`] (or [`build_with_progress`]), then [`Maps::param`] for Π / Π⁻¹ and
-//! [`remesh::uniform`] / [`remesh::adaptive`].
+#![doc = include_str!("README.md")]
 
 pub mod distortion;
 pub mod features;
@@ -120,7 +94,8 @@ pub struct MapsOptions {
     /// charts use z^a whatever this says. Measured at base 96, J = 3 (Hausdorff, % of the
     /// diagonal), z^a → polar: spot 4.37 → 2.91, bob 1.51 → 1.35, nefertiti 2.09 → 1.80, blub
     /// 13.8 → 11.4, genus-2 0.33 → 0.43, genus-3 0.65 → 0.53; the wrong-facing area higher on
-    /// spot, nefertiti and blub (README, with bases 64 to 250): not the default.
+    /// spot, nefertiti and blub (the guide, `src/maps/README.md`, with bases 64 to 250): not the
+    /// default.
     pub flattening: flatten::Flattening,
 }
 

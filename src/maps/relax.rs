@@ -48,8 +48,8 @@ pub enum RelaxWeight {
 /// Options of the relaxation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RelaxOptions {
-    /// Jacobi sweeps. Default 15 (measured in the README: the distances fall over the first
-    /// 10–20 sweeps and rise again by 40 on some models).
+    /// Jacobi sweeps. Default 15 (measured in `src/maps/README.md`: the distances fall over
+    /// the first 10–20 sweeps and rise again by 40 on some models).
     pub iterations: usize,
     /// ω, the fraction of the way to the weighted centroid each sweep moves. Default ½.
     pub step: f64,
@@ -57,7 +57,7 @@ pub struct RelaxOptions {
     pub weight: RelaxWeight,
     /// Whether the base vertices that are not corners move too (their remesh vertex then leaves
     /// the input vertex it sat on). Default true: held, a base vertex of high valence keeps
-    /// the long thin faces around it (measured in the README).
+    /// the long thin faces around it (measured in `src/maps/README.md`).
     pub move_base_vertices: bool,
     /// Charts and corners as for the smoothing (grow rounds, corner turn). Default
     /// [`SmoothOptions::default`].

@@ -139,7 +139,7 @@ pub struct Remesh {
     pub mesh: TriMesh,
     /// For each remesh vertex, its base point.
     pub params: Vec<BasePoint>,
-    /// Sampled two-sided Hausdorff distance to the input ([`hausdorff`]).
+    /// Sampled two-sided Hausdorff distance to the input ([`crate::mesh::distance::hausdorff`]).
     pub hausdorff: Hausdorff,
     /// The input's bounding-box diagonal (to make distances relative).
     pub diagonal: f64,

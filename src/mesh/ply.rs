@@ -17,7 +17,7 @@ use crate::input::{check_count, read_input};
 
 /// Load a PLY file as a [`TriMesh`] named after `path` (no UVs).
 ///
-/// The header is checked first ([`check_header`]) so that `ply-rs` never sees a number it
+/// The header is checked first (`check_header`) so that `ply-rs` never sees a number it
 /// would overflow on (it panics) nor a declared count the file cannot hold (it would allocate
 /// for it); of the crate's own multi-line errors the first line is kept.
 ///

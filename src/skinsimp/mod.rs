@@ -1,26 +1,4 @@
-//! Quadric simplification of skinned meshes with optimised skin weights (Landreneau &
-//! Schaefer, "Simplification of Articulated Meshes", Eurographics 2009; seed 003, notes
-//! `skinsimp.md`), with the Mohr–Gleicher and rest-pose baselines through the same API, and
-//! the weightless case of a frame sequence with shared connectivity.
-//!
-//! | stage | notes / seed section | file |
-//! |---|---|---|
-//! | inputs: rest mesh, weights, example poses (keyframes / uniform times, held-out poses) | notes "Linear blend skinning" | [`poses`] |
-//! | per-pose plane quadrics, boundary/seam constraint planes | notes "Per-pose quadrics"; seed "QEF" | [`quadric`] |
-//! | weight QP (active set, support enumeration, KKT check), weight reduction | notes "The error…", seed "Quadratic #2", "Weight reduction" | [`weights`] |
-//! | collapse cost `E(v, α)`, position step, alternation, baselines | notes "The error…", seed "Quadratic #1", "Alternating minimization" | [`cost`] |
-//! | greedy loop, link condition, flips in every pose, seams, boundaries | notes "Around it" | [`collapse`] |
-//! | the priority queue (lazy deletion, heap + unsorted far part) | notes "Around it" | `queue` |
-//! | collapse records, levels | notes "Around it" (multiresolution hierarchy) | [`hierarchy`] |
-//! | RMS / Hausdorff surface distance per pose | notes "Tests" 8 | [`distance`] |
-//! | evaluation on training and held-out poses | notes "Tests" 8 | [`evaluate`] |
-//! | a bending tube with three bones | issue #6 (demo, tests) | [`tube`] |
-//! | skinned GLB output | issue #6 "Output" | [`glb`] |
-//! | pictures: original vs simplified in several poses, error vs vertex count plot | issue #6 "Output", "Evaluation" | [`picture`] |
-//! | f32 GPU kernels (LBS, per-pose quadrics, batched collapse costs) and their cross-check | notes "GPU f32 kernels worth cross-checking" | `gpu` (feature `gpu`) |
-//!
-//! Entry points: [`simplify`] → [`Hierarchy`] → [`Hierarchy::level`] → [`Level`];
-//! [`evaluate::compare`] for the quality table; [`glb::write_glb`].
+#![doc = include_str!("README.md")]
 
 pub mod collapse;
 pub mod cost;

@@ -29,6 +29,7 @@
 //! | [`skinsimp_lbs`] | `skinsimp_lbs.wgsl` | [`crate::mesh::skin::skin_positions`] |
 //! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` | `skinsimp::quadric` (`Quadric::from_plane`, …) |
 //! | [`skinsimp_collapse_cost`] | `skinsimp_collapse_cost.wgsl` | [`crate::skinsimp::gpu::position_given_weights_f64`] |
+#![doc = include_str!("README.md")]
 
 pub mod ball;
 pub mod bpm_common;

@@ -1,25 +1,4 @@
-//! # unwarp — distortion-free displacement mapping by per-texel descent
-//!
-//! Zirr & Ritschel, "Distortion-Free Displacement Mapping", HPG 2019 (seed 001), restated in
-//! `notes/unwarp.md`. Displacing a surface by a height map stretches its texture; a per-texel
-//! offset map o (UV units) corrects it: the displaced surface is textured at u + o(u). The
-//! offsets minimise a stretch energy on the displaced surface by a descent that moves one
-//! texel at a time along its gradient, with a flip-free bracket and a ternary line search.
-//!
-//! | stage | notes § / seed | file |
-//! |---|---|---|
-//! | height map: PNG/EXR/built in, validation, 2×2 downsampling | § Discretisation | [`height`] |
-//! | node mesh X = ((x+½)/W, (y+½)/H, s·h), 6-neighbour stencil, border, phases | § Discretisation, § One pass 4 | [`mesh`] |
-//! | A, a, D, E_T = D/(A a)·(A/a + a/A)^θ, its gradient, node and total energy | § Energy | [`energy`] |
-//! | pin weights, barrier ½/(1 − ‖w R⊙o‖²), its root | § Fixation; seed "Fixation Energy" | [`fixation`] |
-//! | bracket, ternary search, guard, one phase pass | § One pass 1–4; seed "ternary line search" | [`pass`] |
-//! | coarse moves: hat-weighted block steps on the same energy (not in the paper) | § One pass 1–4 generalised | [`coarse_move`] |
-//! | sweeps, tolerance, progress, coarse-to-fine | § One pass 4, § Defects | [`solve`](mod@solve) |
-//! | area-ratio CV, max offset, per-texel σ1/σ2 and σ1σ2 | § Reference figures | [`stats`] |
-//! | offset EXR, mip chain, baked texture, pictures | § Application; seed "store per-texel offsets", "Mip Mapping" | [`output`] |
-//! | f32 GPU pass (bridge to `reparam-gpu`'s `unwarp_pass`) | § One pass | `gpu` (feature `gpu`) |
-//!
-//! Entry point: [`solve()`] with [`UnwarpOptions`]; one pass is [`pass::pass`].
+#![doc = include_str!("README.md")]
 
 pub mod coarse_move;
 pub mod energy;

@@ -1,5 +1,5 @@
 //! gridwarp vectors: the `gridwarp_aa_cell` kernel's inputs at one grid (the lines moved off the
-//! rest grid, see [`evaluation_point`]) and the f64 per-cell energies, F, JᵀJ and Jᵀr of the
+//! rest grid, see [`crate::crosscheck::gridwarp::evaluation_point`]) and the f64 per-cell energies, F, JᵀJ and Jᵀr of the
 //! axis-aligned energy (seed §5.1), with the bounds of [`crate::crosscheck::gridwarp`].
 
 use super::{Array, KernelData, Metric, VectorsAndCandidates};

@@ -12,6 +12,7 @@
 //! <kernel>.expected.npy            the f64 reference's output
 //! <kernel>.bound.npy               the bound of each element (see `metric`)
 //! ```
+#![doc = include_str!("README.md")]
 
 pub mod bpm;
 pub mod gridwarp;

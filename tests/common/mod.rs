@@ -44,8 +44,9 @@ pub fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
 
 /// The mutation tables of the twin tests (`tests/mutants_bpm.rs`, `tests/twin_*.rs`): one line
 /// per candidate judged by `verify`, the twin under each arithmetic model first (it must pass),
-/// then each mutant (it must fail). [`MutationTable::finish`] prints the table (the README's)
-/// and fails the test naming every twin that failed and every mutant that survived.
+/// then each mutant (it must fail). [`MutationTable::finish`] prints the table (the conformance
+/// guide's, `src/vectors/README.md`) and fails the test naming every twin that failed and every
+/// mutant that survived.
 #[cfg(feature = "gpu")]
 pub mod mutation {
     use reparam::vectors::verify::VerifyReport;
@@ -136,5 +137,75 @@ pub mod canonical {
             .find(|i| i.file.ends_with(&format!(".{name}.npy")))
             .unwrap();
         Array::load(&dir(algorithm).join(&info.file)).unwrap()
+    }
+}
+
+/// Running the `reparam` binary from an integration test (one runner for every CLI test).
+pub mod cli {
+    use std::io::{BufRead, BufReader, Read};
+    use std::process::{Command, Output, Stdio};
+
+    /// The binary with `args`, progress bars off.
+    pub fn command(args: &[&str]) -> Command {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_reparam"));
+        command.args(args).env("REPARAM_NO_PROGRESS", "1");
+        command
+    }
+
+    /// (exit code, or −1 when a signal ended it; stdout; stderr).
+    fn parts(out: Output, stdout: String) -> (i32, String, String) {
+        (
+            out.status.code().unwrap_or(-1),
+            stdout,
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    }
+
+    /// Run the binary with `args` to the end: (exit code, or −1 when a signal ended it; stdout;
+    /// stderr). A success is code 0.
+    pub fn reparam(args: &[&str]) -> (i32, String, String) {
+        let out = command(args).output().expect("the binary runs");
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        parts(out, stdout)
+    }
+
+    /// What happens to the command's stdout.
+    #[derive(Clone, Copy, Debug)]
+    pub enum Stdout {
+        /// Read to the end.
+        Read,
+        /// Closed before the command writes anything (`| head -0`).
+        ClosedAtOnce,
+        /// One line read, then closed (`| head -1`).
+        ClosedAfterOneLine,
+    }
+
+    /// Run the binary with `args` and `stdout` handled as asked: (exit code, stdout read,
+    /// stderr).
+    pub fn reparam_with_stdout(args: &[&str], stdout: Stdout) -> (i32, String, String) {
+        let mut command = command(args);
+        command.stderr(Stdio::piped());
+        let mut read = String::new();
+        if let Stdout::ClosedAtOnce = stdout {
+            // A pipe whose read end is closed before the command starts: its first write fails
+            // (EPIPE), whatever the scheduling (closing after the spawn would race the write).
+            let (reader, writer) = std::io::pipe().unwrap();
+            drop(reader);
+            let out = command.stdout(writer).output().unwrap();
+            return parts(out, read);
+        }
+        let mut child = command.stdout(Stdio::piped()).spawn().unwrap();
+        let pipe = child.stdout.take().unwrap();
+        match stdout {
+            Stdout::Read => {
+                BufReader::new(pipe).read_to_string(&mut read).unwrap();
+            }
+            Stdout::ClosedAtOnce => unreachable!(),
+            Stdout::ClosedAfterOneLine => {
+                BufReader::new(pipe).read_line(&mut read).unwrap();
+            }
+        }
+        let out = child.wait_with_output().unwrap();
+        parts(out, read)
     }
 }

@@ -7,7 +7,7 @@
 //!
 //!   p = W(α, β),  W_s = (∂W/∂α)/h,  W_t = (∂W/∂β)/k                     ([`bilinear_warp`])
 //!   J_D = [D_s D_t] at p (bilinear, with derivatives)                   ([`jacobian_at`])
-//!   q_s = J_D W_s,  q_t = J_D W_t   (seed eq. 7–8: H_s, H_t)              ([`image`])
+//!   q_s = J_D W_s,  q_t = J_D W_t   (seed eq. 7–8: H_s, H_t)              ([`image()`])
 //!   r^s = σ (‖q_s‖ − o_s),  r^t = σ (‖q_t‖ − o_t)                        ([`residual`])
 //!
 //! with the derivatives of each residual with respect to the cell's 8 corner coordinates
@@ -130,7 +130,7 @@ pub fn dot(x: [f64; 3], y: [f64; 3]) -> f64 {
     x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
 }
 
-/// One residual (seed §8 eq. 7–8): r = σ (‖q‖ − o), q = [`image`] of W_s (or W_t).
+/// One residual (seed §8 eq. 7–8): r = σ (‖q‖ − o), q = [`image()`] of W_s (or W_t).
 pub fn residual(sigma: f64, q: [f64; 3], o: f64) -> f64 {
     sigma * (norm(q) - o)
 }
