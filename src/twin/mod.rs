@@ -26,6 +26,7 @@
 //! | [`bpm_eval`] | `bpm_eval.wgsl` | [`crate::bpm::Bpm::eval`] |
 //! | [`bpm_precompute`] | `bpm_precompute.wgsl` | [`crate::bpm::precompute()`] |
 //! | [`gridwarp_aa`] | `gridwarp_aa.wgsl`, `gridwarp_aa_residuals.wgsl` | `gridwarp::plain::aa` |
+//! | [`maps_inverse`] | `maps_inverse.wgsl` | [`crate::maps::Param::inverse`] |
 //! | [`skinsimp_lbs`] | `skinsimp_lbs.wgsl` | [`crate::mesh::skin::skin_positions`] |
 //! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` | `skinsimp::quadric` (`Quadric::from_plane`, …) |
 //! | [`skinsimp_collapse_cost`] | `skinsimp_collapse_cost.wgsl` | [`crate::skinsimp::gpu::position_given_weights_f64`] |
@@ -38,6 +39,7 @@ pub mod bpm_precompute;
 pub mod candidate;
 pub mod gridwarp_aa;
 pub mod lin;
+pub mod maps_inverse;
 pub mod model;
 pub mod real;
 pub mod skinsimp_collapse_cost;

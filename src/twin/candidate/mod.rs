@@ -8,6 +8,7 @@
 //!
 //! [`Model`]: super::Model
 
+pub mod maps_inverse;
 pub mod skinsimp_collapse_cost;
 
 use std::path::Path;
