@@ -177,11 +177,18 @@ fn every_model_passes_every_mutant_fails_and_no_bound_is_zero() {
     let mut table = MutationTable::default();
     for model in Model::CHECKED {
         let c = candidate(&dir(), &k, model).unwrap();
-        table.twin(&model.name(), &verify_array(&dir(), &k, &c, "twin").unwrap());
+        table.twin(
+            &model.name(),
+            &verify_array(&dir(), &k, &c, "twin").unwrap(),
+        );
     }
     for (name, mistake, body) in MUTANTS {
         let c = candidate_with(&dir(), &k, Model::Nearest, body).unwrap();
-        table.mutant(name, mistake, &verify_array(&dir(), &k, &c, "twin").unwrap());
+        table.mutant(
+            name,
+            mistake,
+            &verify_array(&dir(), &k, &c, "twin").unwrap(),
+        );
     }
     table.finish();
 }

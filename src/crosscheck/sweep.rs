@@ -10,6 +10,7 @@
 //! | unwarp | height scale s | one pass's offsets, max and p99 in texels |
 //! | maps | triangle aspect ratio | Π⁻¹ position, max and p99 of the diagonal |
 //! | skinsimp | coordinate magnitude | source quadrics, worst relative entry error |
+//! | every algorithm | arithmetic model (the kernels' f32 twins on the canonical vectors) | worst error / bound per kernel ([`twin_model_sweep`]) |
 
 use reparam_gpu::Gpu;
 use serde::Serialize;
@@ -437,9 +438,64 @@ pub fn skinsimp_sweeps(gpu: &Gpu) -> Result<Vec<Sweep>> {
     Ok(vec![sweep])
 }
 
-/// The sweeps of `algorithm` (`bpm`, `gridwarp`, `unwarp`, `maps`, `skinsimp`).
+/// Every kernel of `algorithm` whose f32 twin runs over its vectors
+/// ([`crate::twin::candidate::runner`]), under every arithmetic model of [`Model::CHECKED`], on
+/// the canonical vectors ([`crate::vectors::canonical`], written to a temporary folder): per
+/// kernel and model the worst error / bound that `verify` reports; the bound is the line at 1.
+/// `None` when no kernel of `algorithm` has a runner.
+pub fn twin_model_sweep(algorithm: &str) -> Result<Option<Sweep>> {
+    use crate::twin::candidate::runner;
+    use crate::vectors::verify::verify_array;
+    let (input, kernels) = crate::vectors::canonical(algorithm)?;
+    let dir = std::env::temp_dir().join(format!(
+        "reparam-twin-sweep-{}-{algorithm}",
+        std::process::id()
+    ));
+    let manifest = crate::vectors::write_vectors(&dir, "crosscheck --sweep", &input, &kernels);
+    let result = manifest.and_then(|manifest| {
+        let mut sweep = Sweep::new(
+            algorithm,
+            &format!("{algorithm}_arithmetic_models"),
+            &format!(
+                "{algorithm}: worst error / bound of each twin under each conforming arithmetic"
+            ),
+            MODEL_AXIS,
+            "worst error / derived bound",
+        );
+        for k in &manifest.kernels {
+            let Some(run) = runner(&k.name) else {
+                continue;
+            };
+            let points = Model::CHECKED
+                .iter()
+                .enumerate()
+                .map(|(x, &model)| {
+                    let candidate = run(&dir, k, model)?;
+                    let report = verify_array(&dir, k, &candidate, "twin")?;
+                    Ok(((x + 1) as f64, report.worst_ratio))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            sweep.add(&k.name, false, points);
+        }
+        if sweep.series.is_empty() {
+            return Ok(None);
+        }
+        let ones = (1..=Model::CHECKED.len())
+            .map(|x| (x as f64, 1.0))
+            .collect();
+        sweep.add("bound (ratio 1)", true, ones);
+        sweep.step_names = Model::CHECKED.iter().map(|m| m.name()).collect();
+        Ok(Some(sweep))
+    });
+    // The folder is scratch: a failure to remove it leaves files in the temporary folder only.
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+/// The sweeps of `algorithm` (`bpm`, `gridwarp`, `unwarp`, `maps`, `skinsimp`), the twins'
+/// arithmetic-model sweep last (BPM's is [`bpm_model_sweep`], among [`bpm_sweeps`]).
 pub fn sweeps_of(gpu: &Gpu, algorithm: &str) -> Result<Vec<Sweep>> {
-    match algorithm {
+    let mut sweeps = match algorithm {
         "bpm" => bpm_sweeps(gpu),
         "gridwarp" => gridwarp_sweeps(gpu),
         "unwarp" => unwarp_sweeps(gpu),
@@ -448,5 +504,9 @@ pub fn sweeps_of(gpu: &Gpu, algorithm: &str) -> Result<Vec<Sweep>> {
         other => Err(crate::error::Error::InvalidArgument(format!(
             "no sweep for '{other}'"
         ))),
+    }?;
+    if algorithm != "bpm" {
+        sweeps.extend(twin_model_sweep(algorithm)?);
     }
+    Ok(sweeps)
 }

@@ -134,7 +134,10 @@ pub fn clamp_bary<R: Real>(l: V3<R>) -> V3<R> {
 
 /// Removal r's range in `old_faces`.
 pub fn removal(tables: &Tables, r: u32) -> [u32; 2] {
-    [tables.removals[2 * r as usize], tables.removals[2 * r as usize + 1]]
+    [
+        tables.removals[2 * r as usize],
+        tables.removals[2 * r as usize + 1],
+    ]
 }
 
 /// Input vertex v's position.

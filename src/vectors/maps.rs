@@ -4,6 +4,7 @@
 
 use super::{Array, KernelData, Metric, VectorsAndCandidates};
 use crate::crosscheck::maps::INVERSE_POSITION_MAX;
+use crate::crosscheck::maps_inverse_bound::{inverse_position_bound, FlatTables};
 use crate::error::{Error, Result};
 use crate::maps::gpu::{base_queries, inverse_gpu, inverse_tables, normalise};
 use crate::maps::param::BasePoint;
@@ -46,6 +47,12 @@ pub fn vectors(
         .collect::<Result<Vec<_>>>()?;
     let n = points.len();
     let f = tables.faces.len();
+    let flat = FlatTables::of(&tables);
+    let bounds: Vec<f64> = queries
+        .iter()
+        .zip(&expected)
+        .map(|(q, e)| inverse_position_bound(&flat.tables(), q, *e))
+        .collect();
     let inputs: Vec<(String, String, Array)> = vec![
         (
             "positions".into(),
@@ -104,16 +111,21 @@ pub fn vectors(
         ),
         bound: (
             "per query, fraction of the diagonal".into(),
-            Array::f64(&[n], vec![INVERSE_POSITION_MAX; n]),
+            Array::f64(&[n], bounds),
         ),
         metric: Metric::NormOfLastAxis {
             scale: 1.0,
             unit: "fraction of the diagonal".into(),
         },
-        bound_formula: "1e-5 of the diagonal".into(),
-        derivation: "crosscheck::maps::INVERSE_POSITION_MAX: ≤ 204u of the diagonal per \
-            replayed removal, √L of them in a random walk"
-            .into(),
+        bound_formula:
+            "d_in + 2 ‖(b_x, b_y, b_z)‖₂ per query: d_in = ‖Π⁻¹ on the f32 tables − Π⁻¹ \
+            on the f64 charts‖ (computed in f64), b_c = Σᵢ |∂p_c/∂eᵢ| aᵢ the first-order effect of \
+            every operation's WGSL allowance along the walk"
+                .into(),
+        derivation:
+            "crosscheck::maps_inverse_bound::inverse_position_bound: the kernel's twin over Lin \
+            (src/twin/maps_inverse.rs, src/twin/lin.rs)"
+                .into(),
         per_element: vec!["query_face".into(), "query_bary".into()],
         covers: Vec::new(),
     };

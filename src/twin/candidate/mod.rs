@@ -31,3 +31,16 @@ pub fn input(dir: &Path, k: &KernelVectors, name: &str) -> Result<Array> {
         })?;
     Array::load(&dir.join(&info.file))
 }
+
+/// A twin's run over its vectors: `(folder, manifest entry, model) → candidate`.
+pub type Runner = fn(&Path, &KernelVectors, super::Model) -> Result<Array>;
+
+/// The runner of kernel `name` (as the manifests name it), for the kernels whose twins run over
+/// their vectors here.
+pub fn runner(name: &str) -> Option<Runner> {
+    match name {
+        "maps_inverse" => Some(maps_inverse::candidate),
+        "skinsimp_collapse_cost" => Some(skinsimp_collapse_cost::candidate),
+        _ => None,
+    }
+}
