@@ -28,17 +28,23 @@
 //! | [`gridwarp_aa`] | `gridwarp_aa.wgsl`, `gridwarp_aa_residuals.wgsl` | `gridwarp::plain::aa` |
 //! | [`skinsimp_lbs`] | `skinsimp_lbs.wgsl` | [`crate::mesh::skin::skin_positions`] |
 //! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` | `skinsimp::quadric` (`Quadric::from_plane`, …) |
+//! | [`unwarp_pass`] | `unwarp_pass.wgsl` | [`crate::unwarp::pass::descend_texel`] |
+//!
+//! [`candidate`] runs a twin over its kernel's conformance-vector inputs (what `verify` judges).
 
 pub mod ball;
 pub mod bpm_common;
 pub mod bpm_eval;
 pub mod bpm_precompute;
+#[cfg(feature = "gpu")]
+pub mod candidate;
 pub mod gridwarp_aa;
 pub mod lin;
 pub mod model;
 pub mod real;
 pub mod skinsimp_lbs;
 pub mod skinsimp_quadrics;
+pub mod unwarp_pass;
 
 pub use ball::Ball;
 pub use lin::Lin;

@@ -1,0 +1,3 @@
+//! The twins run over a kernel's conformance-vector inputs: the candidate array a conforming GPU under a given arithmetic model would hand to verify.
+
+pub mod unwarp_pass;
