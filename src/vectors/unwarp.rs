@@ -8,9 +8,9 @@ use crate::crosscheck::unwarp::{
     rounded_state, run_energy_bound, step_bound, sweep_ends, TEXTURE_SIZE,
 };
 use crate::error::Result;
-use crate::unwarp::fixation::pin_q;
+use crate::unwarp::fixation::{pin_q, pin_root};
 use crate::unwarp::gpu::grid_for;
-use crate::unwarp::pass::descend_texel;
+use crate::unwarp::pass::{descend_texel, descend_texel_traced};
 use crate::unwarp::Problem;
 use crate::unwarp::{HeightMap, UnwarpOptions};
 
@@ -132,6 +132,59 @@ pub const PASS_DESCRIPTION: &str = "one phase pass of the per-texel descent (see
     1e−6·hi: t1 = lo + (hi − lo)/3, t2 = hi − (hi − lo)/3, F(o − t1 g) > F(o − t2 g) → lo = \
     t1, else hi = t2; t = (lo + hi)/2. Guard: the new offset is o − t g if F(o − t g) < F(o), \
     else o. Active nodes of one phase share no triangle: each reads only start offsets.";
+
+/// What the canonical pass vectors exercise, from the reference's steps (for the manifest's
+/// `covers`): the border wrap, the pin barrier (levels, bracket bounded by its root), the
+/// bracket and the guard.
+fn pass_covers(problem: &Problem, start: &[[f64; 2]], texels: &[(usize, usize)]) -> Vec<String> {
+    let mesh = &problem.mesh;
+    let (w, h) = (mesh.width, mesh.height);
+    let steps: Vec<_> = texels
+        .iter()
+        .map(|&(x, y)| (x, y, descend_texel_traced(problem, start, x, y)))
+        .collect();
+    let wrapped = texels
+        .iter()
+        .filter(|&&(x, y)| x == 0 || y == 0 || x + 1 == w || y + 1 == h)
+        .count();
+    let level = |x: usize, y: usize| {
+        let i = mesh.index(x, y);
+        pin_q(problem.pins[i], problem.pin_resolution, start[i]).sqrt()
+    };
+    let near_barrier = texels.iter().filter(|&&(x, y)| level(x, y) >= 0.5).count();
+    let root_bounds = steps
+        .iter()
+        .filter(|(x, y, s)| {
+            let i = mesh.index(*x, *y);
+            let root = pin_root(
+                problem.pins[i],
+                problem.pin_resolution,
+                start[i],
+                s.gradient,
+            );
+            matches!((root, s.bracket), (Some(r), Some([_, hi])) if r == hi)
+        })
+        .count();
+    let bracketed = steps.iter().filter(|(_, _, s)| s.bracket.is_some()).count();
+    let moved = steps.iter().filter(|(_, _, s)| s.moved).count();
+    let n = texels.len();
+    vec![
+        format!(
+            "border (periodic: {}): {wrapped} of {n} active nodes have neighbours across it",
+            mesh.border == crate::unwarp::Border::Periodic
+        ),
+        format!(
+            "pin barrier: {near_barrier} of {n} active nodes start at pin level ‖w R_pin⊙o‖ ≥ 0.5"
+        ),
+        format!(
+            "bracket: found at {bracketed} of {n}; its hi is the barrier's root at {root_bounds}"
+        ),
+        format!(
+            "guard: the step is taken at {moved} of {n}, refused at {}",
+            n - moved
+        ),
+    ]
+}
 
 /// The direction of [`translated_start`]'s translation, in texels (both components non-zero
 /// and unequal, so that both offset components and both R components matter).
@@ -284,7 +337,7 @@ pub fn vectors(
             gradient's direction, the guard's decision"
             .into(),
         per_element: vec!["active".into()],
-        covers: Vec::new(),
+        covers: pass_covers(&problem, &start, &texels),
     };
     let mut candidates = Vec::new();
     if let Some(gpu) = gpu {
