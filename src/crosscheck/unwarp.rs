@@ -32,7 +32,8 @@ pub const TEXTURE_SIZE: f64 = 4096.0;
 /// [`step_bound`] in one line, for the cross-check's table and the conformance vectors'
 /// manifest.
 pub const STEP_BOUND_FORMULA: &str =
-    "|Δt||g| (Δt: the interval where F ≤ F(t*) + 2ηF) + 2φs + guard s + 1e-6 hi|g|, η = 30 ε";
+    "|Δt||g| (Δt: the interval where F ≤ F(t*) + 2ηF) + 2φs + guard s + 1e-6 hi|g|, η = 30 ε; \
+     where f64 finds no step: √(4ηF/λ_min) at a stationary node, else max_k |U_k|";
 
 /// The bound on |Δo| (texels of the map) between the f32 and f64 steps of texel (x, y), from
 /// the reference's quantities at its step t* along −g:
@@ -47,22 +48,26 @@ pub const STEP_BOUND_FORMULA: &str =
 /// 3. when the f64 guard's margin F(0) − F(t*) is below 2ηF, f32 may decide the other way:
 ///    |Δo| ≤ s.
 ///
-/// The final bracket width 1e-6·hi adds ≤ 1e-6 hi|g|.
+/// The final bracket width 1e-6·hi adds ≤ 1e-6 hi|g|. Where the reference finds no step (g
+/// zero or not finite, or no bracket) the bound is [`no_step_bound`]'s.
 pub fn step_bound(problem: &Problem, offsets: &[[f64; 2]], x: usize, y: usize) -> f64 {
     let mesh = &problem.mesh;
     let i = mesh.index(x, y);
+    // r: the pin barrier's R (the finest level's), as the reference's energy uses it; the
+    // bound is reported in texels of this level's map.
     let (o, w, r, theta) = (
         offsets[i],
         problem.pins[i],
-        mesh.resolution(),
+        problem.pin_resolution,
         problem.theta,
     );
     let fan = Fan::new(mesh, offsets, x, y);
     let step = descend_texel_traced(problem, offsets, x, y);
     let g = node_gradient(&fan, w, r, o, theta);
     let gn = g[0].hypot(g[1]);
+    let texels = mesh.width.max(mesh.height) as f64;
     let Some([_, hi]) = step.bracket else {
-        return 0.0;
+        return no_step_bound(&fan, w, r, o, g, theta) * texels;
     };
     let f = |t: f64| node_energy(&fan, w, r, line_point(o, g, t), theta);
     let t = step.search.t;
@@ -86,8 +91,63 @@ pub fn step_bound(problem: &Problem, offsets: &[[f64; 2]], x: usize, y: usize) -
     } else {
         0.0
     };
-    let texels = r[0].max(r[1]);
     (search + direction + guard + 1e-6 * hi * gn) * texels
+}
+
+/// The bound on |Δo| (UV units) at a node where the f64 reference finds no step (g = 0 or not
+/// finite, or an empty bracket), so that its offset stays o. A conforming f32 pass either stays
+/// too (error 0) or, its decisions differing near a tie, takes a step p:
+///
+/// 1. the step stays inside its flip-free bracket, i.e. inside the fan's UV polygon around the
+///    node: |p − o| ≤ max_k |U_k| (U_k the UV edges to the six neighbours, ≈ 1–1.5 texels);
+/// 2. at a stationary node (g = 0, a minimum of F: the Hessian H of F at o positive definite,
+///    smallest eigenvalue λ_min), the guard accepted p only if F_f32(p) < F_f32(o), so
+///    F(p) ≤ (1 + 2η) F(o); with F(p) ≥ F(o) + ½ λ_min |p − o|² near the minimum,
+///    |p − o| ≤ √(4ηF(o)/λ_min). H by central differences of the analytic gradient, step
+///    10⁻⁵ texel (its error, O(10⁻¹⁰) relative, far below η).
+///
+/// The smaller of the two where both apply; never 0 (a flat map's nodes are stationary).
+pub fn no_step_bound(
+    fan: &Fan,
+    weight: f64,
+    resolution: [f64; 2],
+    o: [f64; 2],
+    g: [f64; 2],
+    theta: f64,
+) -> f64 {
+    let polygon = fan
+        .uv_edges(o)
+        .iter()
+        .map(|u| u[0].hypot(u[1]))
+        .fold(0.0, f64::max);
+    if g != [0.0, 0.0] {
+        return polygon;
+    }
+    let delta = 1e-5 / resolution[0].max(resolution[1]);
+    let column = |j: usize| {
+        let mut plus = o;
+        let mut minus = o;
+        plus[j] += delta;
+        minus[j] -= delta;
+        let (gp, gm) = (
+            node_gradient(fan, weight, resolution, plus, theta),
+            node_gradient(fan, weight, resolution, minus, theta),
+        );
+        [
+            (gp[0] - gm[0]) / (2.0 * delta),
+            (gp[1] - gm[1]) / (2.0 * delta),
+        ]
+    };
+    let (c0, c1) = (column(0), column(1));
+    let (a, b, d) = (c0[0], 0.5 * (c0[1] + c1[0]), c1[1]);
+    let lambda_min = 0.5 * ((a + d) - (a - d).hypot(2.0 * b));
+    let f = node_energy(fan, weight, resolution, o, theta);
+    let stationary = (4.0 * ETA * f / lambda_min).sqrt();
+    if lambda_min > 0.0 && stationary.is_finite() {
+        stationary.min(polygon)
+    } else {
+        polygon
+    }
 }
 
 /// The largest |t − t*| over the interval around t* within [0, hi] on which F(t) ≤ `level`
@@ -372,4 +432,31 @@ pub fn crosscheck_unwarp(
         "coarse moves run in f64 on the CPU, also with --gpu; there is no WGSL kernel for them",
     ));
     Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::unwarp::{FixationOptions, HeightMap};
+
+    /// A flat map without pins: every node is stationary (g = 0), the reference finds no step,
+    /// and the bound is the guard's sublevel radius √(4ηF/λ_min): positive, and far inside the
+    /// fan's polygon (≈ 1.4 texels).
+    #[test]
+    fn a_stationary_nodes_bound_is_the_sublevel_radius_not_zero() {
+        let heights = HeightMap::new("flat", 8, 8, vec![0.3; 64]).unwrap();
+        let options = UnwarpOptions {
+            fixation: FixationOptions {
+                delta: 0.0,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let problem = Problem::new(&heights, &options).unwrap();
+        let offsets = vec![[0.0; 2]; 64];
+        let step = descend_texel_traced(&problem, &offsets, 2, 2);
+        assert_eq!((step.gradient, step.bracket), ([0.0; 2], None));
+        let bound = step_bound(&problem, &offsets, 2, 2);
+        assert!(bound > 0.0 && bound < 0.01, "{bound} texels");
+    }
 }

@@ -16,7 +16,7 @@
 //!   maps are defined up to a common scale).
 //!
 //! The twins also make the conformance vectors' mutants (`tests/mutants_bpm.rs`,
-//! `tests/twin_skinsimp.rs`, `tests/twin_gridwarp.rs`): a mutant is a
+//! `tests/twin_skinsimp.rs`, `tests/twin_gridwarp.rs`, `tests/twin_unwarp.rs`): a mutant is a
 //! porting mistake (a term dropped, slots swapped, the wrong multiplication order, a branch
 //! ignored) built from a twin's functions, and the canonical vectors must reject every one.
 //!
@@ -30,12 +30,16 @@
 //! | [`skinsimp_lbs`] | `skinsimp_lbs.wgsl` | [`crate::mesh::skin::skin_positions`] |
 //! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` | `skinsimp::quadric` (`Quadric::from_plane`, …) |
 //! | [`skinsimp_collapse_cost`] | `skinsimp_collapse_cost.wgsl` | [`crate::skinsimp::gpu::position_given_weights_f64`] |
+//! | [`unwarp_pass`] | `unwarp_pass.wgsl` | [`crate::unwarp::pass::descend_texel`] |
+//!
+//! [`candidate`] runs a twin over its kernel's conformance-vector inputs (what `verify` judges).
 #![doc = include_str!("README.md")]
 
 pub mod ball;
 pub mod bpm_common;
 pub mod bpm_eval;
 pub mod bpm_precompute;
+#[cfg(feature = "gpu")]
 pub mod candidate;
 pub mod gridwarp_aa;
 pub mod lin;
@@ -45,6 +49,7 @@ pub mod real;
 pub mod skinsimp_collapse_cost;
 pub mod skinsimp_lbs;
 pub mod skinsimp_quadrics;
+pub mod unwarp_pass;
 
 pub use ball::Ball;
 pub use lin::Lin;

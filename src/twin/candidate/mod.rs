@@ -10,6 +10,7 @@
 
 pub mod maps_inverse;
 pub mod skinsimp_collapse_cost;
+pub mod unwarp_pass;
 
 use std::path::Path;
 
@@ -41,6 +42,7 @@ pub fn runner(name: &str) -> Option<Runner> {
     match name {
         "maps_inverse" => Some(maps_inverse::candidate),
         "skinsimp_collapse_cost" => Some(skinsimp_collapse_cost::candidate),
+        "unwarp_pass" => Some(unwarp_pass::candidate),
         _ => None,
     }
 }
