@@ -70,6 +70,7 @@ pub use row::{Bounds, Row, Timing, Verdict};
 pub mod gridwarp;
 #[cfg(feature = "gpu")]
 pub mod maps;
+pub mod maps_bound;
 #[cfg(feature = "gpu")]
 pub mod run;
 #[cfg(feature = "gpu")]

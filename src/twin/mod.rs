@@ -26,6 +26,8 @@
 //! | [`bpm_eval`] | `bpm_eval.wgsl` | [`crate::bpm::Bpm::eval`] |
 //! | [`bpm_precompute`] | `bpm_precompute.wgsl` | [`crate::bpm::precompute()`] |
 //! | [`gridwarp_aa`] | `gridwarp_aa.wgsl`, `gridwarp_aa_residuals.wgsl` | `gridwarp::plain::aa` |
+//! | [`maps_flatten`] | `maps_flatten.wgsl` | [`crate::maps::flatten::flatten_ring`] |
+//! | [`maps_priority`] | `maps_priority.wgsl`, `maps_rings.wgsl` | [`crate::maps::priority::ring_area`], [`crate::maps::priority::curvature`] |
 //! | [`skinsimp_lbs`] | `skinsimp_lbs.wgsl` | [`crate::mesh::skin::skin_positions`] |
 //! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` | `skinsimp::quadric` (`Quadric::from_plane`, …) |
 
@@ -35,6 +37,8 @@ pub mod bpm_eval;
 pub mod bpm_precompute;
 pub mod gridwarp_aa;
 pub mod lin;
+pub mod maps_flatten;
+pub mod maps_priority;
 pub mod model;
 pub mod real;
 pub mod skinsimp_lbs;
