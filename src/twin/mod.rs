@@ -35,6 +35,7 @@ pub mod ball;
 pub mod bpm_common;
 pub mod bpm_eval;
 pub mod bpm_precompute;
+pub mod candidate;
 pub mod gridwarp_aa;
 pub mod lin;
 pub mod maps_flatten;
