@@ -577,3 +577,28 @@ fn flatten_every_model_passes_every_mutant_fails_and_no_bound_is_zero() {
     }
     table.finish();
 }
+
+/// Issue #34: κ's former hand bound was 160 to 3000 times lavapipe's error. The derived bound
+/// must be reached, within a factor 20, by a conforming GPU: the twin at the edge of the WGSL
+/// table (the worst of the 7 models, κ column alone) comes within 1/20 of it on some ring.
+#[test]
+fn the_kappa_bound_is_within_20_times_the_worst_conforming_gpu() {
+    let k = kernel(PRIORITY);
+    let dir = common::canonical::dir("maps");
+    let expected = Array::load(&dir.join(&k.expected.file)).unwrap().to_f64();
+    let bound = Array::load(&dir.join(&k.bound.file)).unwrap().to_f64();
+    let mut worst = Vec::new();
+    for model in Model::CHECKED {
+        let c = priority_candidate::candidate(&dir, &k, model)
+            .unwrap()
+            .to_f64();
+        let ratio = (1..expected.len())
+            .step_by(2)
+            .map(|i| (c[i] - expected[i]).abs() / bound[i])
+            .fold(0.0f64, f64::max);
+        worst.push((model.name(), ratio));
+    }
+    println!("κ worst error/bound per model: {worst:?}");
+    let top = worst.iter().map(|w| w.1).fold(0.0f64, f64::max);
+    assert!(top <= 1.0 && top >= 0.05, "{worst:?}");
+}

@@ -16,7 +16,7 @@
 //!   maps are defined up to a common scale).
 //!
 //! The twins also make the conformance vectors' mutants (`tests/mutants_bpm.rs`,
-//! `tests/twin_skinsimp.rs`, `tests/twin_gridwarp.rs`): a mutant is a
+//! `tests/twin_skinsimp.rs`, `tests/twin_gridwarp.rs`, `tests/twin_maps.rs`): a mutant is a
 //! porting mistake (a term dropped, slots swapped, the wrong multiplication order, a branch
 //! ignored) built from a twin's functions, and the canonical vectors must reject every one.
 //!
