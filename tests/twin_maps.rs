@@ -600,5 +600,5 @@ fn the_kappa_bound_is_within_20_times_the_worst_conforming_gpu() {
     }
     println!("κ worst error/bound per model: {worst:?}");
     let top = worst.iter().map(|w| w.1).fold(0.0f64, f64::max);
-    assert!(top <= 1.0 && top >= 0.05, "{worst:?}");
+    assert!((0.05..=1.0).contains(&top), "{worst:?}");
 }
