@@ -2,8 +2,8 @@
 //! reference (`priority.rs`, `flatten.rs`, `Param::inverse`) on procedural meshes: a bumpy torus
 //! (genus 1), a creased height field with boundary and a tagged feature line, a cone fan with a
 //! valence-16 apex. Priority terms and flattening from identical f32-rounded inputs, ring by
-//! ring against per-ring bounds derived in `src/maps/gpu.rs` (`area_bound`, `kappa_bound`,
-//! `theta_bound`, `mu_bound`); Π⁻¹ of the `uniform(maps, 2)` remesh points against the issue's
+//! ring against per-ring bounds derived in `src/crosscheck/maps_bound.rs` (the kernels' twins
+//! over the WGSL accuracy table: `priority_bounds`, `flatten_bounds`); Π⁻¹ of the `uniform(maps, 2)` remesh points against the issue's
 //! figures. Without an adapter these tests print `skipped: no GPU adapter` and pass; with
 //! REPARAM_REQUIRE_GPU=1 they fail instead.
 #![cfg(feature = "gpu")]
@@ -157,7 +157,7 @@ fn priority_terms_match_the_reference_ring_by_ring() {
             r.kappa_worst_ratio,
             r.kappa_singular
         );
-        // Each ring against its own derived bound (src/maps/gpu.rs: area_bound, kappa_bound).
+        // Each ring against its own derived bound (crosscheck::maps_bound::priority_bounds).
         assert_eq!(r.area_over_bound, 0, "{name}: {r:?}");
         assert_eq!(r.kappa_over_bound, 0, "{name}: {r:?}");
         assert_eq!(r.area.non_finite + r.kappa.non_finite, 0, "{name}");
@@ -183,7 +183,7 @@ fn flattening_matches_the_reference_ring_by_ring() {
             r.mu_worst_ratio,
             r.status_mismatches
         );
-        // Each slot against its own derived bound (theta_bound, mu_bound).
+        // Each slot against its own derived bound (crosscheck::maps_bound::flatten_bounds).
         assert_eq!(r.theta_over_bound, 0, "{name}: {r:?}");
         assert_eq!(r.a_over_bound, 0, "{name}: {r:?}");
         assert_eq!(r.mu_over_bound, 0, "{name}: {r:?}");

@@ -114,7 +114,8 @@ fn vectors_with_gpu_candidates(
         }
         "maps" => {
             let (built, remesh) = reparam::vectors::canonical_maps().unwrap();
-            reparam::vectors::maps::all_vectors(Some(gpu), &built, &remesh).unwrap()
+            let rings = reparam::vectors::canonical_rings(&built).unwrap();
+            reparam::vectors::maps::all_vectors(Some(gpu), &built, &remesh, &rings).unwrap()
         }
         "skinsimp" => {
             let kernels = reparam::skinsimp::gpu::SkinsimpKernels::new(gpu.clone()).unwrap();

@@ -104,10 +104,20 @@ fn cumulative_angles(h: RingHeader) -> f32 {
     return theta;
 }
 
+// An angle of [0, 3π) moved into [−π, π] (x − 2π above π): WGSL's cos and sin promise their
+// absolute 2⁻¹¹ there only (the disk's a·θ_k and the lower side's π + a₂(θ_m − θ_t) reach 2π).
+fn wrap_angle(angle: f32) -> f32 {
+    if (angle > PI) {
+        return angle - 2.0 * PI;
+    }
+    return angle;
+}
+
 // r^a e^{i angle}.
 fn polar(r: f32, a: f32, angle: f32) -> vec2<f32> {
     let rho = pow(r, a);
-    return vec2<f32>(rho * cos(angle), rho * sin(angle));
+    let w = wrap_angle(angle);
+    return vec2<f32>(rho * cos(w), rho * sin(w));
 }
 
 // Guard of the notes (check_sectors): a side made of a single sector is a flipped fan (a·φ = π
@@ -199,7 +209,8 @@ fn flatten_ring(h: RingHeader) -> FlatRing {
             let theta = points[slot].theta;
             if (m > s && m < t) {
                 points[slot].mu = polar(points[slot].radius, a1, a1 * (theta - theta_s));
-            } else {
+            } else if (m != s && m != t) {
+                // The lower side; the chord ends s and t are set below.
                 var from_t = theta + total - theta_t;
                 if (m > t) {
                     from_t = theta - theta_t;

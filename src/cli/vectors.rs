@@ -62,7 +62,8 @@ pub enum VectorsAlgorithm {
         #[arg(long, default_value_t = 0.05)]
         scale: f64,
     },
-    /// maps_inverse: Π⁻¹ at the points of a uniform remesh.
+    /// maps_priority, maps_flatten (.points, .rings) on the rings of levels 0 and the middle one;
+    /// maps_inverse: Π⁻¹ at the points of a uniform remesh; maps_run.
     Maps {
         /// The mesh (.obj, .ply, .off or procedural:NAME). Default: the demo's torus.
         #[arg(default_value = "procedural:torus")]
@@ -172,7 +173,8 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
             };
             let built = crate::maps::build(&m, &Default::default(), &options)?;
             let remesh = crate::maps::remesh::uniform(&built, *uniform)?;
-            let (k, c) = crate::vectors::maps::all_vectors(gpu, &built, &remesh)?;
+            let rings = crate::vectors::maps::RingSet::of(&built, &options);
+            let (k, c) = crate::vectors::maps::all_vectors(gpu, &built, &remesh, &rings)?;
             Ok((k, mesh.clone(), c))
         }
         VectorsAlgorithm::Skinsimp { model, poses } => {

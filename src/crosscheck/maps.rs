@@ -3,8 +3,8 @@
 //! reference, on the rings of the input level and of the middle level of the hierarchy, and on
 //! the points of a uniform:2 remesh.
 //!
-//! The per-ring and per-slot bounds are derived in [`crate::maps::gpu`] (`area_bound`,
-//! `kappa_bound`, `theta_bound`, `a_relative_bound`, `mu_bound`); Π⁻¹ is held to
+//! The per-ring and per-slot bounds are derived in [`super::maps_bound`] (the kernels' f32 twins
+//! over the WGSL accuracy table: `priority_bounds`, `flatten_bounds`); Π⁻¹ is held to
 //! [`INVERSE_POSITION_MAX`] and friends, whose budget is argued below. The tests in
 //! `tests/gpu_maps.rs` use the same functions and constants.
 
@@ -119,7 +119,7 @@ pub fn crosscheck_maps(
             &p.area,
             p.area_over_bound,
             p.area_worst_ratio,
-            "per ring: area_bound (f32 cross products, their underflow and sums of the star) / a",
+            "per ring: priority_bounds (the twin over the WGSL table: 2·Σ|∂a/∂eᵢ|aᵢ) / a",
         )
         .with_note(&levels)
         .with_timing(Timing {
@@ -133,7 +133,7 @@ pub fn crosscheck_maps(
             &p.kappa,
             p.kappa_over_bound,
             p.kappa_worst_ratio,
-            "per ring: kappa_bound (the scaled quadric fit's conditioning × f32 roundoff)",
+            "per ring: priority_bounds (the twin over the WGSL table through the fit: 2·Σ|∂κ/∂eᵢ|aᵢ)",
         )
         .with_note(&format!(
             "{} rings with a singular fit not compared",
@@ -146,17 +146,17 @@ pub fn crosscheck_maps(
             &f.theta,
             f.theta_over_bound,
             f.theta_worst_ratio,
-            "per slot: theta_bound (k atan2 of f32 cross and dot products with their underflow, summed)",
+            "per slot: flatten_bounds (the twin over the WGSL table, + its atan polynomial's own error)",
         )
         .with_note(&format!(
             "{} rings ({} rejected by the reference), {} status mismatches{}",
             f.rings,
             f.rejected,
             f.status_mismatches,
-            if f.coincident_in_f32 > 0 {
+            if f.unbounded > 0 {
                 format!(
-                    "; {} rings with a vertex on the centre once rounded to f32 not compared",
-                    f.coincident_in_f32
+                    "; {} rings the WGSL table cannot bound not compared",
+                    f.unbounded
                 )
             } else {
                 String::new()
@@ -172,12 +172,8 @@ pub fn crosscheck_maps(
             input,
             &f.a,
             f.a_over_bound,
-            if f.a.tolerance > 0.0 {
-                f.a.max_abs / f.a.tolerance
-            } else {
-                0.0
-            },
-            "per ring: 2Δθ_K a/π + ε (a_relative_bound)",
+            f.a_worst_ratio,
+            "per ring: flatten_bounds (the twin over the WGSL table) / a",
         ),
         Row::from_summary(
             algorithm,
@@ -186,7 +182,7 @@ pub fn crosscheck_maps(
             &f.mu,
             f.mu_over_bound,
             f.mu_worst_ratio,
-            "per slot: mu_bound (a's and θ's errors through r^a e^{iaθ})",
+            "per slot: flatten_bounds (the twin over the WGSL table: 2·Σ‖∂μ/∂eᵢ‖aᵢ)",
         ),
     ];
     if f.status_mismatches > 0 {

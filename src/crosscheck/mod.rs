@@ -74,6 +74,8 @@ pub mod maps;
 #[cfg(feature = "gpu")]
 pub mod maps_inverse_bound;
 #[cfg(feature = "gpu")]
+pub mod maps_bound;
+#[cfg(feature = "gpu")]
 pub mod run;
 #[cfg(feature = "gpu")]
 pub mod skinsimp;

@@ -83,7 +83,6 @@ pub fn flatten_ring_with(
     shape: RingShape,
     map: Flattening,
 ) -> Result<Vec<[f64; 2]>, FlattenReject> {
-    let k = ring.len();
     let closed = !matches!(shape, RingShape::HalfDisk);
     let theta = cumulative_angles(centre, ring, closed);
     let radii: Vec<f64> = ring.iter().map(|p| (p - centre).norm()).collect();
@@ -92,6 +91,64 @@ pub fn flatten_ring_with(
     if !sane {
         return Err(FlattenReject::Degenerate);
     }
+    check_shape(&theta, shape)?;
+    let mu = ring_mu(&theta, &radii, shape, map);
+    if mu.iter().any(|p| !(p[0].is_finite() && p[1].is_finite())) {
+        return Err(FlattenReject::Degenerate);
+    }
+    Ok(mu)
+}
+
+/// The exponents (a, a₂) of a ring with cumulative angles `theta` ([`cumulative_angles`]):
+/// (2π/θ_K, the same) for a disk, (π/θ_{K−1}, the same) for a half disk, (π/(θ_t − θ_s),
+/// π/(θ_K − (θ_t − θ_s))) for a feature line (upper side s → t, lower side t → s).
+pub fn ring_exponents(theta: &[f64], shape: RingShape) -> (f64, f64) {
+    let last = theta[theta.len() - 1];
+    match shape {
+        RingShape::Disk => {
+            let a = 2.0 * std::f64::consts::PI / last;
+            (a, a)
+        }
+        RingShape::HalfDisk => {
+            let a = std::f64::consts::PI / last;
+            (a, a)
+        }
+        RingShape::FeatureLine { s, t } => {
+            let upper = theta[t] - theta[s];
+            (
+                std::f64::consts::PI / upper,
+                std::f64::consts::PI / (last - upper),
+            )
+        }
+    }
+}
+
+/// The guards of [`flatten_ring`] for `shape` ([`check_sectors`] on each side): a flipped fan
+/// when a scaled sector angle reaches π.
+fn check_shape(theta: &[f64], shape: RingShape) -> Result<(), FlattenReject> {
+    let k = match shape {
+        RingShape::HalfDisk => theta.len(),
+        _ => theta.len() - 1,
+    };
+    let (a1, a2) = ring_exponents(theta, shape);
+    match shape {
+        RingShape::Disk => check_sectors(theta, &[(0, k)], a1),
+        RingShape::HalfDisk => check_sectors(theta, &[(0, k - 1)], a1),
+        RingShape::FeatureLine { s, t } => {
+            check_sectors(theta, &[(s, t)], a1)?;
+            check_sectors(theta, &[(t, k), (0, s)], a2)
+        }
+    }
+}
+
+/// The formulas of [`flatten_ring_with`] without its guards: μ_k of every ring slot from the
+/// cumulative angles `theta` and the radii `radii` (the notes' z^a, or the polar map, per
+/// `map`), with the exponents of [`ring_exponents`]. [`flatten_ring_with`] returns these when
+/// the ring passes its guards; the conformance vectors of `maps_flatten` also hold them for a
+/// flipped fan (the kernel writes μ whatever the status).
+pub fn ring_mu(theta: &[f64], radii: &[f64], shape: RingShape, map: Flattening) -> Vec<[f64; 2]> {
+    let k = radii.len();
+    let (a1, a2) = ring_exponents(theta, shape);
     let modulus = |r: f64, a: f64| match map {
         Flattening::Conformal => r.powf(a),
         Flattening::Polar => r,
@@ -103,30 +160,20 @@ pub fn flatten_ring_with(
     let mut mu = vec![[0.0; 2]; k];
     match shape {
         RingShape::Disk => {
-            let a = 2.0 * std::f64::consts::PI / theta[k];
-            check_sectors(&theta, &[(0, k)], a)?;
             for m in 0..k {
-                mu[m] = polar(radii[m], a, a * theta[m]);
+                mu[m] = polar(radii[m], a1, a1 * theta[m]);
             }
-            mu[0] = [modulus(radii[0], a), 0.0];
+            mu[0] = [modulus(radii[0], a1), 0.0];
         }
         RingShape::HalfDisk => {
-            let a = std::f64::consts::PI / theta[k - 1];
-            check_sectors(&theta, &[(0, k - 1)], a)?;
             for m in 1..k - 1 {
-                mu[m] = polar(radii[m], a, a * theta[m]);
+                mu[m] = polar(radii[m], a1, a1 * theta[m]);
             }
-            mu[0] = [modulus(radii[0], a), 0.0];
-            mu[k - 1] = [-modulus(radii[k - 1], a), 0.0];
+            mu[0] = [modulus(radii[0], a1), 0.0];
+            mu[k - 1] = [-modulus(radii[k - 1], a1), 0.0];
         }
         RingShape::FeatureLine { s, t } => {
             let total = theta[k];
-            let upper = theta[t] - theta[s];
-            let lower = total - upper;
-            let a1 = std::f64::consts::PI / upper;
-            let a2 = std::f64::consts::PI / lower;
-            check_sectors(&theta, &[(s, t)], a1)?;
-            check_sectors(&theta, &[(t, k), (0, s)], a2)?;
             for m in 0..k {
                 mu[m] = if m > s && m < t {
                     polar(radii[m], a1, a1 * (theta[m] - theta[s]))
@@ -145,10 +192,7 @@ pub fn flatten_ring_with(
             mu[t] = [-modulus(radii[t], a_mid), 0.0];
         }
     }
-    if mu.iter().any(|p| !(p[0].is_finite() && p[1].is_finite())) {
-        return Err(FlattenReject::Degenerate);
-    }
-    Ok(mu)
+    mu
 }
 
 /// Guard of the notes: every scaled sector angle a·(θ_{m+1} − θ_m) of one side is < π.

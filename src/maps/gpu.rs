@@ -22,12 +22,11 @@
 // `!(e <= bound)` is meant throughout: a NaN error counts as over any bound.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use nalgebra::{Matrix3, Point3, Vector3};
+use nalgebra::{Point3, Vector3};
 use reparam_gpu::maps::inverse::{InverseKernel, NONE};
 use reparam_gpu::maps::{
     flatten, priority, BaseQuery, DecimationFace, FaceCharts, FlatPoint, FlatRing, InverseResult,
-    InverseTables, RingHeader, Rings, KIND_DISK, KIND_FEATURE_LINE, KIND_HALF_DISK,
-    STATUS_DEGENERATE, STATUS_FLIPPED_FAN, STATUS_OK,
+    InverseTables, RingHeader, Rings, KIND_DISK, KIND_FEATURE_LINE, KIND_HALF_DISK, STATUS_OK,
 };
 use reparam_gpu::Gpu;
 
@@ -37,7 +36,8 @@ use super::hierarchy::Work;
 use super::param::BasePoint;
 use super::priority::{curvature, ring_area, star_normal};
 use super::Maps;
-use crate::crosscheck::{ErrorSummary, F32_FLUSH};
+use crate::crosscheck::maps_bound::{flatten_bounds, flatten_reference, priority_bounds};
+use crate::crosscheck::ErrorSummary;
 use crate::error::{Error, Result};
 
 /// f32 unit roundoff u = 2⁻²⁴.
@@ -221,118 +221,29 @@ pub fn priority_terms_gpu(gpu: &Gpu, batch: &Rings) -> Result<Vec<[f64; 2]>> {
         .collect())
 }
 
-/// Absolute error, from underflow alone, of an f32 length |a × b| = √(Σ c²) whose components
-/// c are differences of two products: each component loses ≤ 2·2⁻¹²⁶, the three squares
-/// ≤ 3·2⁻¹²⁶ together, and √(s + δ) − √s ≤ √δ: ≤ √(3·2⁻¹²⁶) + 2√3·2⁻¹²⁶ ≈ 1.9e-19. Negligible
-/// unless the vectors are themselves ~1e-10 long (a mesh whose features are 10⁻¹⁰ of its
-/// diagonal, found by the command fuzzer), where it dominates.
-pub fn length_underflow() -> f64 {
-    (3.0 * F32_FLUSH).sqrt() + 2.0 * 3f64.sqrt() * F32_FLUSH
-}
-
-/// Bound on |a_f32 − a_f64| of one star from the reference's quantities: each triangle's cross
-/// product (differences rounded by u, products and a subtraction) is off by ≤ 4u|q − p||r − p|
-/// per component, ≤ 7u|q − p||r − p| in length with the norm's 3 roundings, times ½, plus ½ the
-/// underflow of the length ([`length_underflow`]); the K − 1 additions add ≤ K u·a.
-pub fn area_bound(positions: &[Point3<f64>], star: &[[u32; 3]], area: f64) -> f64 {
-    let edges: f64 = star
-        .iter()
-        .map(|f| {
-            let [p, q, r] = f.map(|v| positions[v as usize]);
-            (q - p).norm() * (r - p).norm()
-        })
-        .sum();
-    let k = star.len() as f64;
-    3.5 * U32 * edges + k * 0.5 * length_underflow() + k * U32 * area
-}
-
-/// Bound on |κ_f32 − κ_f64| of one ring, from the reference's quantities (the kernel fits in
-/// coordinates divided by ℓ, the largest radius, so every scaled coordinate is ≤ 1):
-/// - the f32 star normal's direction is off by δn ≤ (K + 4)u·ν, ν = Σ|q − p||r − p| / |Σ (q − p)
-///   × (r − p)| (cancellation in the sum); the frame (n, e₁, e₂) by ≤ 2δn, so each scaled
-///   coordinate by ε = 3δn + 6u;
-/// - a row (x², xy, y²) by ≤ 3ε; M' = Σ row rowᵀ by δM ≤ 6Kε + Ku·λ_max(M'), rhs = Σ row z by
-///   δr ≤ 4Kε + Ku|rhs|;
-/// - the coefficients c' = M'⁻¹ rhs by δc ≤ (δr + δM|c'|)/λ_min(M') + 10u·(λ_max/λ_min)|c'| (the
-///   adjugate's roundings);
-/// - κ = |m + d| + |m − d| is 4-Lipschitz in (A, B, C) and c = c'/ℓ: δκ ≤ 4δc/ℓ + 6u|κ|.
-///
-/// Infinite when M' is singular (the reference returns 0 there and the kernel anything).
-pub fn kappa_bound(
-    positions: &[Point3<f64>],
-    centre: u32,
-    ring: &[u32],
-    star: &[[u32; 3]],
-    kappa: f64,
-) -> f64 {
-    let p = positions[centre as usize];
-    let normal = star_normal(positions, star);
-    let spread: f64 = star
-        .iter()
-        .map(|f| {
-            let [a, b, c] = f.map(|v| positions[v as usize]);
-            (b - a).norm() * (c - a).norm()
-        })
-        .sum();
-    let len = normal.norm();
-    if len <= 0.0 {
-        return f64::INFINITY;
-    }
-    let k = ring.len() as f64;
-    let dn = (k + 4.0) * U32 * spread / len;
-    let eps = 3.0 * dn + 6.0 * U32;
-    let n = normal / len;
-    let [e1, e2] = crate::maps::priority::tangent_frame(&n);
-    let scale = ring
-        .iter()
-        .map(|&w| (positions[w as usize] - p).norm())
-        .fold(0.0, f64::max);
-    let mut m = Matrix3::zeros();
-    let mut rhs = Vector3::zeros();
-    for &w in ring {
-        let d = (positions[w as usize] - p) / scale;
-        let (x, y, z) = (d.dot(&e1), d.dot(&e2), d.dot(&n));
-        let row = Vector3::new(x * x, x * y, y * y);
-        m += row * row.transpose();
-        rhs += row * z;
-    }
-    let eig = m.symmetric_eigenvalues();
-    let (lmin, lmax) = (eig.min(), eig.max());
-    if !(lmin > 0.0) {
-        return f64::INFINITY;
-    }
-    let Some(inv) = m.try_inverse() else {
-        return f64::INFINITY;
-    };
-    let c = (inv * rhs).norm();
-    let dm = 6.0 * k * eps + k * U32 * lmax;
-    let dr = 4.0 * k * eps + k * U32 * rhs.norm();
-    let dc = (dr + dm * c) / lmin + 10.0 * U32 * (lmax / lmin) * c;
-    4.0 * dc / scale + 6.0 * U32 * kappa.abs()
-}
-
 /// Priority terms on the GPU against the reference, from identical inputs.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct PriorityCrosscheck {
     /// Rings compared.
     pub rings: usize,
-    /// |Δa|/a (tolerance: the largest relative [`area_bound`]).
+    /// |Δa|/a (tolerance: the largest relative area bound).
     pub area: ErrorSummary,
-    /// |Δκ| in units of 1/diagonal (tolerance: the largest finite [`kappa_bound`]).
+    /// |Δκ| in units of 1/diagonal (tolerance: the largest finite κ bound).
     pub kappa: ErrorSummary,
-    /// Rings whose error exceeds their own bound ([`area_bound`], [`kappa_bound`]).
+    /// Rings whose error exceeds their own bound ([`priority_bounds`]).
     pub area_over_bound: usize,
     pub kappa_over_bound: usize,
     /// max error/bound over the rings.
     pub area_worst_ratio: f64,
     pub kappa_worst_ratio: f64,
-    /// Rings whose scaled fit is singular (bound infinite; κ not compared).
+    /// Rings whose fit the WGSL table cannot bound (a singular or nearly singular fit, a
+    /// cancelling normal: bound infinite; κ not compared).
     pub kappa_singular: usize,
 }
 
 /// Run `maps_priority` on `rings` over `positions` (normalised and rounded with [`normalise`])
-/// and compare with [`priority_terms_cpu`] on the same values, ring by ring against
-/// [`area_bound`] and [`kappa_bound`].
+/// and compare with [`priority_terms_cpu`] on the same values, ring by ring against its own
+/// [`priority_bounds`] (the kernel's twin over the WGSL accuracy table).
 pub fn crosscheck_priority(
     gpu: &Gpu,
     positions: &Normalised,
@@ -347,20 +258,14 @@ pub fn crosscheck_priority(
     let (mut area_ratio, mut kappa_ratio, mut area_tol, mut kappa_tol) =
         (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for (r, (g, c)) in gpu_terms.iter().zip(&cpu_terms).enumerate() {
-        let ab = area_bound(pos, &rings.stars[r], c[0]);
+        let [ab, kb] =
+            priority_bounds(pos, rings.vertices[r], &rings.rings[r], rings.shapes[r], *c);
         let da = (g[0] - c[0]).abs();
         area_err.push(da / c[0]);
         area_mag.push(1.0);
         area_tol = area_tol.max(ab / c[0]);
         area_ratio = area_ratio.max(da / ab);
         area_over += usize::from(!(da <= ab));
-        let kb = kappa_bound(
-            pos,
-            rings.vertices[r],
-            &rings.rings[r],
-            &rings.stars[r],
-            c[1],
-        );
         if !kb.is_finite() {
             singular += 1;
             continue;
@@ -412,90 +317,40 @@ pub fn flatten_gpu(gpu: &Gpu, batch: &Rings) -> Result<(Vec<FlatRing>, Vec<FlatP
     flatten::run(gpu, batch).map_err(gpu_error)
 }
 
-/// Bound on |θ_k,f32 − θ_k| given the reference's θ (θ_0 … θ_k) and, per sector m, the
-/// product |a||b| of its two edge vectors. Per angle φ = atan2(y, x), y = |a×b|, x = a·b: the
-/// components of a×b and x carry ≤ 3u|a||b| absolute error, the length 2u|y| more, which moves
-/// φ by ≤ (|x| + |y|)3u/(|a||b|) + 2u ≤ 6.3u; rounding the differences a, b turns each by
-/// ≤ √3u (≤ 3.5u together); the kernel's atan (Cephes' atanf, ≤ 2 ulp), its argument's
-/// division and π − t add ≤ 6uφ + 2uφ. Underflow moves y by ≤ [`length_underflow`] and x by
-/// ≤ 3·2⁻¹²⁶, so φ by ≤ (those)/(|a||b|) more (√(x² + y²) = |a||b|). The k − 1 additions add
-/// ≤ u θ_k each.
-pub fn theta_bound(theta: &[f64], edge_products: &[f64], k: usize) -> f64 {
-    let underflow = length_underflow() + 3.0 * F32_FLUSH;
-    let angles: f64 = (0..k)
-        .map(|m| 10.0 * U32 + 8.0 * U32 * (theta[m + 1] - theta[m]) + underflow / edge_products[m])
-        .sum();
-    angles + k as f64 * U32 * theta[k]
-}
-
-/// |a||b| of each sector of a ring (a = p_{j_m} − p_i, b = p_{j_{m+1}} − p_i, the last sector
-/// closing the ring when `closed`), for [`theta_bound`].
-pub fn sector_edge_products(
-    positions: &[Point3<f64>],
-    centre: u32,
-    ring: &[u32],
-    closed: bool,
-) -> Vec<f64> {
-    let p = positions[centre as usize];
-    let k = ring.len();
-    let sectors = if closed { k } else { k.saturating_sub(1) };
-    (0..sectors)
-        .map(|m| {
-            let a = positions[ring[m] as usize] - p;
-            let b = positions[ring[(m + 1) % k] as usize] - p;
-            a.norm() * b.norm()
-        })
-        .collect()
-}
-
-/// Bound on |μ_f32 − μ| at a slot of modulus |μ| = r^{a_k}, given the bound Δθ on the ring's θ
-/// (its largest, [`theta_bound`] of the total) and the largest exponent a_max: a = c/θ_side has
-/// relative error ρ_a ≤ 2Δθ·a_max/π + u (θ_side ≥ π/a_max; a side is a difference of two θ);
-/// the angle a(θ_k − θ_s) + offset ≤ 3π is off by ≤ 2a_maxΔθ + 3πρ_a; the modulus r^a =
-/// exp2(a log2 r) by ≤ |μ|(3a u + |ln r|a ρ_a + 4u); sin, cos and the products ≤ 4u|μ|.
-pub fn mu_bound(modulus: f64, radius: f64, a_max: f64, dtheta: f64) -> f64 {
-    let rho = a_relative_bound(a_max, dtheta);
-    let angle = 2.0 * a_max * dtheta + 3.0 * std::f64::consts::PI * rho;
-    modulus * (angle + 3.0 * a_max * U32 + radius.ln().abs() * a_max * rho + 8.0 * U32)
-}
-
-/// Bound on the relative error of a = c/θ_side: ρ_a ≤ 2Δθ·a_max/π + u (θ_side ≥ π/a_max is a
-/// difference of two θ, each off by ≤ Δθ; the division adds u).
-pub fn a_relative_bound(a_max: f64, dtheta: f64) -> f64 {
-    2.0 * dtheta * a_max / std::f64::consts::PI + U32
-}
-
 /// Flattening on the GPU against the reference, from identical inputs.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct FlattenCrosscheck {
     /// Rings compared.
     pub rings: usize,
-    /// |Δθ_k| in radians over every slot and total (tolerance: the largest [`theta_bound`]).
+    /// |Δθ_k| in radians over every slot and total (tolerance: the largest bound).
     pub theta: ErrorSummary,
-    /// |Δa|/a (a and a₂) over the rings both sides flattened (tolerance: the largest
-    /// [`a_relative_bound`]).
+    /// |Δa|/a (a and a₂) over the rings both sides flattened (tolerance: the largest relative
+    /// bound).
     pub a: ErrorSummary,
     /// |Δμ_k|/|μ_k| over the slots of rings both sides flattened (tolerance: the largest
-    /// relative [`mu_bound`]).
+    /// relative bound).
     pub mu: ErrorSummary,
-    /// Slots whose θ or μ error, rings whose a or a₂ error, exceeds its own bound.
+    /// Slots whose θ or μ error, rings whose a or a₂ error, exceeds its own bound
+    /// ([`flatten_bounds`]).
     pub theta_over_bound: usize,
     pub a_over_bound: usize,
     pub mu_over_bound: usize,
     /// max error/bound.
     pub theta_worst_ratio: f64,
+    pub a_worst_ratio: f64,
     pub mu_worst_ratio: f64,
     /// Rings the reference rejected (degenerate, flipped fan).
     pub rejected: usize,
     /// Rings whose kernel status differs from the reference's decision.
     pub status_mismatches: usize,
-    /// Rings not compared because a ring vertex coincides with the centre once the positions
-    /// are rounded to f32 (|a||b| = 0: the angle atan2(0, 0) is undefined on both sides).
-    pub coincident_in_f32: usize,
+    /// Rings not compared because the WGSL table gives no bound there ([`flatten_bounds`] is
+    /// `None`: a sector decided within rounding of a·φ = π, a divisor within rounding of 0).
+    pub unbounded: usize,
 }
 
-/// Run `maps_flatten` on `rings` over `positions` and compare with [`flatten_cpu`] on the same
-/// values, slot by slot against [`theta_bound`] and [`mu_bound`].
+/// Run `maps_flatten` on `rings` over `positions` and compare with the reference on the same
+/// values ([`flatten_reference`]), slot by slot and ring by ring against [`flatten_bounds`]
+/// (the kernel's twin over the WGSL accuracy table).
 pub fn crosscheck_flatten(
     gpu: &Gpu,
     positions: &Normalised,
@@ -503,90 +358,61 @@ pub fn crosscheck_flatten(
 ) -> Result<FlattenCrosscheck> {
     let batch = rings_batch(&positions.gpu, rings);
     let (flat, points) = flatten_gpu(gpu, &batch)?;
-    let cpu = flatten_cpu(&positions.cpu, rings);
+    let pos = &positions.cpu;
     let (mut theta_err, mut theta_mag, mut a_err, mut a_mag, mut mu_err, mut mu_mag) =
         (vec![], vec![], vec![], vec![], vec![], vec![]);
     let (mut theta_over, mut mu_over, mut a_over, mut rejected, mut mismatches) = (0, 0, 0, 0, 0);
-    let mut coincident = 0;
-    let mut a_tol = 0.0f64;
-    let (mut theta_ratio, mut mu_ratio, mut theta_tol, mut mu_tol) =
-        (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    for (r, ((theta, mu), h)) in cpu.iter().zip(&batch.rings).enumerate() {
+    let mut unbounded = 0;
+    let (mut theta_ratio, mut a_ratio, mut mu_ratio) = (0.0f64, 0.0f64, 0.0f64);
+    let (mut theta_tol, mut a_tol, mut mu_tol) = (0.0f64, 0.0f64, 0.0f64);
+    for (r, h) in batch.rings.iter().enumerate() {
+        let (v, ring, shape) = (rings.vertices[r], &rings.rings[r], rings.shapes[r]);
+        let reference = flatten_reference(pos, v, ring, shape);
         let g = &flat[r];
         let slots = &points[h.first as usize..(h.first + h.count) as usize];
-        let last = theta.len() - 1;
-        let closed = !matches!(rings.shapes[r], RingShape::HalfDisk);
-        let products =
-            sector_edge_products(&positions.cpu, rings.vertices[r], &rings.rings[r], closed);
-        if products.iter().any(|&x| !(x > 0.0)) {
-            coincident += 1;
+        let status = reference.ring[3] as u32;
+        mismatches += usize::from(g.status != status);
+        rejected += usize::from(status != STATUS_OK);
+        let Some(bounds) = flatten_bounds(pos, v, ring, shape, &reference) else {
+            unbounded += 1;
             continue;
-        }
+        };
         // θ of every slot and the total.
-        let mut pairs: Vec<(f64, f64, usize)> = slots
+        let mut thetas: Vec<(f64, f64, f64)> = slots
             .iter()
-            .enumerate()
-            .map(|(k, p)| (p.theta as f64, theta[k], k))
+            .zip(&reference.points)
+            .zip(&bounds.points)
+            .map(|((p, e), b)| (p.theta as f64, e[2], b[2]))
             .collect();
-        pairs.push((g.theta_total as f64, theta[last], last));
-        for (gt, ct, k) in pairs {
-            let bound = theta_bound(theta, &products, k);
-            let e = (gt - ct).abs();
+        thetas.push((g.theta_total as f64, reference.ring[2], bounds.ring[2]));
+        for (got, expected, bound) in thetas {
+            let e = (got - expected).abs();
             theta_err.push(e);
-            theta_mag.push(ct);
+            theta_mag.push(expected);
             theta_tol = theta_tol.max(bound);
-            theta_ratio = theta_ratio.max(e / bound.max(f64::MIN_POSITIVE));
+            theta_ratio = theta_ratio.max(e / bound);
             theta_over += usize::from(!(e <= bound));
         }
-        let expected = match mu {
-            Ok(_) => STATUS_OK,
-            Err(FlattenReject::Degenerate) => STATUS_DEGENERATE,
-            Err(FlattenReject::FlippedFan) => STATUS_FLIPPED_FAN,
-        };
-        mismatches += usize::from(g.status != expected);
-        let Ok(mu) = mu else {
-            rejected += 1;
-            continue;
-        };
-        if g.status != STATUS_OK {
+        if status != STATUS_OK || g.status != STATUS_OK {
             continue;
         }
-        let (a1, a2) = match rings.shapes[r] {
-            RingShape::Disk => {
-                let a = std::f64::consts::TAU / theta[last];
-                (a, a)
-            }
-            RingShape::HalfDisk => {
-                let a = std::f64::consts::PI / theta[last];
-                (a, a)
-            }
-            RingShape::FeatureLine { s, t } => {
-                let upper = theta[t] - theta[s];
-                (
-                    std::f64::consts::PI / upper,
-                    std::f64::consts::PI / (theta[last] - upper),
-                )
-            }
-        };
-        let dtheta = theta_bound(theta, &products, last);
-        let a_max = a1.max(a2);
-        let rho = a_relative_bound(a_max, dtheta);
-        a_tol = a_tol.max(rho);
-        for (ga, ca) in [(g.a as f64, a1), (g.a2 as f64, a2)] {
-            let e = (ga - ca).abs() / ca;
-            a_err.push(e);
+        for (i, got) in [g.a as f64, g.a2 as f64].into_iter().enumerate() {
+            let expected = reference.ring[i];
+            let e = (got - expected).abs();
+            a_err.push(e / expected);
             a_mag.push(1.0);
-            a_over += usize::from(!(e <= rho));
+            a_tol = a_tol.max(bounds.ring[i] / expected);
+            a_ratio = a_ratio.max(e / bounds.ring[i]);
+            a_over += usize::from(!(e <= bounds.ring[i]));
         }
-        for (k, p) in slots.iter().enumerate() {
-            let modulus = mu[k][0].hypot(mu[k][1]);
-            let bound = mu_bound(modulus, p.radius as f64, a_max, dtheta);
-            let e = (p.mu[0] as f64 - mu[k][0]).hypot(p.mu[1] as f64 - mu[k][1]);
-            mu_err.push(e / modulus);
+        for ((p, e), bound) in slots.iter().zip(&reference.points).zip(&bounds.mu_norm) {
+            let modulus = e[0].hypot(e[1]);
+            let err = (p.mu[0] as f64 - e[0]).hypot(p.mu[1] as f64 - e[1]);
+            mu_err.push(err / modulus);
             mu_mag.push(1.0);
             mu_tol = mu_tol.max(bound / modulus);
-            mu_ratio = mu_ratio.max(e / bound);
-            mu_over += usize::from(!(e <= bound));
+            mu_ratio = mu_ratio.max(err / bound);
+            mu_over += usize::from(!(err <= *bound));
         }
     }
     Ok(FlattenCrosscheck {
@@ -598,10 +424,11 @@ pub fn crosscheck_flatten(
         a_over_bound: a_over,
         mu_over_bound: mu_over,
         theta_worst_ratio: theta_ratio,
+        a_worst_ratio: a_ratio,
         mu_worst_ratio: mu_ratio,
         rejected,
-        coincident_in_f32: coincident,
         status_mismatches: mismatches,
+        unbounded,
     })
 }
 

@@ -63,6 +63,11 @@ const EPS64: f64 = f64::EPSILON;
 pub const TRUST: f64 = 16.0;
 /// The factor between the first-order figure and the bound the kernels use (module docs).
 pub const SECOND_ORDER: f64 = 2.0;
+/// The end of the range [−π, π] where the table gives `cos` and `sin` their 2⁻¹¹, for f32
+/// arguments: the f32 nearest π (3.14159274…, above π), which a kernel's `PI` literal is. An
+/// angle a kernel has reduced with `if (x > PI) { x − 2π }` is at most that, also where its
+/// exact value lies between π and it (a symmetric ring's opposite slot, at exactly π).
+pub const TABLE_PI: f64 = std::f32::consts::PI as f64;
 
 /// One operation on the tape: its allowance and its parents' range in `Tape::parents`.
 struct Node {
@@ -366,7 +371,7 @@ impl Real for Lin {
     }
 
     fn cos(self) -> Lin {
-        if self.v.abs() > std::f64::consts::PI {
+        if self.v.abs() > TABLE_PI {
             set_ambiguous();
         }
         let v = self.v.cos();
@@ -374,7 +379,7 @@ impl Real for Lin {
     }
 
     fn sin(self) -> Lin {
-        if self.v.abs() > std::f64::consts::PI {
+        if self.v.abs() > TABLE_PI {
             set_ambiguous();
         }
         let v = self.v.sin();

@@ -16,7 +16,8 @@
 //!   maps are defined up to a common scale).
 //!
 //! The twins also make the conformance vectors' mutants (`tests/mutants_bpm.rs`,
-//! `tests/twin_skinsimp.rs`, `tests/twin_gridwarp.rs`, `tests/twin_unwarp.rs`): a mutant is a
+//! `tests/twin_skinsimp.rs`, `tests/twin_skinsimp_cost.rs`, `tests/twin_gridwarp.rs`,
+//! `tests/twin_unwarp.rs`, `tests/twin_maps.rs`, `tests/twin_maps_inverse.rs`): a mutant is a
 //! porting mistake (a term dropped, slots swapped, the wrong multiplication order, a branch
 //! ignored) built from a twin's functions, and the canonical vectors must reject every one.
 //!
@@ -26,7 +27,9 @@
 //! | [`bpm_eval`] | `bpm_eval.wgsl` | [`crate::bpm::Bpm::eval`] |
 //! | [`bpm_precompute`] | `bpm_precompute.wgsl` | [`crate::bpm::precompute()`] |
 //! | [`gridwarp_aa`] | `gridwarp_aa.wgsl`, `gridwarp_aa_residuals.wgsl` | `gridwarp::plain::aa` |
+//! | [`maps_flatten`] | `maps_flatten.wgsl` | [`crate::maps::flatten::flatten_ring`] |
 //! | [`maps_inverse`] | `maps_inverse.wgsl` | [`crate::maps::Param::inverse`] |
+//! | [`maps_priority`] | `maps_priority.wgsl`, `maps_rings.wgsl` | [`crate::maps::priority::ring_area`], [`crate::maps::priority::curvature`] |
 //! | [`skinsimp_lbs`] | `skinsimp_lbs.wgsl` | [`crate::mesh::skin::skin_positions`] |
 //! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` | `skinsimp::quadric` (`Quadric::from_plane`, …) |
 //! | [`skinsimp_collapse_cost`] | `skinsimp_collapse_cost.wgsl` | [`crate::skinsimp::gpu::position_given_weights_f64`] |
@@ -43,7 +46,9 @@ pub mod bpm_precompute;
 pub mod candidate;
 pub mod gridwarp_aa;
 pub mod lin;
+pub mod maps_flatten;
 pub mod maps_inverse;
+pub mod maps_priority;
 pub mod model;
 pub mod real;
 pub mod skinsimp_collapse_cost;

@@ -320,7 +320,8 @@ pub const ALGORITHMS: [&str; 5] = ["bpm", "gridwarp", "unwarp", "maps", "skinsim
 ///   t = (0, 0.3, 0.55, 0.85, 1), 4 × 4 samples per cell;
 /// - unwarp: the cones height map at 16², s = 0.05, periodic;
 /// - maps: the 12 × 6 torus (144 triangles) to its coarsest base, Π⁻¹ at the uniform:2 points
-///   (base vertices, points on the base edges and points inside the base faces);
+///   (base vertices, points on the base edges and points inside the base faces); the ring
+///   kernels on [`canonical_rings`];
 /// - skinsimp: the skinned tube of 6 segments and 6 rings, 2 uniform poses per clip.
 pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
     match algorithm {
@@ -352,8 +353,14 @@ pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
         }
         "maps" => {
             let (built, remesh) = canonical_maps()?;
-            let (k, _) = maps::all_vectors(None, &built, &remesh)?;
-            Ok(("torus 12 × 6, uniform:2 points".into(), k))
+            let rings = canonical_rings(&built)?;
+            let (k, _) = maps::all_vectors(None, &built, &remesh, &rings)?;
+            Ok((
+                "torus 12 × 6, uniform:2 points; rings of the torus, a creased grid and six \
+                 made-up rings"
+                    .into(),
+                k,
+            ))
         }
         "skinsimp" => {
             let (model, sets) = canonical_skinned()?;
@@ -394,6 +401,87 @@ pub fn canonical_maps() -> Result<(crate::maps::Maps, crate::maps::remesh::Remes
     let built = crate::maps::build(&torus, &Default::default(), &Default::default())?;
     let remesh = crate::maps::remesh::uniform(&built, 2)?;
     Ok((built, remesh))
+}
+
+/// The rings of the canonical `maps_priority` and `maps_flatten` vectors, chosen so that every
+/// branch of the two kernels is taken: the rings `crosscheck maps` compares on the canonical
+/// torus `maps` (closed disks of levels 0 and the middle one, normals along every axis), those
+/// of an 8 × 8 height field z = 0.8|x − ½| + 0.1 sin πy with its crease x = ½ tagged (boundary
+/// half disks, feature lines), and made-up rings: four feature lines whose upper side is a
+/// single sector and one whose lower side is (flipped fans, which the single-sector rule
+/// rejects whichever way f32 rounds a·φ = π), and a disk with a ring vertex on its centre
+/// (degenerate).
+pub fn canonical_rings(maps: &crate::maps::Maps) -> Result<maps::RingSet> {
+    use crate::maps::flatten::RingShape;
+    use crate::maps::gpu::{level_rings, LevelRings};
+    use nalgebra::Point3;
+    let options = crate::maps::MapsOptions::default();
+    let mut set = maps::RingSet::of(maps, &options);
+    // The creased height field.
+    let n = 8;
+    let mut grid = crate::mesh::procedural::wavy_grid(n);
+    for p in &mut grid.positions {
+        p.z = 0.8 * (p.x - 0.5).abs() + 0.1 * (std::f64::consts::PI * p.y).sin();
+    }
+    let mut features = crate::maps::Features::default();
+    let column = |j: usize| (j * (n + 1) + n / 2) as u32;
+    for j in 0..n {
+        features.edges.insert((column(j), column(j + 1)));
+    }
+    let rings = level_rings(&grid.positions, &grid.faces, &features, options.corner_turn);
+    set.append(&grid.positions, &rings);
+    // The made-up rings: centre 0, six ring vertices 1 … 6 on a wavy circle of radius ≈ 0.2·w
+    // (w varies the rounding from ring to ring); the last ring's vertex 3 is a copy of its
+    // centre.
+    let ring_of = |centre: Point3<f64>, w: f64, on_centre: Option<usize>| -> Vec<Point3<f64>> {
+        let mut p = vec![centre];
+        for k in 0..6 {
+            let angle = std::f64::consts::TAU * (k as f64 + 0.1 * w * (k % 2) as f64) / 6.0;
+            let r = w * (0.2 + 0.03 * k as f64);
+            p.push(if on_centre == Some(k) {
+                centre
+            } else {
+                centre
+                    + nalgebra::Vector3::new(
+                        r * angle.cos(),
+                        r * angle.sin(),
+                        0.05 * (k % 3) as f64,
+                    )
+            });
+        }
+        p
+    };
+    let star = |ring: &[u32]| -> Vec<[u32; 3]> {
+        (0..ring.len())
+            .map(|m| [0, ring[m], ring[(m + 1) % ring.len()]])
+            .collect()
+    };
+    let ring: Vec<u32> = (1..=6).collect();
+    let flipped = |s: usize| RingShape::FeatureLine { s, t: s + 1 };
+    for (centre, w, on_centre, shape) in [
+        (Point3::new(0.3, -0.4, 0.2), 1.0, None, flipped(1)),
+        (Point3::new(0.1, -0.3, 0.1), 0.7, None, flipped(0)),
+        (Point3::new(-0.1, -0.2, 0.0), 1.3, None, flipped(2)),
+        (Point3::new(0.2, 0.3, -0.2), 0.9, None, flipped(3)),
+        (
+            Point3::new(-0.2, 0.1, 0.3),
+            1.1,
+            None,
+            RingShape::FeatureLine { s: 0, t: 5 },
+        ),
+        (Point3::new(-0.3, 0.4, -0.1), 1.0, Some(2), RingShape::Disk),
+    ] {
+        set.append(
+            &ring_of(centre, w, on_centre),
+            &LevelRings {
+                vertices: vec![0],
+                rings: vec![ring.clone()],
+                stars: vec![star(&ring)],
+                shapes: vec![shape],
+            },
+        );
+    }
+    Ok(set)
 }
 
 /// The skinned model of the canonical skinsimp vectors and its poses.

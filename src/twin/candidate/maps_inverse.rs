@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::input;
+use super::{as_f32, as_u32, input};
 use crate::error::Result;
 use crate::twin::maps_inverse::{inverse, InverseResult, Tables};
 use crate::twin::{with_model, Model, F, V3};
@@ -11,14 +11,6 @@ use crate::vectors::{Array, KernelVectors};
 
 /// One query's body: the twin's [`inverse`] or a mutant of it.
 pub type Body = fn(&Tables, u32, V3<F>) -> InverseResult<F>;
-
-fn as_f32(a: &Array) -> Vec<f32> {
-    a.to_f64().iter().map(|&x| x as f32).collect()
-}
-
-fn as_u32(a: &Array) -> Vec<u32> {
-    a.to_f64().iter().map(|&x| x as u32).collect()
-}
 
 /// The candidate of `body` on the vectors in `dir` under `model`: [queries, 3].
 pub fn candidate_with(dir: &Path, k: &KernelVectors, model: Model, body: Body) -> Result<Array> {

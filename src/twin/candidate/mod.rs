@@ -8,7 +8,10 @@
 //!
 //! [`Model`]: super::Model
 
+pub mod maps_flatten;
 pub mod maps_inverse;
+pub mod maps_priority;
+pub mod maps_rings;
 pub mod skinsimp_collapse_cost;
 pub mod unwarp_pass;
 
@@ -23,14 +26,21 @@ pub fn input(dir: &Path, k: &KernelVectors, name: &str) -> Result<Array> {
         .inputs
         .iter()
         .find(|i| i.file.ends_with(&format!(".{name}.npy")))
-        .ok_or_else(|| {
-            Error::InvalidArgument(format!(
-                "{}: kernel {} has no input '{name}'",
-                dir.display(),
-                k.name
-            ))
+        .ok_or_else(|| Error::Vectors {
+            file: dir.join("manifest.json").display().to_string(),
+            reason: format!("kernel {} has no input '{name}'", k.name),
         })?;
     Array::load(&dir.join(&info.file))
+}
+
+/// An array's values as the f32 a kernel reads.
+pub fn as_f32(a: &Array) -> Vec<f32> {
+    a.to_f64().iter().map(|&x| x as f32).collect()
+}
+
+/// An array's values as the u32 a kernel reads.
+pub fn as_u32(a: &Array) -> Vec<u32> {
+    a.to_f64().iter().map(|&x| x as u32).collect()
 }
 
 /// A twin's run over its vectors: `(folder, manifest entry, model) → candidate`.
@@ -40,7 +50,9 @@ pub type Runner = fn(&Path, &KernelVectors, super::Model) -> Result<Array>;
 /// their vectors here.
 pub fn runner(name: &str) -> Option<Runner> {
     match name {
+        "maps_flatten.points" | "maps_flatten.rings" => Some(maps_flatten::candidate),
         "maps_inverse" => Some(maps_inverse::candidate),
+        "maps_priority" => Some(maps_priority::candidate),
         "skinsimp_collapse_cost" => Some(skinsimp_collapse_cost::candidate),
         "unwarp_pass" => Some(unwarp_pass::candidate),
         _ => None,

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::input;
+use super::{as_f32, as_u32, input};
 use crate::error::Result;
 use crate::twin::skinsimp_collapse_cost::{skinsimp_collapse_cost, Buffers, EdgeCost, EdgeItem};
 use crate::twin::{with_model, Model, F};
@@ -23,14 +23,6 @@ pub fn row(out: &EdgeCost<F>) -> [f32; 14] {
     row[12] = out.position.z.get();
     row[13] = out.cost.get();
     row
-}
-
-fn as_f32(a: &Array) -> Vec<f32> {
-    a.to_f64().iter().map(|&x| x as f32).collect()
-}
-
-fn as_u32(a: &Array) -> Vec<u32> {
-    a.to_f64().iter().map(|&x| x as u32).collect()
 }
 
 /// The candidate of `body` on the vectors in `dir` under `model`: [candidates, 14].
