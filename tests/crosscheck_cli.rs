@@ -287,9 +287,13 @@ fn the_cli_holds_kernels_to_the_bounds_the_tests_use() {
     // maps: Π⁻¹'s limit.
     let (code, stdout, stderr) = reparam(&["crosscheck", "maps", "--json"]);
     assert_eq!(code, 0, "{stderr}");
-    assert_eq!(
-        row(&rows_of(&stdout), "maps_inverse: position Π⁻¹(p)")["bound"],
-        reparam::crosscheck::maps::INVERSE_POSITION_MAX
+    // Per point from the twin over Lin: positive, and below the notes' target of 1e-5.
+    let bound = row(&rows_of(&stdout), "maps_inverse: position Π⁻¹(p)")["bound"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        bound > 0.0 && bound < reparam::crosscheck::maps::INVERSE_POSITION_MAX,
+        "{bound}"
     );
     // gridwarp: the CLI's rows are the library's rows on the same built-in scene (the GPU test
     // calls the same bound functions), figure for figure.

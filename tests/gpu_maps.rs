@@ -232,7 +232,7 @@ fn inverse_of_remesh_points_matches_param_inverse() {
     let Some(gpu) = gpu_or_skip() else { return };
     for (name, maps) in inverse_cases() {
         let points = remesh_points(&maps);
-        let r = crosscheck_inverse(&gpu, &maps, &points, INVERSE_POSITION_MAX).unwrap();
+        let r = crosscheck_inverse(&gpu, &maps, &points).unwrap();
         println!(
             "{name}: {} levels, {} points: position max {:.1e} p99 {:.1e} of the diagonal, \
              bary max {:.1e} ({} thin), {} face mismatches (largest min b {:.1e})",
@@ -299,7 +299,7 @@ fn bad_inputs_are_typed_errors() {
         bary: [0.2, 0.3, 0.5],
     }];
     assert!(matches!(
-        crosscheck_inverse(&gpu, &maps, &far, INVERSE_POSITION_MAX),
+        crosscheck_inverse(&gpu, &maps, &far),
         Err(Error::Gpu(_))
     ));
 }
@@ -337,8 +337,7 @@ fn error_summaries_snapshot_on_lavapipe() {
         table.push(summary_line(&name, &p, &f));
     }
     for (name, maps) in inverse_cases() {
-        let r =
-            crosscheck_inverse(&gpu, &maps, &remesh_points(&maps), INVERSE_POSITION_MAX).unwrap();
+        let r = crosscheck_inverse(&gpu, &maps, &remesh_points(&maps)).unwrap();
         let s = r.position.rounded(1);
         table.push(format!(
             "{name} Π⁻¹: points {} position max {:e} p50 {:e} bary max {:e} mismatches {}",

@@ -70,11 +70,11 @@ pub use row::{Bounds, Row, Timing, Verdict};
 pub mod gridwarp;
 #[cfg(feature = "gpu")]
 pub mod maps;
+#[cfg(feature = "gpu")]
+pub mod maps_bound;
 /// The per-query bound of `maps_inverse`'s positions, from its twin over `Lin`.
 #[cfg(feature = "gpu")]
 pub mod maps_inverse_bound;
-#[cfg(feature = "gpu")]
-pub mod maps_bound;
 #[cfg(feature = "gpu")]
 pub mod run;
 #[cfg(feature = "gpu")]

@@ -516,16 +516,22 @@ pub fn smallest_altitude(p: &Point3<f64>, q: &Point3<f64>, r: &Point3<f64>) -> f
 pub struct InverseCrosscheck {
     /// Points compared.
     pub points: usize,
-    /// |Δp| as a fraction of the bounding box diagonal (tolerance 1e-5, the issue's).
+    /// |Δp| as a fraction of the bounding box diagonal (tolerance: the largest of
+    /// `position_bounds`).
     pub position: ErrorSummary,
+    /// Per point |Δp| …
+    pub position_errors: Vec<f64>,
+    /// … and its bound ([`crate::crosscheck::maps_inverse_bound::inverse_position_bound`]:
+    /// from the kernel's twin over `Lin`; `f64::MAX` where the WGSL table gives none).
+    pub position_bounds: Vec<f64>,
     /// max_c |Δb_c| over the points that reached the same input face, whose smallest altitude
     /// exceeds 1e-3 of the diagonal (its tolerance the largest of `bary_bounds`).
     pub bary: ErrorSummary,
     /// Per compared point (the order of `bary`'s errors): max_c |Δb_c| …
     pub bary_errors: Vec<f64>,
-    /// … and its bound, `position_bound / h` with h the face's smallest altitude (fraction of
-    /// the diagonal): |∇b_c| = 1/h_c, so a point moved by |Δp| in the face's plane moves each
-    /// barycentric by at most |Δp|/h.
+    /// … and its bound, the point's position bound / h with h the face's smallest altitude
+    /// (fraction of the diagonal): |∇b_c| = 1/h_c, so a point moved by |Δp| in the face's
+    /// plane moves each barycentric by at most |Δp|/h.
     pub bary_bounds: Vec<f64>,
     /// Points the kernel took to another input face than the reference.
     pub face_mismatches: usize,
@@ -539,21 +545,23 @@ pub struct InverseCrosscheck {
 /// Run `maps_inverse` on `points` and compare with [`super::Param::inverse`] (module docs).
 /// [`Error::InvalidArgument`] for a base point the reference cannot map (face out of range).
 ///
-/// `position_bound` is the bound on |Δp| (fraction of the diagonal) from which each compared
-/// point's barycentric bound follows (`bary_bounds`).
+/// Each point's position is held to its own bound (`position_bounds`), from which its
+/// barycentric bound follows (`bary_bounds`).
 pub fn crosscheck_inverse(
     gpu: &Gpu,
     maps: &Maps,
     points: &[BasePoint],
-    position_bound: f64,
 ) -> Result<InverseCrosscheck> {
+    use crate::crosscheck::maps_inverse_bound::{inverse_position_bound, FlatTables};
     let norm = normalise(&maps.positions)?;
     let tables = inverse_tables(maps, &norm);
     let gpu_points = inverse_gpu(gpu, &tables, points)?;
+    let flat = FlatTables::of(&tables);
+    let queries = base_queries(points);
     let (mut pos_err, mut pos_mag, mut bary_err, mut bary_mag) = (vec![], vec![], vec![], vec![]);
-    let mut bary_bound = vec![];
+    let (mut pos_bound, mut bary_bound) = (vec![], vec![]);
     let (mut mismatches, mut mismatch_min, mut thin) = (0, 0.0f64, 0);
-    for (p, g) in points.iter().zip(&gpu_points) {
+    for ((p, g), q) in points.iter().zip(&gpu_points).zip(&queries) {
         let c = maps.param.inverse(p).ok_or_else(|| {
             Error::InvalidArgument(format!(
                 "base point in face {} of {}",
@@ -569,6 +577,9 @@ pub fn crosscheck_inverse(
         );
         pos_err.push((got - expected).norm());
         pos_mag.push(expected.coords.norm());
+        let position_bound =
+            inverse_position_bound(&flat.tables(), q, [expected.x, expected.y, expected.z]);
+        pos_bound.push(position_bound);
         if g.face != c.face {
             mismatches += 1;
             mismatch_min = mismatch_min.max(c.bary.iter().copied().fold(f64::INFINITY, f64::min));
@@ -590,7 +601,14 @@ pub fn crosscheck_inverse(
     }
     Ok(InverseCrosscheck {
         points: points.len(),
-        position: ErrorSummary::from_errors("fraction of the diagonal", &pos_err, &pos_mag, 1e-5),
+        position: ErrorSummary::from_errors(
+            "fraction of the diagonal",
+            &pos_err,
+            &pos_mag,
+            pos_bound.iter().copied().fold(0.0, f64::max),
+        ),
+        position_errors: pos_err,
+        position_bounds: pos_bound,
         bary: ErrorSummary::from_errors(
             "barycentric",
             &bary_err,
