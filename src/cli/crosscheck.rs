@@ -275,7 +275,7 @@ fn print_report(report: &crate::crosscheck::run::CrosscheckReport) -> Result<()>
     use crate::crosscheck::run::{side_by_side, text_table};
     for (k, a) in report.adapters.iter().enumerate() {
         outln!("[{k}] adapter: {}", a.adapter);
-        outln!("f32 GPU against f64 CPU from identical (f32-rounded) inputs; ε = u = 2⁻²⁴");
+        outln!("f32 GPU against f64 CPU from identical (f32-rounded) inputs; ε = u = 2⁻²³ (one WGSL rounding, up or down)");
         let (header, rows, notes) = text_table(&a.rows);
         outln!("{}", super::text_table(&header, &rows));
         outln!("{}\n", notes.join("\n"));
@@ -540,7 +540,7 @@ pub fn report_section(out: &std::path::Path, report: &mut crate::report::Report)
          compared, the error in the kernel's natural unit (max, p50, p99, RMS), the derived bound \
          (its value: the bound, or the median of per-element bounds, marked ~), how many \
          elements exceed it, the verdict, and the times: GPU dispatches alone, the whole GPU call \
-         with uploads and readback, and the f64 reference on {} threads. ε = u = 2⁻²⁴.",
+         with uploads and readback, and the f64 reference on {} threads. ε = u = 2⁻²³ (one WGSL rounding, up or down).",
         gpu.adapter_summary(),
         rayon::current_num_threads()
     ));

@@ -3,7 +3,7 @@
 //! solves (the paper's hybrid solver, seed §7).
 //!
 //! The bounds are derived here once and used by `tests/gpu_gridwarp.rs` and by
-//! `reparam crosscheck gridwarp` alike. ε = u = 2⁻²⁴ is f32's unit roundoff. For residual r_k
+//! `reparam crosscheck gridwarp` alike. ε = u = 2⁻²³ is one WGSL rounding (up or down: one ULP). For residual r_k
 //! (sample k, one axis), m_k = σ(|c·a| + |o|) = |r_k + σo| + σ|o| is the size of the terms that
 //! cancel in it:
 //!
@@ -31,8 +31,8 @@ use crate::gridwarp::gpu::{rest_samples, solve_sequence_gpu, GpuAaEnergy};
 use crate::gridwarp::{solve_sequence, Field, Grid, SolveOptions};
 use crate::lm::Residuals;
 
-/// f32 unit roundoff ε = 2⁻²⁴.
-pub const EPS: f64 = f32::EPSILON as f64 / 2.0;
+/// The size ε of one rounding: [`super::WGSL_U`] = 2⁻²³ (WGSL rounds up or down).
+pub const EPS: f64 = super::WGSL_U;
 
 /// C_r: a residual's f32 error in units of ε·m_k (module docs).
 pub const RESIDUAL_FACTOR: f64 = 10.0;

@@ -9,6 +9,12 @@
 // `!(e <= tolerance)` is meant throughout: a NaN error counts as over any tolerance.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+/// The relative error of one f32 `+ − ×` in WGSL, 2⁻²³: WGSL's "correctly rounded" means
+/// rounded up *or* down (WGSL §15.7), one ULP, not round-to-nearest's half ULP. Every bound
+/// derived by counting roundings counts them at this size, so that it holds for any
+/// conforming GPU, not only for one that rounds to nearest (issue #34).
+pub const WGSL_U: f64 = f32::EPSILON as f64;
+
 /// The smallest normal f32, 2⁻¹²⁶: a product, square or sum below it may be flushed to zero
 /// (GPUs flush subnormals), losing up to this much absolutely. Bounds that are relative to
 /// their terms' sizes add this per operation, so that inputs with subnormal entries (found by

@@ -25,8 +25,8 @@ use crate::skinsimp::gpu::{
 };
 use crate::skinsimp::{Deformation, Input, Options};
 
-/// f32 unit roundoff u = 2⁻²⁴.
-pub const U32: f64 = f32::EPSILON as f64 / 2.0;
+/// The size u of one rounding: [`super::WGSL_U`] = 2⁻²³ (WGSL rounds up or down).
+pub const U32: f64 = super::WGSL_U;
 
 /// Per vertex i, pose j and coordinate r, the bound on |Δp_r| of f32 skinning:
 /// (M_k h)_r is a 4-term dot product, ≤ 4u Σ_c |M_rc h_c| (also with fused multiply-adds);
@@ -287,7 +287,7 @@ pub struct CostBound {
     /// singular).
     pub solve: f64,
     /// How far the f32 midpoint (a + b) · 0.5 may land from the exact one: a + b rounds once,
-    /// up or down (one ULP, 2u relative per coordinate), the halving is exact: ≤ u |a + b|.
+    /// up or down (one ULP: u relative per coordinate), the halving is exact: ≤ u |a + b| / 2.
     pub midpoint: f64,
     /// The reference's Q̃ (for the gradient of v̂ᵀQ̃v̂ at a moved point).
     pub quadric: Matrix4<f64>,
@@ -331,7 +331,7 @@ impl CostBound {
             eta_e,
             b_norm: bm.norm(),
             solve,
-            midpoint: U32 * (cd.rest[a].coords + cd.rest[b].coords).norm(),
+            midpoint: 0.5 * U32 * (cd.rest[a].coords + cd.rest[b].coords).norm(),
             quadric: r.quadric,
         }
     }

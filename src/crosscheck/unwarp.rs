@@ -18,8 +18,8 @@ use crate::unwarp::pass::{descend_texel_traced, line_point, pass, sweep_phases};
 use crate::unwarp::stats::{area_ratios, coefficient_of_variation};
 use crate::unwarp::{solve, solve_with, HeightMap, Problem, UnwarpOptions};
 
-/// f32 unit roundoff u = 2⁻²⁴.
-pub const U32: f64 = f32::EPSILON as f64 / 2.0;
+/// The size u of one rounding: [`super::WGSL_U`] = 2⁻²³ (WGSL rounds up or down).
+pub const U32: f64 = super::WGSL_U;
 
 /// Relative error of one f32 evaluation of a node energy F (or of one triangle-gradient term):
 /// each triangle is a chain of ≈ 30 roundings (edges, a, D, Y, Y^5 by 3 multiplications, the

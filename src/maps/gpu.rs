@@ -40,9 +40,6 @@ use crate::crosscheck::maps_bound::{flatten_bounds, flatten_reference, priority_
 use crate::crosscheck::ErrorSummary;
 use crate::error::{Error, Result};
 
-/// f32 unit roundoff u = 2⁻²⁴.
-pub const U32: f64 = f32::EPSILON as f64 / 2.0;
-
 fn gpu_error(e: reparam_gpu::GpuError) -> Error {
     Error::Gpu(e.to_string())
 }

@@ -630,11 +630,11 @@ fn collapse_cost_vectors(
             unit: "unit box (v̂), unit box² (Q̃, E)".into(),
         },
         bound_formula: "Q̃: (30 + P) u T_Q per entry; v̂: ‖B⁻¹‖(η_Q(‖T_B‖|v| + |T_b|)) + \
-            u(12‖B‖²|b| + 10‖B‖³|v|)/|det B| for the solution, u|a + b| for the midpoint, 2⁻¹²⁶ (a flushed subnormal) for a 
+            u(12‖B‖²|b| + 10‖B‖³|v|)/|det B| for the solution, u|a + b|/2 for the midpoint, 2⁻¹²⁶ (a flushed subnormal) for a 
             or b; E: (25 + P) u Σ_j (Ā^j|v̂|)ᵀT^j(Ā^j|v̂|) + 2|g|Δv + ‖B‖Δv²"
             .into(),
         derivation: "crosscheck::skinsimp::CostBound (T^j = |Q_a^j| + |Q_b^j|, Ā^j = Σ α_k \
-            |M_k^j|, T_Q = Σ_j Ā^{jT} T^j Ā^j, u = 2⁻²⁴); candidates whose kept point f32 could \
+            |M_k^j|, T_Q = Σ_j Ā^{jT} T^j Ā^j, u = 2⁻²³: WGSL rounds up or down); candidates whose kept point f32 could \
             change (cond_F near max_condition, values nearer than their bounds) are left out"
             .into(),
         per_element: vec!["edges".into(), "bones".into(), "alpha".into()],
