@@ -940,9 +940,9 @@ fn sqrt3_refine(
 }
 
 /// A mesh of the zero set of `f` in [lo, hi] like [`implicit_mesh`] (`cells` cubes along the
-/// longest side, three rounds of [`relax_on_surface`]), then the faces whose centroid is
-/// `fine` split in three by [`sqrt3_refine`]: the fine part has [`UNEVEN_DENSITY_RATIO`] times
-/// the triangles per unit area of the rest. No relaxation after the split (it would smooth
+/// longest side, three rounds of [`relax_on_surface`]), then `steps` times the faces whose
+/// centroid is `fine` split in three by [`sqrt3_refine`]: the fine part has
+/// [`UNEVEN_DENSITY_RATIO`]^steps times the triangles per unit area of the rest. No relaxation after the split (it would smooth
 /// the density step away).
 fn uneven_implicit_mesh(
     short: &str,
@@ -950,11 +950,15 @@ fn uneven_implicit_mesh(
     (lo, hi): (Point3<f64>, Point3<f64>),
     cells: usize,
     fine: &dyn Fn(&Point3<f64>) -> bool,
+    steps: usize,
 ) -> TriMesh {
     let (positions, faces) = marching_tetrahedra(f, lo, hi, cells);
     let h = (hi - lo).max() / cells.max(4) as f64;
     let positions = relax_on_surface(f, positions, &faces, 3, h);
-    let (positions, faces) = sqrt3_refine(f, positions, &faces, fine, h);
+    let (mut positions, mut faces) = (positions, faces);
+    for _ in 0..steps {
+        (positions, faces) = sqrt3_refine(f, positions, &faces, fine, h);
+    }
     TriMesh::with_shared_indices(name(short), positions, Vec::new(), faces)
 }
 
@@ -963,15 +967,25 @@ fn uneven_implicit_mesh(
 /// area, than the half x > x_mid. `cells` ≥ 8 as in [`genus_bumpy`]; at genus 2, 64 gives
 /// ≈ 66k triangles (the coarse half ≈ 16k, the fine half ≈ 50k).
 pub fn genus_uneven(genus: usize, cells: usize) -> TriMesh {
+    genus_uneven_steps(genus, cells, 1)
+}
+
+/// [`genus_uneven`] with `steps` √3 splits of the fine half: [`UNEVEN_DENSITY_RATIO`]^steps
+/// times denser (2 steps: 9×), a harder case than the issue's 3×.
+pub fn genus_uneven_steps(genus: usize, cells: usize, steps: usize) -> TriMesh {
     let g = genus.clamp(1, 8);
     let (f, lo, hi) = genus_bumpy_field(g);
     let x_mid = (g - 1) as f64;
     uneven_implicit_mesh(
-        &format!("genus{g}_uneven"),
+        &match steps {
+            1 => format!("genus{g}_uneven"),
+            _ => format!("genus{g}_uneven{}", 3usize.pow(steps as u32)),
+        },
         &f,
         (lo, hi),
         cells.max(8),
         &|p: &Point3<f64>| p.x < x_mid,
+        steps,
     )
 }
 
@@ -985,6 +999,43 @@ pub fn genus_uneven(genus: usize, cells: usize) -> TriMesh {
 /// side x > 0.3 is [`UNEVEN_DENSITY_RATIO`] times finer than the cranium side. `cells` ≥ 8
 /// grid cubes along the longest side; 64 gives ≈ 40k triangles.
 pub fn head_uneven(cells: usize) -> TriMesh {
+    uneven_implicit_mesh(
+        "head_uneven",
+        &head_field(false),
+        head_box(),
+        cells.max(8),
+        &|p: &Point3<f64>| p.x > 0.3,
+        1,
+    )
+}
+
+/// [`head_uneven`] with two thin handles like a skull's zygomatic arches (issue #37's scan is a
+/// genus-2 skull): each a bent bar of radius 0.07 (two capsules (0.55, ±0.45, −0.45) →
+/// (0, ±0.72, −0.45) → (−0.45, ±0.3, −0.4)) from the cheek to the side of the cranium,
+/// standing up to 0.21 off the head, blended with a smooth minimum of width 0.05. Genus 2.
+/// 64 cubes give ≈ 90k triangles.
+pub fn skull_uneven(cells: usize) -> TriMesh {
+    uneven_implicit_mesh(
+        "skull_uneven",
+        &head_field(true),
+        head_box(),
+        cells.max(8),
+        &|p: &Point3<f64>| p.x > 0.3,
+        1,
+    )
+}
+
+/// The box around [`head_field`]'s zero set.
+fn head_box() -> (Point3<f64>, Point3<f64>) {
+    (
+        Point3::new(-1.4, -1.05, -1.15),
+        Point3::new(1.45, 1.05, 1.3),
+    )
+}
+
+/// The implicit function of [`head_uneven`] (negative inside), with the arches of
+/// [`skull_uneven`] when `arches`.
+fn head_field(arches: bool) -> impl Fn(&Point3<f64>) -> f64 {
     let ellipsoid = |p: &Point3<f64>, c: [f64; 3], r: [f64; 3]| {
         let q = nalgebra::Vector3::new(
             (p.x - c[0]) / r[0],
@@ -995,7 +1046,7 @@ pub fn head_uneven(cells: usize) -> TriMesh {
     };
     let eyes = [Point3::new(0.78, 0.3, 0.1), Point3::new(0.78, -0.3, 0.1)];
     let brows = [Point3::new(0.8, 0.3, 0.3), Point3::new(0.8, -0.3, 0.3)];
-    let f = move |p: &Point3<f64>| {
+    move |p: &Point3<f64>| {
         let cranium = ellipsoid(p, [-0.15, 0.0, 0.25], [1.0, 0.8, 0.85]);
         let face = ellipsoid(p, [0.45, 0.0, -0.35], [0.6, 0.55, 0.55]);
         let nose = horn_sdf(
@@ -1005,14 +1056,16 @@ pub fn head_uneven(cells: usize) -> TriMesh {
             0.12,
             0.06,
         );
-        let d = smooth_min(smooth_min(cranium, face, 0.15), nose, 0.08);
+        let mut d = smooth_min(smooth_min(cranium, face, 0.15), nose, 0.08);
+        if arches {
+            for side in [1.0, -1.0] {
+                let a = Point3::new(0.55, 0.45 * side, -0.45);
+                let m = Point3::new(0.0, 0.72 * side, -0.45);
+                let b = Point3::new(-0.45, 0.3 * side, -0.4);
+                let bar = horn_sdf(p, &a, &m, 0.07, 0.07).min(horn_sdf(p, &m, &b, 0.07, 0.07));
+                d = smooth_min(d, bar, 0.05);
+            }
+        }
         d + bumps(p, &eyes, 0.08, 0.15) - bumps(p, &brows, 0.05, 0.12)
-    };
-    let lo = Point3::new(-1.4, -1.05, -1.15);
-    let hi = Point3::new(1.45, 1.05, 1.3);
-    uneven_implicit_mesh("head_uneven", &f, (lo, hi), cells.max(8), &|p: &Point3<
-        f64,
-    >| {
-        p.x > 0.3
-    })
+    }
 }
