@@ -730,3 +730,66 @@ fn remesh_area_spread_is_zero_for_equal_faces_and_the_log_ratio_otherwise() {
         q.area_spread
     );
 }
+
+// ---------------------------------------------------------------- unevenly sampled models
+
+/// Median of the areas of the faces whose centroid satisfies `side`.
+fn median_area(m: &TriMesh, side: impl Fn(&Point3<f64>) -> bool) -> f64 {
+    let mut areas: Vec<f64> = (0..m.faces.len())
+        .filter_map(|f| {
+            let [a, b, c] = m.face_positions(f);
+            let g = Point3::from((a.coords + b.coords + c.coords) / 3.0);
+            side(&g).then(|| 0.5 * (b - a).cross(&(c - a)).norm())
+        })
+        .collect();
+    areas.sort_by(f64::total_cmp);
+    areas[areas.len() / 2]
+}
+
+/// Issue #37: the unevenly sampled models are closed 2-manifolds of the right genus facing
+/// out, and their fine half is 3× denser by median triangle area. Bound: the √3 split divides
+/// a face's area exactly in three before its centroid is projected onto the surface (a move
+/// of O(h² κ), a few % of the area at these cell sizes); the two halves' marching-tetrahedra
+/// size distributions differ where the surface meets the grid at other angles (the head's
+/// cranium is flatter than its face: measured ratio 2.64 there, 3.00 on the genus-2 model, at
+/// 16 cubes), so the ratio is 3 (9 after two splits) within 15%, and a model without the split
+/// (ratio 1) fails.
+#[test]
+fn uneven_models_are_closed_manifolds_denser_on_one_side() {
+    let step = procedural::UNEVEN_DENSITY_RATIO;
+    let cases = [
+        (procedural::genus_uneven(2, 16), -2, 1.0, -1.0, step),
+        (procedural::head_uneven(16), 2, 0.3, 1.0, step),
+        // The arches' slots need ≥ 2 cubes across: 32 cubes (below 24 they close, genus 0).
+        (procedural::skull_uneven(32), -2, 0.3, 1.0, step),
+        (
+            procedural::genus_uneven_steps(2, 12, 2),
+            -2,
+            1.0,
+            -1.0,
+            step * step,
+        ),
+    ];
+    for (m, chi, x_mid, fine_sign, expected) in cases {
+        check_manifold(&m).unwrap_or_else(|e| panic!("{}: {e}", m.name));
+        assert_eq!(euler(&m), chi, "{}", m.name);
+        assert!(signed_volume6(&m) > 0.0, "{}", m.name);
+        let fine = median_area(&m, |p| fine_sign * (p.x - x_mid) > 0.0);
+        let coarse = median_area(&m, |p| fine_sign * (p.x - x_mid) < 0.0);
+        let ratio = coarse / fine;
+        eprintln!(
+            "{}: {} faces, median area ratio {ratio:.3}",
+            m.name,
+            m.faces.len()
+        );
+        assert!(
+            (ratio / expected - 1.0).abs() < 0.15,
+            "{}: ratio {ratio}",
+            m.name
+        );
+    }
+    let a = procedural::head_uneven(16);
+    let b = procedural::head_uneven(16);
+    assert_eq!(a.positions, b.positions);
+    assert_eq!(a.faces, b.faces);
+}

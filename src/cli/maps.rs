@@ -26,7 +26,8 @@ use super::inputs::builtin_mesh;
 #[derive(Args, Clone, Debug)]
 pub struct MapsArgs {
     /// The mesh: an .obj, .ply or .off file, or `procedural:<name>` (e.g. procedural:torus;
-    /// also the hard models genus2, genus3, horned, pedestal).
+    /// also the hard models genus2, genus3, horned, pedestal, and the unevenly sampled
+    /// genus2_uneven, head_uneven, skull_uneven, genus2_uneven9, genus2_uneven_100k).
     pub mesh: String,
     /// Stop when the base domain has at most this many triangles (0: as coarse as possible).
     #[arg(long, default_value_t = 0)]
@@ -211,13 +212,23 @@ pub fn run(args: MapsArgs) -> Result<()> {
 
 /// The hard test models of issue #23 (`procedural::genus_bumpy`, `horned`, `pedestal`), by
 /// name: genus2, genus3, horned, pedestal (64 grid cubes along the longest side, 26k–34k
-/// triangles), genus2_100k (110 cubes, ≈ 100k triangles).
+/// triangles), genus2_100k (110 cubes, ≈ 100k triangles); the unevenly sampled models of issue
+/// #37 (one half 3× finer, `procedural::genus_uneven`, `head_uneven`): genus2_uneven,
+/// head_uneven (64 cubes), genus2_uneven_100k (80 cubes), genus2_uneven9 (48 cubes, the fine
+/// half 9× denser), skull_uneven (64 cubes, head_uneven with two thin arches, genus 2).
 fn hard_model(name: &str) -> Option<TriMesh> {
-    use crate::mesh::procedural::{genus_bumpy, horned, pedestal};
+    use crate::mesh::procedural::{
+        genus_bumpy, genus_uneven, genus_uneven_steps, head_uneven, horned, pedestal, skull_uneven,
+    };
     Some(match name {
         "genus2" => genus_bumpy(2, 64),
         "genus3" => genus_bumpy(3, 64),
         "genus2_100k" => genus_bumpy(2, 110),
+        "genus2_uneven" => genus_uneven(2, 64),
+        "genus2_uneven_100k" => genus_uneven(2, 80),
+        "genus2_uneven9" => genus_uneven_steps(2, 48, 2),
+        "head_uneven" => head_uneven(64),
+        "skull_uneven" => skull_uneven(64),
         "horned" => horned(64),
         "pedestal" => pedestal(64),
         _ => return None,

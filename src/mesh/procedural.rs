@@ -667,6 +667,32 @@ fn marching_tetrahedra(
     (positions, faces)
 }
 
+/// ∇f at `p` by central differences of step 10⁻⁴ `h`.
+fn implicit_gradient(
+    f: &dyn Fn(&Point3<f64>) -> f64,
+    p: &Point3<f64>,
+    h: f64,
+) -> nalgebra::Vector3<f64> {
+    let eps = 1e-4 * h;
+    nalgebra::Vector3::from([0, 1, 2].map(|a| {
+        let mut d = nalgebra::Vector3::zeros();
+        d[a] = eps;
+        (f(&(p + d)) - f(&(p - d))) / (2.0 * eps)
+    }))
+}
+
+/// `p` moved onto f = 0 by two Newton steps p ← p − f(p) ∇f / |∇f|² ([`implicit_gradient`]).
+fn project_to_zero_set(f: &dyn Fn(&Point3<f64>) -> f64, mut p: Point3<f64>, h: f64) -> Point3<f64> {
+    for _ in 0..2 {
+        let g = implicit_gradient(f, &p, h);
+        let g2 = g.norm_squared();
+        if g2 > 0.0 {
+            p -= g * (f(&p) / g2);
+        }
+    }
+    p
+}
+
 /// `rounds` rounds of relaxation along the surface: every vertex moves halfway to the mean of
 /// its neighbours, then back onto f = 0 by two Newton steps p ← p − f(p) ∇f / |∇f|² (∇f by
 /// central differences of step 10⁻⁴ `h`). Kept only if no face ends up facing against ∇f at
@@ -688,24 +714,8 @@ fn relax_on_surface(
             }
         }
     }
-    let eps = 1e-4 * h;
-    let gradient = |p: &Point3<f64>| {
-        nalgebra::Vector3::from([0, 1, 2].map(|a| {
-            let mut d = nalgebra::Vector3::zeros();
-            d[a] = eps;
-            (f(&(p + d)) - f(&(p - d))) / (2.0 * eps)
-        }))
-    };
-    let project = |mut p: Point3<f64>| {
-        for _ in 0..2 {
-            let g = gradient(&p);
-            let g2 = g.norm_squared();
-            if g2 > 0.0 {
-                p -= g * (f(&p) / g2);
-            }
-        }
-        p
-    };
+    let gradient = |p: &Point3<f64>| implicit_gradient(f, p, h);
+    let project = |p: Point3<f64>| project_to_zero_set(f, p, h);
     let mut relaxed = positions.clone();
     for _ in 0..rounds {
         relaxed = (0..relaxed.len())
@@ -758,6 +768,15 @@ fn implicit_mesh(
 /// at genus 2: 64 gives ≈ 30k triangles). Euler characteristic 2 − 2·genus.
 pub fn genus_bumpy(genus: usize, cells: usize) -> TriMesh {
     let g = genus.clamp(1, 8);
+    let (f, lo, hi) = genus_bumpy_field(g);
+    implicit_mesh(&format!("genus{g}"), &f, lo, hi, cells.max(8))
+}
+
+/// The implicit function of [`genus_bumpy`] (negative inside) and the box around its zero set.
+type Field = (Box<dyn Fn(&Point3<f64>) -> f64>, Point3<f64>, Point3<f64>);
+
+/// [`genus_bumpy`]'s field for `g` rings (already clamped to 1..=8).
+fn genus_bumpy_field(g: usize) -> Field {
     let (big_r, small_r) = (1.0, 0.38);
     let centres: Vec<Point3<f64>> = (0..g)
         .map(|k| Point3::new(2.0 * big_r * k as f64, 0.0, 0.0))
@@ -798,7 +817,7 @@ pub fn genus_bumpy(genus: usize, cells: usize) -> TriMesh {
         big_r + margin,
         margin,
     );
-    implicit_mesh(&format!("genus{g}"), &f, lo, hi, cells.max(8))
+    (Box::new(f), lo, hi)
 }
 
 /// Thin features (issue #23, like blub's fins): an ellipsoidal body (semi-axes 1, 0.6, 0.5)
@@ -861,4 +880,192 @@ pub fn pedestal(cells: usize) -> TriMesh {
     let lo = Point3::new(-1.45, -1.05, -0.8);
     let hi = Point3::new(1.45, 1.05, 1.75);
     implicit_mesh("pedestal", &f, lo, hi, cells.max(8))
+}
+
+// ---------------------------------------------------------------------------------------------
+// Unevenly sampled models (issue #37): one part of the surface sampled 3× finer than the rest,
+// like a scan whose face is denser than its cranium.
+
+/// The density ratio of the unevenly sampled models: √3-subdivision (Kobbelt, SIGGRAPH 2000)
+/// of the fine part splits every triangle's area in three.
+pub const UNEVEN_DENSITY_RATIO: f64 = 3.0;
+
+/// One step of √3-subdivision (Kobbelt 2000, "√3-Subdivision") restricted to the faces for
+/// which `fine(centroid)` holds: each such face t = (a, b, c) gets its centroid, moved onto the
+/// zero set of `f` by [`project_to_zero_set`], as a new vertex m_t; each of its edges (a, b)
+/// then gives one triangle: (a, m_s, m_t) when the face s across it is also fine (the edge
+/// flip of √3-subdivision), (a, b, m_t) otherwise. A fine face's area is split in three, the
+/// coarse faces are kept, and the result is a closed, consistently oriented 2-manifold when
+/// the input is.
+fn sqrt3_refine(
+    f: &dyn Fn(&Point3<f64>) -> f64,
+    mut positions: Vec<Point3<f64>>,
+    faces: &[[u32; 3]],
+    fine: &dyn Fn(&Point3<f64>) -> bool,
+    h: f64,
+) -> (Vec<Point3<f64>>, Vec<[u32; 3]>) {
+    let mut face_of_edge: std::collections::HashMap<(u32, u32), usize> =
+        std::collections::HashMap::new();
+    for (t, face) in faces.iter().enumerate() {
+        for c in 0..3 {
+            face_of_edge.insert((face[c], face[(c + 1) % 3]), t);
+        }
+    }
+    let centre: Vec<Option<u32>> = faces
+        .iter()
+        .map(|face| {
+            let [a, b, c] = face.map(|v| positions[v as usize]);
+            let g = Point3::from((a.coords + b.coords + c.coords) / 3.0);
+            fine(&g).then(|| {
+                positions.push(project_to_zero_set(f, g, h));
+                positions.len() as u32 - 1
+            })
+        })
+        .collect();
+    let mut refined = Vec::with_capacity(faces.len() * 2);
+    for (t, face) in faces.iter().enumerate() {
+        let Some(m_t) = centre[t] else {
+            refined.push(*face);
+            continue;
+        };
+        for c in 0..3 {
+            let (a, b) = (face[c], face[(c + 1) % 3]);
+            match face_of_edge.get(&(b, a)).and_then(|&s| centre[s]) {
+                Some(m_s) => refined.push([a, m_s, m_t]),
+                None => refined.push([a, b, m_t]),
+            }
+        }
+    }
+    (positions, refined)
+}
+
+/// A mesh of the zero set of `f` in [lo, hi] like [`implicit_mesh`] (`cells` cubes along the
+/// longest side, three rounds of [`relax_on_surface`]), then `steps` times the faces whose
+/// centroid is `fine` split in three by [`sqrt3_refine`]: the fine part has
+/// [`UNEVEN_DENSITY_RATIO`]^steps times the triangles per unit area of the rest. No relaxation after the split (it would smooth
+/// the density step away).
+fn uneven_implicit_mesh(
+    short: &str,
+    f: &dyn Fn(&Point3<f64>) -> f64,
+    (lo, hi): (Point3<f64>, Point3<f64>),
+    cells: usize,
+    fine: &dyn Fn(&Point3<f64>) -> bool,
+    steps: usize,
+) -> TriMesh {
+    let (positions, faces) = marching_tetrahedra(f, lo, hi, cells);
+    let h = (hi - lo).max() / cells.max(4) as f64;
+    let positions = relax_on_surface(f, positions, &faces, 3, h);
+    let (mut positions, mut faces) = (positions, faces);
+    for _ in 0..steps {
+        (positions, faces) = sqrt3_refine(f, positions, &faces, fine, h);
+    }
+    TriMesh::with_shared_indices(name(short), positions, Vec::new(), faces)
+}
+
+/// [`genus_bumpy`] with `genus` rings sampled unevenly (issue #37): the half x < x_mid (x_mid
+/// the middle of the row of rings) [`UNEVEN_DENSITY_RATIO`] times finer, by median triangle
+/// area, than the half x > x_mid. `cells` ≥ 8 as in [`genus_bumpy`]; at genus 2, 64 gives
+/// ≈ 66k triangles (the coarse half ≈ 16k, the fine half ≈ 50k).
+pub fn genus_uneven(genus: usize, cells: usize) -> TriMesh {
+    genus_uneven_steps(genus, cells, 1)
+}
+
+/// [`genus_uneven`] with `steps` √3 splits of the fine half: [`UNEVEN_DENSITY_RATIO`]^steps
+/// times denser (2 steps: 9×), a harder case than the issue's 3×.
+pub fn genus_uneven_steps(genus: usize, cells: usize, steps: usize) -> TriMesh {
+    let g = genus.clamp(1, 8);
+    let (f, lo, hi) = genus_bumpy_field(g);
+    let x_mid = (g - 1) as f64;
+    uneven_implicit_mesh(
+        &match steps {
+            1 => format!("genus{g}_uneven"),
+            _ => format!("genus{g}_uneven{}", 3usize.pow(steps as u32)),
+        },
+        &f,
+        (lo, hi),
+        cells.max(8),
+        &|p: &Point3<f64>| p.x < x_mid,
+        steps,
+    )
+}
+
+/// A head-like closed genus-0 surface (issue #37, like a skull scan whose face is sampled finer
+/// than its cranium): a cranium (ellipsoid centred (−0.15, 0, 0.25), semi-axes 1.0, 0.8, 0.85),
+/// a face and jaw (ellipsoid centred (0.45, 0, −0.35), semi-axes 0.6, 0.55, 0.55), a nose (a
+/// tapered capsule from (0.95, 0, −0.05) to (1.15, 0, −0.3), radius 0.12 → 0.06) blended with
+/// smooth minima of width 0.15 and 0.08, eye sockets (two Gaussian dents, depth 0.08, width
+/// 0.15) and brow bumps (height 0.05). Ellipsoid distances are the bounded
+/// (|q| − 1)·(smallest semi-axis), q the point in the ellipsoid's unit coordinates. The face
+/// side x > 0.3 is [`UNEVEN_DENSITY_RATIO`] times finer than the cranium side. `cells` ≥ 8
+/// grid cubes along the longest side; 64 gives ≈ 40k triangles.
+pub fn head_uneven(cells: usize) -> TriMesh {
+    uneven_implicit_mesh(
+        "head_uneven",
+        &head_field(false),
+        head_box(),
+        cells.max(8),
+        &|p: &Point3<f64>| p.x > 0.3,
+        1,
+    )
+}
+
+/// [`head_uneven`] with two thin handles like a skull's zygomatic arches (issue #37's scan is a
+/// genus-2 skull): each a bent bar of radius 0.07 (two capsules (0.55, ±0.45, −0.45) →
+/// (0, ±0.72, −0.45) → (−0.45, ±0.3, −0.4)) from the cheek to the side of the cranium,
+/// standing up to 0.21 off the head, blended with a smooth minimum of width 0.05. Genus 2.
+/// 64 cubes give ≈ 90k triangles.
+pub fn skull_uneven(cells: usize) -> TriMesh {
+    uneven_implicit_mesh(
+        "skull_uneven",
+        &head_field(true),
+        head_box(),
+        cells.max(8),
+        &|p: &Point3<f64>| p.x > 0.3,
+        1,
+    )
+}
+
+/// The box around [`head_field`]'s zero set.
+fn head_box() -> (Point3<f64>, Point3<f64>) {
+    (
+        Point3::new(-1.4, -1.05, -1.15),
+        Point3::new(1.45, 1.05, 1.3),
+    )
+}
+
+/// The implicit function of [`head_uneven`] (negative inside), with the arches of
+/// [`skull_uneven`] when `arches`.
+fn head_field(arches: bool) -> impl Fn(&Point3<f64>) -> f64 {
+    let ellipsoid = |p: &Point3<f64>, c: [f64; 3], r: [f64; 3]| {
+        let q = nalgebra::Vector3::new(
+            (p.x - c[0]) / r[0],
+            (p.y - c[1]) / r[1],
+            (p.z - c[2]) / r[2],
+        );
+        (q.norm() - 1.0) * r[0].min(r[1]).min(r[2])
+    };
+    let eyes = [Point3::new(0.78, 0.3, 0.1), Point3::new(0.78, -0.3, 0.1)];
+    let brows = [Point3::new(0.8, 0.3, 0.3), Point3::new(0.8, -0.3, 0.3)];
+    move |p: &Point3<f64>| {
+        let cranium = ellipsoid(p, [-0.15, 0.0, 0.25], [1.0, 0.8, 0.85]);
+        let face = ellipsoid(p, [0.45, 0.0, -0.35], [0.6, 0.55, 0.55]);
+        let nose = horn_sdf(
+            p,
+            &Point3::new(0.95, 0.0, -0.05),
+            &Point3::new(1.15, 0.0, -0.3),
+            0.12,
+            0.06,
+        );
+        let mut d = smooth_min(smooth_min(cranium, face, 0.15), nose, 0.08);
+        if arches {
+            for side in [1.0, -1.0] {
+                let a = Point3::new(0.55, 0.45 * side, -0.45);
+                let m = Point3::new(0.0, 0.72 * side, -0.45);
+                let b = Point3::new(-0.45, 0.3 * side, -0.4);
+                let bar = horn_sdf(p, &a, &m, 0.07, 0.07).min(horn_sdf(p, &m, &b, 0.07, 0.07));
+                d = smooth_min(d, bar, 0.05);
+            }
+        }
+        d + bumps(p, &eyes, 0.08, 0.15) - bumps(p, &brows, 0.05, 0.12)
+    }
 }
