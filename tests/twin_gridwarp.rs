@@ -2,7 +2,7 @@
 //! per-cell energies, F, JᵀJ and Jᵀr (the cells' shares added by the host in f64, as
 //! gpu/src/gridwarp/aa.rs does). The canonical vectors accept the twin under every arithmetic
 //! model a conforming GPU may use and reject the porting mistakes below (mutants). The printed
-//! tables are the README's.
+//! tables are those of src/vectors/README.md.
 
 mod common;
 

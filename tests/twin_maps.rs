@@ -3,7 +3,7 @@
 //! - under every arithmetic model a conforming GPU may use (correctly rounded, FMA-contracted,
 //!   reordered, at the edge of the WGSL table) the canonical vectors accept it;
 //! - no bound is 0;
-//! - the porting mistakes below (mutants) are all rejected. The printed tables are the README's.
+//! - the porting mistakes below (mutants) are all rejected. The printed tables are those of src/vectors/README.md.
 //!
 //! A mutant is the kernel's body with one mistake, built from the twin's own functions by the
 //! harnesses [`priority_port`] and [`flatten_port`]; with no mistake each harness equals the

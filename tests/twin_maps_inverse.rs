@@ -153,7 +153,7 @@ const MUTANTS: [(&str, &str, Body); 7] = [
     ),
     (
         "base_face_direct",
-        "the walk starts at face q, not base_to_face[q]",
+        "the walk starts at face q, not base_to_face\\[q\\]",
         body!(Mistake::BaseFaceDirect),
     ),
     (

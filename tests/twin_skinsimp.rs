@@ -4,7 +4,7 @@
 //!   reordered, at the edge of the WGSL table) the canonical vectors accept it (issue #34: an
 //!   FMA port once failed 42 elements whose bound was exactly 0);
 //! - no bound is 0;
-//! - the porting mistakes below (mutants) are all rejected. The printed table is the README's.
+//! - the porting mistakes below (mutants) are all rejected. The printed table is the one in src/vectors/README.md.
 
 mod common;
 
@@ -437,7 +437,7 @@ fn vertex_quadrics_every_model_passes_every_mutant_fails() {
     let mutants: [(&str, &str, Gather, PoseOf); 6] = [
         (
             "first_source_skipped",
-            "the sum starts at offsets[v] + 1",
+            "the sum starts at offsets\\[v\\] + 1",
             |o, s, _, v| s[o[v] + 1..o[v + 1]].to_vec(),
             |j| j,
         ),

@@ -2,7 +2,7 @@
 //! - under every arithmetic model a conforming GPU may use (correctly rounded, FMA-contracted,
 //!   reordered, at the edge of the WGSL table) the canonical vectors accept it;
 //! - no bound is 0, and the vectors exercise the solve and all three fallbacks;
-//! - the porting mistakes below (mutants) are all rejected. The printed table is the README's.
+//! - the porting mistakes below (mutants) are all rejected. The printed table is the one in src/vectors/README.md.
 
 mod common;
 

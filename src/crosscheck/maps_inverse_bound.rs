@@ -1,22 +1,22 @@
 //! The bound of `maps_inverse`'s positions, per query, derived from the kernel's f32 twin
-//! ([`crate::twin::maps_inverse`]) evaluated over [`Lin`] (issue #34: no constant bounds).
+//! ([`crate::twin::maps_inverse`]) evaluated over [`Lin`](crate::twin::Lin) (issue #34: no constant bounds).
 //!
 //! For a query, the kernel's output differs from the reference's Π⁻¹ (f64 on the f64 charts)
 //! by two parts:
 //!
 //! - the inputs: the kernel reads the charts and positions rounded to f32. The twin over
-//!   [`Lin`] evaluates Π⁻¹ in f64 on exactly those inputs; its distance to the reference is
+//!   [`Lin`](crate::twin::Lin) evaluates Π⁻¹ in f64 on exactly those inputs; its distance to the reference is
 //!   computed, not estimated: d_in = ‖Π⁻¹_f64(rounded tables) − Π⁻¹_f64(charts)‖;
 //! - the arithmetic: every operation of the walk (to_plane's 3-term sums, each orient2d, the
 //!   barycentric quotient, the clamp's renormalisation, the final interpolation) may err as the
-//!   WGSL table allows. [`first_order_bound`] sums |∂p/∂eᵢ| aᵢ over them, along the walk the
-//!   reference takes, per coordinate; the bound is [`SECOND_ORDER`] times that (the
+//!   WGSL table allows. [`first_order_bound`](crate::twin::lin::first_order_bound) sums |∂p/∂eᵢ| aᵢ over them, along the walk the
+//!   reference takes, per coordinate; the bound is [`SECOND_ORDER`](crate::twin::lin::SECOND_ORDER) times that (the
 //!   [`crate::twin::lin`] module docs: why 2 covers the neglected terms).
 //!
 //! The choice of a star face near its edges is not a branch between formulas: the faces' maps
 //! agree on the shared edge, so a GPU that takes the neighbour lands on the same point to first
 //! order. Where a barycentric quotient's divisor is not trusted to first order (a star face of
-//! almost no area in its chart), the bound is [`UNBOUNDED`].
+//! almost no area in its chart), the bound is [`UNBOUNDED`](crate::crosscheck::bpm_bound::UNBOUNDED).
 //!
 //! bound = d_in + 2 ‖(b_x, b_y, b_z)‖₂, b_c the first-order bound of coordinate c.
 

@@ -369,7 +369,7 @@ impl CostBound {
     }
 
     /// How much v̂ᵀQ̃v̂ (or E, equal to it) may change when the kept point `choice`, at `v`,
-    /// moves by Δv ≤ [`Self::position`]: 2 |g| Δv + ‖B‖_F Δv², g = (Q̃ v̂)[0:3] the half
+    /// moves by Δv ≤ [`Self::position`]: 2 |g| Δv + ‖B‖_F Δv², g = (Q̃ v̂)\[0:3\] the half
     /// gradient (0 at the solution, the minimum) (step 4).
     pub fn moved(&self, choice: u32, v: &Point3<f64>) -> f64 {
         let dv = self.position(choice);

@@ -4,7 +4,7 @@
 //!
 //! - A^j = Σ_k α_k M_k^j ([`blend`]), Q^j = Q_a^j + Q_b^j ([`summed_quadric`]);
 //! - Q̃ = Σ_j A^{jT} Q^j A^j ([`position_quadric`]);
-//! - v = −B⁻¹ b for B = Q̃[0:3,0:3], b = Q̃[0:3,3], when cond_F(B) ≤ max_condition
+//! - v = −B⁻¹ b for B = Q̃\[0:3,0:3\], b = Q̃\[0:3,3\], when cond_F(B) ≤ max_condition
 //!   ([`solve_position`]);
 //! - v̂ = the least v̂ᵀQ̃v̂ among {v, a, b, (a + b)/2}, ties to the earlier
 //!   ([`skinsimp_collapse_cost`]);

@@ -68,10 +68,11 @@ pub mod mutation {
         }
     }
 
-    fn line(name: &str, mistake: &str, r: &VerifyReport) -> String {
+    /// One row; `verdict` names what the report's pass or fail means for this candidate.
+    fn line(name: &str, mistake: &str, verdict: [&str; 2], r: &VerifyReport) -> String {
         format!(
             "| `{name}` | {mistake} | {} | {:.3e} | {} of {} |",
-            if r.pass { "**survived**" } else { "killed" },
+            if r.pass { verdict[0] } else { verdict[1] },
             r.worst_ratio,
             r.over,
             r.errors.count
@@ -81,7 +82,12 @@ pub mod mutation {
     impl MutationTable {
         /// The twin under `model` (a model's name): it must pass.
         pub fn twin(&mut self, model: &str, r: &VerifyReport) {
-            self.lines.push(line(&format!("twin ({model})"), "none", r));
+            self.lines.push(line(
+                &format!("twin ({model})"),
+                "none",
+                ["pass", "**FAIL**"],
+                r,
+            ));
             if !r.pass {
                 self.wrong.push(format!("the twin under {model} fails"));
             }
@@ -89,7 +95,8 @@ pub mod mutation {
 
         /// A mutant: it must fail.
         pub fn mutant(&mut self, name: &str, mistake: &str, r: &VerifyReport) {
-            self.lines.push(line(name, mistake, r));
+            self.lines
+                .push(line(name, mistake, ["**survived**", "killed"], r));
             if r.pass {
                 self.wrong.push(format!("mutant {name} survives"));
             }
