@@ -8,7 +8,7 @@
 //! REPARAM_REQUIRE_GPU=1 they fail instead.
 #![cfg(feature = "gpu")]
 
-use reparam::crosscheck::maps::{inverse_within_bounds, INVERSE_POSITION_MAX};
+use reparam::crosscheck::maps::inverse_within_bounds;
 use reparam::maps::gpu::{
     crosscheck_flatten, crosscheck_inverse, crosscheck_priority, inverse_gpu, inverse_tables,
     level_rings, normalise, FlattenCrosscheck, InverseCrosscheck, LevelRings, PriorityCrosscheck,
