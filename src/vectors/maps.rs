@@ -3,12 +3,12 @@
 //! (`maps_inverse`), from the hierarchy's tables as the kernel receives them, against the f64
 //! reference ([`crate::maps::priority`], [`crate::maps::flatten`],
 //! [`crate::maps::Param::inverse`]; MAPS §3, seed 002), each element held to the cross-check's
-//! own bound ([`crate::crosscheck::maps_bound`], [`INVERSE_POSITION_MAX`]).
+//! own bound ([`crate::crosscheck::maps_bound`], [`crate::crosscheck::maps_inverse_bound`]).
 
 use nalgebra::Point3;
 
 use super::{Array, KernelData, Metric, VectorsAndCandidates};
-use crate::crosscheck::maps::{compared_rings, INVERSE_POSITION_MAX};
+use crate::crosscheck::maps::compared_rings;
 use crate::crosscheck::maps_bound::{
     flatten_bounds, flatten_reference, kind_of, priority_bounds, priority_reference, FlattenBounds,
     FlattenReference,
@@ -191,11 +191,14 @@ pub fn run_vectors(
     ];
     let h = hausdorff_normalised(&norm, maps, &cpu_points, faces);
     let expected = vec![counts[0], counts[1], counts[2], h];
-    let h_bound = if h > 0.0 {
-        INVERSE_POSITION_MAX / h
-    } else {
-        INVERSE_POSITION_MAX
-    };
+    // d: the largest per-point bound of maps_inverse over the remesh's vertices.
+    let flat = FlatTables::of(&inverse_tables(maps, &norm));
+    let d = base_queries(&remesh.params)
+        .iter()
+        .zip(&cpu_points)
+        .map(|(q, p)| inverse_position_bound(&flat.tables(), q, [p.x, p.y, p.z]))
+        .fold(0.0, f64::max);
+    let h_bound = if h > 0.0 { d / h } else { d };
     let kernel = KernelData {
         name: "maps_run".into(),
         description: "the MAPS hierarchy (§3) to its base domain and a remesh of it (§4): the \
@@ -258,15 +261,15 @@ pub fn run_vectors(
         metric: Metric::Relative {
             unit: "relative".into(),
         },
-        bound_formula: "counts: exact; Hausdorff: 1e-5 / H (INVERSE_POSITION_MAX over the \
-            figure)"
+        bound_formula: "counts: exact; Hausdorff: d / H, d the largest of maps_inverse's \
+            per-point bounds over the remesh's vertices"
             .into(),
         derivation: "the counts are integers decided by the priority queue and the stopping \
             rule: an implementation of the same removals (priority λ·a/max a + (1−λ)·κ/max κ, \
             ties to the lower vertex index, the same degree limit) reproduces them exactly. \
             Moving every remesh vertex by ≤ d moves every point of the remesh by ≤ d (a convex \
             combination), so the Hausdorff distance moves by ≤ d both ways; Π⁻¹ is within \
-            d = 1e-5 of the diagonal (maps_inverse's bound)"
+            d of the diagonal (maps_inverse's per-point bounds, crosscheck::maps_inverse_bound)"
             .into(),
         per_element: vec![],
         covers: Vec::new(),
