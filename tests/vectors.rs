@@ -351,3 +351,24 @@ fn the_seeds_determinant_fit_fails_bpm_precompute_on_the_speckle_mesh() {
         .iter()
         .any(|(n, _)| n.ends_with("face.npy")));
 }
+
+/// `reparam vectors <algorithm> --twins`: every kernel's twin under the 7 arithmetic models on
+/// the vectors just written, one row per model, exit 0 when all are within their bounds (the
+/// failing side: `crosscheck::sweep`'s unit test of `twins_within_bounds`).
+#[test]
+fn vectors_twins_prints_every_model_and_passes_on_the_built_in_maps() {
+    let out = std::env::temp_dir().join(format!("reparam-twins-{}", std::process::id()));
+    let (code, stdout, stderr) =
+        reparam(&["vectors", "maps", "--twins", "--out", out.to_str().unwrap()]);
+    let _ = std::fs::remove_dir_all(&out);
+    assert_eq!(code, 0, "{stdout}\n{stderr}");
+    for needle in [
+        "maps_inverse",
+        "maps_priority",
+        "maps_flatten.points",
+        "worst#2",
+        "every twin within its bounds under every model",
+    ] {
+        assert!(stdout.contains(needle), "{needle}: {stdout}");
+    }
+}

@@ -230,7 +230,12 @@ fn dispatch_command(command: Command) -> Result<u8, (crate::Error, u8)> {
         Command::Bpm(cmd) => bpm::run(cmd),
         Command::Crosscheck(args) => return crosscheck::try_run(args).map_err(|e| (e, 2)),
         #[cfg(feature = "gpu")]
-        Command::Vectors(args) => vectors::run(args),
+        Command::Vectors(args) => {
+            return vectors::run(args).map_err(|e| {
+                let status = e.exit_status();
+                (e, status)
+            })
+        }
         #[cfg(feature = "gpu")]
         Command::Verify(args) => {
             return match vectors::try_verify(&args) {

@@ -19,6 +19,12 @@ pub struct VectorsArgs {
     /// candidate that `reparam verify` should pass.
     #[arg(long, global = true)]
     pub gpu_candidate: Option<PathBuf>,
+    /// Also run each kernel's f32 twin under the 7 arithmetic models a conforming GPU may use
+    /// (nearest, FMA, reordered, the edge of the WGSL table, all at once) against the written
+    /// vectors and print the worst error / bound per kernel and model: whether the bounds hold
+    /// for every conforming GPU on this input. Exit 1 if one does not.
+    #[arg(long, global = true)]
+    pub twins: bool,
 }
 
 #[derive(Subcommand)]
@@ -197,7 +203,22 @@ fn make(algorithm: &VectorsAlgorithm, gpu: Option<&reparam_gpu::Gpu>) -> Result<
     }
 }
 
-pub fn run(args: VectorsArgs) -> Result<()> {
+impl VectorsAlgorithm {
+    /// The algorithm's name (`bpm`, `gridwarp`, …).
+    pub fn name(&self) -> &'static str {
+        match self {
+            VectorsAlgorithm::Bpm { .. } => "bpm",
+            VectorsAlgorithm::Gridwarp { .. } => "gridwarp",
+            VectorsAlgorithm::Unwarp { .. } => "unwarp",
+            VectorsAlgorithm::Maps { .. } => "maps",
+            VectorsAlgorithm::Skinsimp { .. } => "skinsimp",
+        }
+    }
+}
+
+/// `reparam vectors`: write the vectors (and the GPU's candidates); with `--twins`, exit 1 when
+/// a twin exceeds a bound under some model.
+pub fn run(args: VectorsArgs) -> Result<u8> {
     let gpu = match &args.gpu_candidate {
         Some(_) => Some(reparam_gpu::Gpu::new().map_err(|e| Error::Gpu(e.to_string()))?),
         None => None,
@@ -228,7 +249,36 @@ pub fn run(args: VectorsArgs) -> Result<()> {
             outln!("GPU candidate ({adapter}): {}", path.display());
         }
     }
-    Ok(())
+    if args.twins {
+        return twins(&args, &manifest);
+    }
+    Ok(0)
+}
+
+/// `--twins`: the arithmetic-model table of the vectors just written.
+fn twins(args: &VectorsArgs, manifest: &crate::vectors::Manifest) -> Result<u8> {
+    use crate::crosscheck::sweep::{twin_model_sweep_of, twins_within_bounds};
+    let algorithm = args.algorithm.name();
+    let Some(sweep) = twin_model_sweep_of(algorithm, &args.out, manifest)? else {
+        outln!("no kernel of {algorithm} has a twin runner");
+        return Ok(0);
+    };
+    let (header, rows) = sweep.table();
+    outln!("\n{}", sweep.title);
+    outln!("{}", header.join(" | "));
+    for row in rows {
+        outln!("{}", row.join(" | "));
+    }
+    let within = twins_within_bounds(&sweep);
+    outln!(
+        "{}",
+        if within {
+            "every twin within its bounds under every model"
+        } else {
+            "FAIL: a twin exceeds a bound under some model"
+        }
+    );
+    Ok(if within { 0 } else { 1 })
 }
 
 #[derive(Args)]

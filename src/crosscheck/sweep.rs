@@ -439,52 +439,74 @@ pub fn skinsimp_sweeps(gpu: &Gpu) -> Result<Vec<Sweep>> {
 /// kernel and model the worst error / bound that `verify` reports; the bound is the line at 1.
 /// `None` when no kernel of `algorithm` has a runner.
 pub fn twin_model_sweep(algorithm: &str) -> Result<Option<Sweep>> {
-    use crate::twin::candidate::runner;
-    use crate::vectors::verify::verify_array;
     let (input, kernels) = crate::vectors::canonical(algorithm)?;
     let dir = std::env::temp_dir().join(format!(
         "reparam-twin-sweep-{}-{algorithm}",
         std::process::id()
     ));
-    let manifest = crate::vectors::write_vectors(&dir, "crosscheck --sweep", &input, &kernels);
-    let result = manifest.and_then(|manifest| {
-        let mut sweep = Sweep::new(
-            algorithm,
-            &format!("{algorithm}_arithmetic_models"),
-            &format!(
-                "{algorithm}: worst error / bound of each twin under each conforming arithmetic"
-            ),
-            MODEL_AXIS,
-            "worst error / derived bound",
-        );
-        for k in &manifest.kernels {
-            let Some(run) = runner(&k.name) else {
-                continue;
-            };
-            let points = Model::CHECKED
-                .iter()
-                .enumerate()
-                .map(|(x, &model)| {
-                    let candidate = run(&dir, k, model)?;
-                    let report = verify_array(&dir, k, &candidate, "twin")?;
-                    Ok(((x + 1) as f64, report.worst_ratio))
-                })
-                .collect::<Result<Vec<_>>>()?;
-            sweep.add(&k.name, false, points);
-        }
-        if sweep.series.is_empty() {
-            return Ok(None);
-        }
-        let ones = (1..=Model::CHECKED.len())
-            .map(|x| (x as f64, 1.0))
-            .collect();
-        sweep.add("bound (ratio 1)", true, ones);
-        sweep.step_names = Model::CHECKED.iter().map(|m| m.name()).collect();
-        Ok(Some(sweep))
-    });
+    let result = crate::vectors::write_vectors(&dir, "crosscheck --sweep", &input, &kernels)
+        .and_then(|manifest| twin_model_sweep_of(algorithm, &dir, &manifest));
     // The folder is scratch: a failure to remove it leaves files in the temporary folder only.
     let _ = std::fs::remove_dir_all(&dir);
     result
+}
+
+/// [`twin_model_sweep`] on the vectors `manifest` in `dir` (any input: `reparam vectors …
+/// --twins` runs it on the user's own model).
+pub fn twin_model_sweep_of(
+    algorithm: &str,
+    dir: &std::path::Path,
+    manifest: &crate::vectors::Manifest,
+) -> Result<Option<Sweep>> {
+    use crate::twin::candidate::runner;
+    use crate::vectors::verify::verify_array;
+    let mut sweep = Sweep::new(
+        algorithm,
+        &format!("{algorithm}_arithmetic_models"),
+        &format!("{algorithm}: worst error / bound of each twin under each conforming arithmetic"),
+        MODEL_AXIS,
+        "worst error / derived bound",
+    );
+    for k in &manifest.kernels {
+        let Some(run) = runner(&k.name) else {
+            continue;
+        };
+        let points = Model::CHECKED
+            .iter()
+            .enumerate()
+            .map(|(x, &model)| {
+                let candidate = run(dir, k, model)?;
+                let report = verify_array(dir, k, &candidate, "twin")?;
+                // A NaN fails whatever the finite elements' ratio says: ∞.
+                let ratio = if report.pass || report.worst_ratio > 1.0 {
+                    report.worst_ratio
+                } else {
+                    f64::INFINITY
+                };
+                Ok(((x + 1) as f64, ratio))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        sweep.add(&k.name, false, points);
+    }
+    if sweep.series.is_empty() {
+        return Ok(None);
+    }
+    let ones = (1..=Model::CHECKED.len())
+        .map(|x| (x as f64, 1.0))
+        .collect();
+    sweep.add("bound (ratio 1)", true, ones);
+    sweep.step_names = Model::CHECKED.iter().map(|m| m.name()).collect();
+    Ok(Some(sweep))
+}
+
+/// Whether every twin's series of `sweep` stays within its bounds (ratio ≤ 1 under every
+/// model).
+pub fn twins_within_bounds(sweep: &Sweep) -> bool {
+    sweep
+        .series
+        .iter()
+        .filter(|s| !s.bound)
+        .all(|s| s.points.iter().all(|p| p.1 <= 1.0))
 }
 
 /// The sweeps of `algorithm` (`bpm`, `gridwarp`, `unwarp`, `maps`, `skinsimp`), the twins'
@@ -504,4 +526,29 @@ pub fn sweeps_of(gpu: &Gpu, algorithm: &str) -> Result<Vec<Sweep>> {
         sweeps.extend(twin_model_sweep(algorithm)?);
     }
     Ok(sweeps)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sweep_with(ratios: &[f64]) -> Sweep {
+        let mut sweep = Sweep::new("x", "x", "x", MODEL_AXIS, "ratio");
+        let points = ratios
+            .iter()
+            .enumerate()
+            .map(|(k, &r)| ((k + 1) as f64, r))
+            .collect();
+        sweep.add("kernel", false, points);
+        sweep.add("bound (ratio 1)", true, vec![(1.0, 1.0), (2.0, 1.0)]);
+        sweep
+    }
+
+    #[test]
+    fn twins_within_bounds_fails_on_a_ratio_over_1_an_infinity_or_a_nan() {
+        assert!(twins_within_bounds(&sweep_with(&[0.2, 1.0])));
+        assert!(!twins_within_bounds(&sweep_with(&[0.2, 1.5])));
+        assert!(!twins_within_bounds(&sweep_with(&[f64::INFINITY, 0.1])));
+        assert!(!twins_within_bounds(&sweep_with(&[0.1, f64::NAN])));
+    }
 }
