@@ -16,8 +16,7 @@ use reparam::twin::skinsimp_collapse_cost::{
     EdgeCost, EdgeItem, Solution, M4,
 };
 use reparam::twin::{Model, F, V3};
-use reparam::vectors::verify::{verify_array, VerifyReport};
-use reparam::vectors::{Array, KernelVectors};
+use reparam::vectors::KernelVectors;
 
 const KERNEL: &str = "skinsimp_collapse_cost";
 
@@ -27,11 +26,6 @@ fn dir() -> std::path::PathBuf {
 
 fn kernel() -> KernelVectors {
     common::canonical::kernel("skinsimp", KERNEL)
-}
-
-fn judge(k: &KernelVectors, body: Body, model: Model) -> VerifyReport {
-    let c = candidate_with(&dir(), k, model, body).unwrap();
-    verify_array(&dir(), k, &c, "twin").unwrap()
 }
 
 /// The porting mistakes, each one step of the kernel done wrong.
@@ -250,22 +244,11 @@ const MUTANTS: [(&str, &str, Body); 9] = [
 
 #[test]
 fn every_model_passes_every_mutant_fails_and_no_bound_is_zero() {
-    let k = kernel();
-    let bounds = Array::load(&dir().join(&k.bound.file)).unwrap().to_f64();
-    let zero = bounds.iter().filter(|&&b| b == 0.0).count();
-    assert_eq!(zero, 0, "{zero} of {} bounds are exactly 0", bounds.len());
-    let mut table = MutationTable::default();
-    for model in Model::CHECKED {
-        let c = candidate(&dir(), &k, model).unwrap();
-        table.twin(
-            &model.name(),
-            &verify_array(&dir(), &k, &c, "twin").unwrap(),
-        );
-    }
-    for (name, mistake, body) in MUTANTS {
-        table.mutant(name, mistake, &judge(&k, body, Model::Nearest));
-    }
-    table.finish();
+    let run = |model: Model, body: Option<Body>| match body {
+        Some(body) => candidate_with(&dir(), &kernel(), model, body).unwrap(),
+        None => candidate(&dir(), &kernel(), model).unwrap(),
+    };
+    MutationTable::judge_kernel(&dir(), &kernel(), run, &MUTANTS);
 }
 
 /// The mutants' harness with no mistake is the twin, bit for bit (so that each mutant differs

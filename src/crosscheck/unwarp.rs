@@ -443,8 +443,8 @@ mod tests {
     /// and the bound is the guard's sublevel radius √(4ηF/λ_min): positive, and far inside the
     /// fan's polygon (≈ 1.4 texels).
     #[test]
-    fn a_stationary_nodes_bound_is_the_sublevel_radius_not_zero() {
-        let heights = HeightMap::new("flat", 8, 8, vec![0.3; 64]).unwrap();
+    fn a_stationary_nodes_bound_is_the_sublevel_radius_not_zero() -> Result<()> {
+        let heights = HeightMap::new("flat", 8, 8, vec![0.3; 64])?;
         let options = UnwarpOptions {
             fixation: FixationOptions {
                 delta: 0.0,
@@ -452,11 +452,12 @@ mod tests {
             },
             ..Default::default()
         };
-        let problem = Problem::new(&heights, &options).unwrap();
+        let problem = Problem::new(&heights, &options)?;
         let offsets = vec![[0.0; 2]; 64];
         let step = descend_texel_traced(&problem, &offsets, 2, 2);
         assert_eq!((step.gradient, step.bracket), ([0.0; 2], None));
         let bound = step_bound(&problem, &offsets, 2, 2);
         assert!(bound > 0.0 && bound < 0.01, "{bound} texels");
+        Ok(())
     }
 }

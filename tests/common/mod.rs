@@ -49,7 +49,11 @@ pub fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
 /// mutant that survived.
 #[cfg(feature = "gpu")]
 pub mod mutation {
-    use reparam::vectors::verify::VerifyReport;
+    use std::path::Path;
+
+    use reparam::twin::Model;
+    use reparam::vectors::verify::{verify_array, VerifyReport};
+    use reparam::vectors::{Array, KernelVectors};
 
     pub struct MutationTable {
         lines: Vec<String>,
@@ -100,6 +104,30 @@ pub mod mutation {
             if r.pass {
                 self.wrong.push(format!("mutant {name} survives"));
             }
+        }
+
+        /// The whole judgement of a kernel on its canonical vectors in `dir`: no bound is
+        /// exactly 0, `run(model, None)` (the twin) passes under every model of
+        /// [`Model::CHECKED`], `run(Model::Nearest, Some(body))` fails for every mutant; the
+        /// table is printed, and the test panics naming what went wrong.
+        pub fn judge_kernel<B: Copy>(
+            dir: &Path,
+            k: &KernelVectors,
+            run: impl Fn(Model, Option<B>) -> Array,
+            mutants: &[(&str, &str, B)],
+        ) {
+            let bounds = Array::load(&dir.join(&k.bound.file)).unwrap().to_f64();
+            let zero = bounds.iter().filter(|&&b| b == 0.0).count();
+            assert_eq!(zero, 0, "{zero} of {} bounds are exactly 0", bounds.len());
+            let judge = |c: &Array| verify_array(dir, k, c, "twin").unwrap();
+            let mut table = MutationTable::default();
+            for model in Model::CHECKED {
+                table.twin(&model.name(), &judge(&run(model, None)));
+            }
+            for &(name, mistake, body) in mutants {
+                table.mutant(name, mistake, &judge(&run(Model::Nearest, Some(body))));
+            }
+            table.finish();
         }
 
         /// Print the table; panic if a twin failed or a mutant survived.
