@@ -100,17 +100,7 @@ pub fn errors_at_samples(
     let Metric::BpmMapsAtSamples { scale, faces, .. } = k.metric else {
         return Ok(Vec::new());
     };
-    let input = |name: &str| -> Result<Vec<f64>> {
-        let info = k
-            .inputs
-            .iter()
-            .find(|i| i.file.ends_with(&format!(".{name}.npy")))
-            .ok_or_else(|| Error::Vectors {
-                file: dir.join("manifest.json").display().to_string(),
-                reason: format!("kernel {} has no '{name}' input", k.name),
-            })?;
-        Ok(Array::load(&dir.join(&info.file))?.to_f64())
-    };
+    let input = |name: &str| -> Result<Vec<f64>> { Ok(k.load_input(dir, name)?.to_f64()) };
     let (face, bary) = (input("face")?, input("bary")?);
     let options = BpmOptions::default();
     face.iter()

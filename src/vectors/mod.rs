@@ -194,6 +194,22 @@ pub struct KernelVectors {
     pub covers: Vec<String>,
 }
 
+impl KernelVectors {
+    /// The input array called `name` (`<kernel>.<name>.npy` in the vectors folder `dir`);
+    /// [`Error::Vectors`] naming the manifest when the kernel has no such input.
+    pub fn load_input(&self, dir: &Path, name: &str) -> Result<Array> {
+        let info = self
+            .inputs
+            .iter()
+            .find(|i| i.file.ends_with(&format!(".{name}.npy")))
+            .ok_or_else(|| Error::Vectors {
+                file: dir.join("manifest.json").display().to_string(),
+                reason: format!("kernel {} has no input '{name}'", self.name),
+            })?;
+        Array::load(&dir.join(&info.file))
+    }
+}
+
 /// `manifest.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Manifest {

@@ -130,6 +130,19 @@ pub mod mutation {
             table.finish();
         }
 
+        /// The mutants' harness with no mistake is the twin: `harness` equals `twin` bit for
+        /// bit (so that each mutant differs from the twin by its one mistake only).
+        pub fn assert_bit_identical(twin: &Array, harness: &Array) {
+            let (a, b) = (twin.to_f64(), harness.to_f64());
+            assert_eq!(a.len(), b.len());
+            let differ = a
+                .iter()
+                .zip(&b)
+                .filter(|(x, y)| x.to_bits() != y.to_bits())
+                .count();
+            assert_eq!(differ, 0, "{differ} of {} values differ", a.len());
+        }
+
         /// Print the table; panic if a twin failed or a mutant survived.
         pub fn finish(self) {
             let table = self.lines.join("\n");
@@ -166,12 +179,7 @@ pub mod canonical {
 
     /// Kernel `k`'s input array called `name` (`<kernel>.<name>.npy`).
     pub fn input(algorithm: &str, k: &KernelVectors, name: &str) -> Array {
-        let info = k
-            .inputs
-            .iter()
-            .find(|i| i.file.ends_with(&format!(".{name}.npy")))
-            .unwrap();
-        Array::load(&dir(algorithm).join(&info.file)).unwrap()
+        k.load_input(&dir(algorithm), name).unwrap()
     }
 }
 

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::{as_f32, as_u32, input};
+use super::{as_f32, as_u32};
 use crate::error::Result;
 use crate::twin::maps_inverse::{inverse, InverseResult, Tables};
 use crate::twin::{with_model, Model, F, V3};
@@ -14,15 +14,15 @@ pub type Body = fn(&Tables, u32, V3<F>) -> InverseResult<F>;
 
 /// The candidate of `body` on the vectors in `dir` under `model`: [queries, 3].
 pub fn candidate_with(dir: &Path, k: &KernelVectors, model: Model, body: Body) -> Result<Array> {
-    let positions = as_f32(&input(dir, k, "positions")?);
-    let corners = as_u32(&input(dir, k, "face_corners")?);
-    let created_by = as_u32(&input(dir, k, "face_created_by")?);
-    let charts = as_f32(&input(dir, k, "charts")?);
-    let removals = as_u32(&input(dir, k, "removals")?);
-    let old_faces = as_u32(&input(dir, k, "old_faces")?);
-    let base_to_face = as_u32(&input(dir, k, "base_to_face")?);
-    let query_face = as_u32(&input(dir, k, "query_face")?);
-    let query_bary = as_f32(&input(dir, k, "query_bary")?);
+    let positions = as_f32(&k.load_input(dir, "positions")?);
+    let corners = as_u32(&k.load_input(dir, "face_corners")?);
+    let created_by = as_u32(&k.load_input(dir, "face_created_by")?);
+    let charts = as_f32(&k.load_input(dir, "charts")?);
+    let removals = as_u32(&k.load_input(dir, "removals")?);
+    let old_faces = as_u32(&k.load_input(dir, "old_faces")?);
+    let base_to_face = as_u32(&k.load_input(dir, "base_to_face")?);
+    let query_face = as_u32(&k.load_input(dir, "query_face")?);
+    let query_bary = as_f32(&k.load_input(dir, "query_bary")?);
     let tables = Tables {
         positions: &positions,
         corners: &corners,

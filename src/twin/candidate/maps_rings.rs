@@ -4,7 +4,6 @@
 
 use std::path::Path;
 
-use super::input;
 use crate::error::{Error, Result};
 use crate::twin::maps_priority::Ring;
 use crate::twin::{F, V3};
@@ -14,9 +13,9 @@ use crate::vectors::KernelVectors;
 /// (centre, first, count, kind, s, t, 0, 0) of `rings`, its ring vertices
 /// `neighbours[first .. first + count]`, each a row (x, y, z, 0) of `positions`.
 pub fn rings(dir: &Path, k: &KernelVectors) -> Result<Vec<Ring<F>>> {
-    let positions = input(dir, k, "positions")?.to_f64();
-    let neighbours = input(dir, k, "neighbours")?.to_f64();
-    let headers = input(dir, k, "rings")?.to_f64();
+    let positions = k.load_input(dir, "positions")?.to_f64();
+    let neighbours = k.load_input(dir, "neighbours")?.to_f64();
+    let headers = k.load_input(dir, "rings")?.to_f64();
     let bad = |what: String| Error::Vectors {
         file: dir.display().to_string(),
         reason: format!("{}: {what}", k.name),

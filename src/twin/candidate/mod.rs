@@ -17,21 +17,8 @@ pub mod unwarp_pass;
 
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::vectors::{Array, KernelVectors};
-
-/// Kernel `k`'s input array called `name` (`<kernel>.<name>.npy` in `dir`).
-pub fn input(dir: &Path, k: &KernelVectors, name: &str) -> Result<Array> {
-    let info = k
-        .inputs
-        .iter()
-        .find(|i| i.file.ends_with(&format!(".{name}.npy")))
-        .ok_or_else(|| Error::Vectors {
-            file: dir.join("manifest.json").display().to_string(),
-            reason: format!("kernel {} has no input '{name}'", k.name),
-        })?;
-    Array::load(&dir.join(&info.file))
-}
 
 /// An array's values as the f32 a kernel reads.
 pub fn as_f32(a: &Array) -> Vec<f32> {

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::{as_f32, as_u32, input};
+use super::{as_f32, as_u32};
 use crate::error::Result;
 use crate::twin::skinsimp_collapse_cost::{skinsimp_collapse_cost, Buffers, EdgeCost, EdgeItem};
 use crate::twin::{with_model, Model, F};
@@ -27,13 +27,13 @@ pub fn row(out: &EdgeCost<F>) -> [f32; 14] {
 
 /// The candidate of `body` on the vectors in `dir` under `model`: [candidates, 14].
 pub fn candidate_with(dir: &Path, k: &KernelVectors, model: Model, body: Body) -> Result<Array> {
-    let rest = as_f32(&input(dir, k, "rest")?);
-    let quadrics = input(dir, k, "vertex_quadrics")?;
-    let matrices = input(dir, k, "matrices")?;
-    let edges = as_u32(&input(dir, k, "edges")?);
-    let bones = as_u32(&input(dir, k, "bones")?);
-    let alpha = as_f32(&input(dir, k, "alpha")?);
-    let max_condition = as_f32(&input(dir, k, "max_condition")?);
+    let rest = as_f32(&k.load_input(dir, "rest")?);
+    let quadrics = k.load_input(dir, "vertex_quadrics")?;
+    let matrices = k.load_input(dir, "matrices")?;
+    let edges = as_u32(&k.load_input(dir, "edges")?);
+    let bones = as_u32(&k.load_input(dir, "bones")?);
+    let alpha = as_f32(&k.load_input(dir, "alpha")?);
+    let max_condition = as_f32(&k.load_input(dir, "max_condition")?);
     let (pose_count, joint_count) = (matrices.shape[0] as u32, matrices.shape[1] as u32);
     let (vertex_quadrics, joints) = (as_f32(&quadrics), as_f32(&matrices));
     let buffers = Buffers {
