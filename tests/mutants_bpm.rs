@@ -15,12 +15,13 @@ use reparam::twin::bpm_common::{
     sl2_max_abs, sl2_scale, sl2_zero, Complex, Mobius, Sl2, TriangleMaps, FLAG_LINEAR_FALLBACK,
     FLAG_MIRRORED, INTERP_BPM, INTERP_LINEAR,
 };
-use reparam::twin::bpm_eval::{bpm_eval, Sample};
+use reparam::twin::bpm_eval::bpm_eval;
 use reparam::twin::bpm_precompute::{
-    edge_corners, star_layout, triangle_maps, StarInput, StarLayout, FIT_LOCAL, MASK_DEGENERATE,
+    edge_corners, star_layout, StarInput, StarLayout, MASK_DEGENERATE,
 };
+use reparam::twin::candidate::bpm::{self as candidate, EvalFn, PrecomputeFn};
 use reparam::twin::real::{cross, dot, is_finite, length, select, sum};
-use reparam::twin::{with_model, Model, Real, F, V2, V3};
+use reparam::twin::{Model, Real, F, V2, V3};
 use reparam::vectors::bpm::twin_io;
 use reparam::vectors::verify::{verify_array, VerifyReport};
 use reparam::vectors::{Array, KernelVectors};
@@ -47,22 +48,9 @@ fn judge(k: &KernelVectors, candidate: &Array, name: &str) -> VerifyReport {
 // ---------------------------------------------------------------------------------------------
 // bpm_eval
 
-/// An evaluation of one sample: the twin's kernel body or a mutant of it.
-type EvalFn = fn(&TriangleMaps<F>, V3<F>) -> Complex<F>;
-
 /// The eval kernel's candidate on the canonical inputs with `body` in place of `eval`.
 fn eval_candidate(k: &KernelVectors, body: EvalFn, model: Model) -> Array {
-    let maps = twin_io::maps(&input(k, "maps"), &input(k, "flags")).unwrap();
-    let samples = twin_io::samples(&input(k, "face"), &input(k, "bary")).unwrap();
-    let uv: Vec<Option<Complex<F>>> = samples
-        .iter()
-        .map(|s: &Sample<F>| {
-            let t = maps.get(s.face as usize)?;
-            let b = V3::new(sum(&[F::lit(1.0), -s.b[0], -s.b[1]]), s.b[0], s.b[1]);
-            Some(with_model(model, || body(t, b)))
-        })
-        .collect();
-    twin_io::uv_candidate(&uv)
+    candidate::eval_with(&dir(), k, model, body).unwrap()
 }
 
 fn correct_eval(t: &TriangleMaps<F>, b: V3<F>) -> Complex<F> {
@@ -221,17 +209,10 @@ fn the_canonical_eval_vectors_reject_every_mutant_and_accept_the_twin() {
 // ---------------------------------------------------------------------------------------------
 // bpm_precompute
 
-/// A precompute of one star: the twin's `triangle_maps` or a mutant of it.
-type PrecomputeFn = fn(&StarInput<F>) -> TriangleMaps<F>;
-
+/// The precompute kernel's candidate with `body` (the twin's `triangle_maps` or a mutant of
+/// it) per star.
 fn precompute_candidate(k: &KernelVectors, body: PrecomputeFn, model: Model) -> Array {
-    let stars =
-        twin_io::stars(&input(k, "star_p"), &input(k, "star_w"), &input(k, "mask")).unwrap();
-    let maps: Vec<TriangleMaps<F>> = stars
-        .iter()
-        .map(|s| with_model(model, || body(s)))
-        .collect();
-    twin_io::maps_candidate(&maps)
+    candidate::precompute_with(&dir(), k, model, body).unwrap()
 }
 
 /// A star layout step: the six points and t's UVs → the layout.
@@ -498,18 +479,11 @@ fn the_canonical_precompute_vectors_reject_every_mutant_and_accept_the_twin() {
     let k = kernel("bpm_precompute");
     let mut table = MutationTable::default();
     for model in Model::CHECKED {
-        let twin = |s: &StarInput<F>| triangle_maps(s, FIT_LOCAL);
-        let stars = twin_io::stars(
-            &input(&k, "star_p"),
-            &input(&k, "star_w"),
-            &input(&k, "mask"),
-        )
-        .unwrap();
-        let maps: Vec<TriangleMaps<F>> = stars
-            .iter()
-            .map(|s| with_model(model, || twin(s)))
-            .collect();
-        let r = judge(&k, &twin_io::maps_candidate(&maps), "twin");
+        let r = judge(
+            &k,
+            &candidate::bpm_precompute(&dir(), &k, model).unwrap(),
+            "twin",
+        );
         table.twin(&model.name(), &r);
     }
     // The identity of the mutant harness: with nothing changed it is the twin, and passes.

@@ -9,12 +9,16 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use common::mutation::MutationTable;
+use reparam::twin::candidate::gridwarp_aa::{
+    as_numbered, assemble, residuals_with, row_inner, Assembled, Body, CellBody, CellOrder, Inputs,
+    UnknownOrder,
+};
 use reparam::twin::gridwarp_aa::{
     add_residual, cell_contribution, field_bilinear, field_bilinear_sample, line_derivatives,
     residual, sample_residuals, slope, warped_point, CellContribution, CellLines, Field,
     RestSample,
 };
-use reparam::twin::{with_model, Model, Real, F};
+use reparam::twin::{Model, Real, F};
 use reparam::vectors::verify::{verify_array, VerifyReport};
 use reparam::vectors::{read_manifest, Array, KernelVectors};
 
@@ -24,78 +28,11 @@ fn dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("reference_data/vectors/gridwarp")
 }
 
-fn load(name: &str) -> Array {
-    Array::load(&dir().join(format!("{KERNEL}.{name}.npy"))).unwrap()
-}
-
-fn f32s(a: &Array) -> Vec<F> {
-    a.to_f64().into_iter().map(|x| F::new(x as f32)).collect()
-}
-
-/// The canonical inputs as the kernel receives them.
-struct Inputs {
-    samples: Vec<F>,
-    per_cell: usize,
-    h: Vec<F>,
-    k: Vec<F>,
-    s: Vec<F>,
-    t: Vec<F>,
-    d_s: (Vec<F>, usize, usize),
-    d_t: (Vec<F>, usize, usize),
-}
-
-/// A field (values, width, height) as the kernel reads it.
-fn field((values, width, height): &(Vec<F>, usize, usize)) -> Field<'_, F> {
-    Field {
-        values,
-        width: *width,
-        height: *height,
-    }
-}
-
-impl Inputs {
-    /// The fields D_s, D_t as the kernel reads them.
-    fn fields(&self) -> (Field<'_, F>, Field<'_, F>) {
-        (field(&self.d_s), field(&self.d_t))
-    }
-
-    /// Cell (i, j)'s lines and rest size.
-    fn lines(&self, i: usize, j: usize) -> CellLines<F> {
-        CellLines {
-            s0: self.s[i],
-            s1: self.s[i + 1],
-            t0: self.t[j],
-            t1: self.t[j + 1],
-            h: self.h[i],
-            k: self.k[j],
-        }
-    }
-}
-
+/// The residual kernel's canonical inputs as the kernel receives them.
 fn inputs() -> Inputs {
-    let field = |name: &str| {
-        let a = load(name);
-        (f32s(&a), a.shape[1], a.shape[0])
-    };
-    Inputs {
-        samples: f32s(&load("samples")),
-        per_cell: load("per_cell").to_f64()[0] as usize,
-        h: f32s(&load("rest_h")),
-        k: f32s(&load("rest_k")),
-        s: f32s(&load("s")),
-        t: f32s(&load("t")),
-        d_s: field("d_s"),
-        d_t: field("d_t"),
-    }
-}
-
-/// What a port does with one sample: its cell's lines and rest size, the sample, the fields.
-type Body = fn(&CellLines<F>, &RestSample<F>, &Field<F>, &Field<F>) -> [F; 2];
-/// How a port maps the cell index c to (column i, row j), given (columns, rows).
-type CellOrder = fn(usize, usize, usize) -> (usize, usize);
-
-fn row_inner(c: usize, _: usize, rows: usize) -> (usize, usize) {
-    (c / rows, c % rows)
+    let manifest = read_manifest(&dir()).unwrap();
+    let k = manifest.kernels.iter().find(|k| k.name == KERNEL).unwrap();
+    Inputs::load(&dir(), k).unwrap()
 }
 
 fn column_inner(c: usize, columns: usize, _: usize) -> (usize, usize) {
@@ -104,23 +41,7 @@ fn column_inner(c: usize, columns: usize, _: usize) -> (usize, usize) {
 
 /// The candidate of `body` under `model`: [samples, 2].
 fn candidate(x: &Inputs, body: Body, order: CellOrder, model: Model) -> Array {
-    let (d_s, d_t) = x.fields();
-    let (columns, rows) = (x.s.len() - 1, x.t.len() - 1);
-    let mut out = Vec::new();
-    for (n, v) in x.samples.chunks(5).enumerate() {
-        let (i, j) = order(n / x.per_cell, columns, rows);
-        let lines = x.lines(i, j);
-        let sample = RestSample {
-            alpha: v[0],
-            beta: v[1],
-            sigma: v[2],
-            o_s: v[3],
-            o_t: v[4],
-        };
-        let r = with_model(model, || body(&lines, &sample, &d_s, &d_t));
-        out.extend([r[0].get(), r[1].get()]);
-    }
-    Array::f32(&[out.len() / 2, 2], out)
+    residuals_with(x, body, order, model)
 }
 
 fn correct(l: &CellLines<F>, s: &RestSample<F>, d_s: &Field<F>, d_t: &Field<F>) -> [F; 2] {
@@ -352,76 +273,6 @@ fn the_energies_accept_the_twin_and_reject_every_residual_mutant() {
 // ---------------------------------------------------------------------------------------------
 // The normal equations: cell_energy, energy, jtj, jtr
 
-/// What a port does with one cell (its lines, samples and the fields).
-type CellBody = fn(&CellLines<F>, &[RestSample<F>], &Field<F>, &Field<F>) -> CellContribution<F>;
-
-/// How a port numbers the unknown of a line: (the manifest's index, the count of s unknowns).
-type UnknownOrder = fn(i32, usize) -> i32;
-
-/// The host's assembly (gpu/src/gridwarp/aa.rs): cells added in cell order, in f64, each
-/// slot's row and column dropped where its line is fixed (−1). `transpose_upper` leaves JᵀJ's
-/// lower triangle 0 (a mutant's host).
-struct Assembled {
-    cell_energy: Vec<f64>,
-    energy: f64,
-    jtj: Vec<f64>,
-    jtr: Vec<f64>,
-}
-
-fn assemble(x: &Inputs, body: CellBody, unknown_order: UnknownOrder, model: Model) -> Assembled {
-    let s_index: Vec<i32> = load("s_index").to_f64().iter().map(|&v| v as i32).collect();
-    let t_index: Vec<i32> = load("t_index").to_f64().iter().map(|&v| v as i32).collect();
-    let n = s_index.iter().chain(&t_index).filter(|&&u| u >= 0).count();
-    let ns = s_index.iter().filter(|&&u| u >= 0).count();
-    let (d_s, d_t) = x.fields();
-    let (columns, rows) = (x.s.len() - 1, x.t.len() - 1);
-    let samples: Vec<RestSample<F>> = x
-        .samples
-        .chunks(5)
-        .map(|v| RestSample {
-            alpha: v[0],
-            beta: v[1],
-            sigma: v[2],
-            o_s: v[3],
-            o_t: v[4],
-        })
-        .collect();
-    let mut out = Assembled {
-        cell_energy: vec![0.0; columns * rows],
-        energy: 0.0,
-        jtj: vec![0.0; n * n],
-        jtr: vec![0.0; n],
-    };
-    for c in 0..columns * rows {
-        let (i, j) = (c / rows, c % rows);
-        let lines = x.lines(i, j);
-        let cell_samples = &samples[c * x.per_cell..(c + 1) * x.per_cell];
-        let cell = with_model(model, || body(&lines, cell_samples, &d_s, &d_t));
-        let unknowns =
-            [s_index[i], s_index[i + 1], t_index[j], t_index[j + 1]].map(|u| unknown_order(u, ns));
-        out.cell_energy[c] = cell.energy.f64();
-        out.energy += cell.energy.f64();
-        for a in 0..4 {
-            if unknowns[a] < 0 {
-                continue;
-            }
-            out.jtr[unknowns[a] as usize] += cell.jtr[a].f64();
-            for b in 0..4 {
-                if unknowns[b] >= 0 {
-                    out.jtj[unknowns[a] as usize * n + unknowns[b] as usize] +=
-                        cell.jtj[4 * a + b].f64();
-                }
-            }
-        }
-    }
-    out
-}
-
-/// The unknowns as the manifest numbers them (s first, then t).
-fn as_numbered(u: i32, _: usize) -> i32 {
-    u
-}
-
 /// t unknowns first, then s (the other order).
 fn t_first(u: i32, ns: usize) -> i32 {
     if u < 0 {
@@ -435,16 +286,13 @@ fn t_first(u: i32, ns: usize) -> i32 {
 
 /// The four judged outputs of an assembly, by kernel name.
 fn candidates(a: &Assembled) -> [(&'static str, Array); 4] {
-    let n = a.jtr.len();
     [
-        (
-            "gridwarp_aa.cell_energy",
-            Array::f64(&[a.cell_energy.len()], a.cell_energy.clone()),
-        ),
-        ("gridwarp_aa.energy", Array::f64(&[1], vec![a.energy])),
-        ("gridwarp_aa.jtj", Array::f64(&[n, n], a.jtj.clone())),
-        ("gridwarp_aa.jtr", Array::f64(&[n], a.jtr.clone())),
+        "gridwarp_aa.cell_energy",
+        "gridwarp_aa.energy",
+        "gridwarp_aa.jtj",
+        "gridwarp_aa.jtr",
     ]
+    .map(|name| (name, a.output(name).unwrap()))
 }
 
 /// A cell's contribution with `derivatives` in place of `line_derivatives` and `lookup` in

@@ -9,13 +9,19 @@
 mod common;
 
 use common::mutation::MutationTable;
+use reparam::twin::candidate::skinsimp_lbs::{
+    self as lbs, correct as correct_lbs, pose_major, MatrixIndex,
+};
+use reparam::twin::candidate::skinsimp_quadrics::{
+    as_stored, source_candidate_with, vertex_candidate_with, Gather, PoseOf, SourceBody as Body,
+};
 use reparam::twin::real::{cross, dot, length};
 use reparam::twin::skinsimp_lbs::{joint_times, skin};
 use reparam::twin::skinsimp_quadrics::{
-    edge_constraint, from_plane, from_triangle, plane_quadric, unit_normal, vertex_quadric,
-    zero_quadric, Quadric, SOURCE_FACE,
+    edge_constraint, from_plane, from_triangle, plane_quadric, unit_normal, zero_quadric, Quadric,
+    SOURCE_FACE,
 };
-use reparam::twin::{with_model, Model, Real, F, V3, V4};
+use reparam::twin::{Model, Real, F, V3, V4};
 use reparam::vectors::verify::{verify_array, VerifyReport};
 use reparam::vectors::{Array, KernelVectors};
 
@@ -29,11 +35,6 @@ fn named(name: &str) -> KernelVectors {
     common::canonical::kernel("skinsimp", name)
 }
 
-/// Kernel `k`'s input array called `name`.
-fn input(k: &KernelVectors, name: &str) -> Array {
-    common::canonical::input("skinsimp", k, name)
-}
-
 const KERNEL: &str = "skinsimp_quadrics.source";
 const LBS: &str = "skinsimp_lbs";
 
@@ -41,35 +42,9 @@ fn kernel() -> KernelVectors {
     named(KERNEL)
 }
 
-/// The body of one source: the twin's or a mutant's.
-type Body = fn(u32, [V3<F>; 3], F) -> Quadric<F>;
-
 /// The candidate of `body` on the canonical inputs under `model`: [sources, poses, 10].
 fn candidate(k: &KernelVectors, body: Body, model: Model) -> Array {
-    let posed = input(k, "posed");
-    let poses = posed.shape[1];
-    let posed = posed.to_f64();
-    let corners = input(k, "corners").to_f64();
-    let kind = input(k, "kind").to_f64();
-    let weight = F::new(input(k, "boundary_weight").to_f64()[0] as f32);
-    let sources = kind.len();
-    let mut out = Vec::with_capacity(sources * poses * 10);
-    for s in 0..sources {
-        for j in 0..poses {
-            let p = [0, 1, 2].map(|c| {
-                let v = corners[3 * s + c] as usize;
-                let o = 3 * (v * poses + j);
-                V3::new(
-                    F::new(posed[o] as f32),
-                    F::new(posed[o + 1] as f32),
-                    F::new(posed[o + 2] as f32),
-                )
-            });
-            let q = with_model(model, || body(kind[s] as u32, p, weight));
-            out.extend(q.iter().map(|x| x.get()));
-        }
-    }
-    Array::f32(&[sources, poses, 10], out)
+    source_candidate_with(&dir(), k, model, body).unwrap()
 }
 
 fn judge(k: &KernelVectors, body: Body, model: Model) -> VerifyReport {
@@ -209,56 +184,14 @@ fn every_model_passes_every_mutant_fails_and_no_bound_is_zero() {
 // ---------------------------------------------------------------------------------------------
 // skinsimp_lbs
 
-/// Where a pose's matrix of a joint is read: (pose, joint, poses, joints) → index.
-type MatrixIndex = fn(usize, usize, usize, usize) -> usize;
-
 /// One vertex's skinning: rest point, joints, weights, the pose's matrix of a joint.
-type LbsBody = fn(V3<F>, [u32; 4], [F; 4], &dyn Fn(u32) -> [F; 12]) -> V3<F>;
+type LbsBody = lbs::Body;
 
 /// The candidate of `body` on the canonical LBS inputs under `model`: [vertices, poses, 3].
 /// `index(pose, joint, poses, joints)` is where the matrix is read (the manifest's: pose·J +
 /// joint).
-fn lbs_candidate(
-    body: LbsBody,
-    index: fn(usize, usize, usize, usize) -> usize,
-    model: Model,
-) -> Array {
-    let k = named(LBS);
-    let rest = input(&k, "rest").to_f64();
-    let joints = input(&k, "joints").to_f64();
-    let weights = input(&k, "weights").to_f64();
-    let m = input(&k, "matrices");
-    let (poses, joint_count) = (m.shape[0], m.shape[1]);
-    let m = m.to_f64();
-    let vertices = rest.len() / 3;
-    let mut out = Vec::with_capacity(vertices * poses * 3);
-    for v in 0..vertices {
-        let x = V3::new(
-            F::new(rest[3 * v] as f32),
-            F::new(rest[3 * v + 1] as f32),
-            F::new(rest[3 * v + 2] as f32),
-        );
-        let js = [0, 1, 2, 3].map(|c| joints[4 * v + c] as u32);
-        let ws = [0, 1, 2, 3].map(|c| F::new(weights[4 * v + c] as f32));
-        for j in 0..poses {
-            let matrix = |joint: u32| -> [F; 12] {
-                let o =
-                    12 * index(j, joint as usize, poses, joint_count).min(poses * joint_count - 1);
-                std::array::from_fn(|e| F::new(m[o + e] as f32))
-            };
-            let p = with_model(model, || body(x, js, ws, &matrix));
-            out.extend([p.x.get(), p.y.get(), p.z.get()]);
-        }
-    }
-    Array::f32(&[vertices, poses, 3], out)
-}
-
-fn pose_major(pose: usize, joint: usize, _: usize, joints: usize) -> usize {
-    pose * joints + joint
-}
-
-fn correct_lbs(x: V3<F>, js: [u32; 4], ws: [F; 4], m: &dyn Fn(u32) -> [F; 12]) -> V3<F> {
-    skin(x, js, ws, m)
+fn lbs_candidate(body: LbsBody, index: MatrixIndex, model: Model) -> Array {
+    lbs::candidate_with(&dir(), &named(LBS), model, body, index).unwrap()
 }
 
 /// (x, 0): the translation dropped.
@@ -361,65 +294,10 @@ fn lbs_every_model_passes_every_mutant_fails_and_no_bound_is_zero() {
 
 const VERTEX: &str = "skinsimp_quadrics.vertex";
 
-/// How a port gathers vertex v's sources for pose j: (offsets, sources, kinds, v) → the source
-/// ids to sum, and the pose whose source quadric it reads.
-type Gather = fn(&[usize], &[usize], &[u32], usize) -> Vec<usize>;
-/// Which pose's source quadrics a port reads for pose j.
-type PoseOf = fn(usize) -> usize;
-
-fn as_stored(offsets: &[usize], sources: &[usize], _: &[u32], v: usize) -> Vec<usize> {
-    sources[offsets[v]..offsets[v + 1]].to_vec()
-}
-
 /// The candidate: each source's quadric by the twin under `model`, then each vertex's sum of
 /// the sources `gather` names, read at pose `pose_of(j)`.
 fn vertex_candidate(gather: Gather, pose_of: PoseOf, model: Model) -> Array {
-    let k = named(VERTEX);
-    let posed = input(&k, "posed");
-    let poses = posed.shape[1];
-    let posed = posed.to_f64();
-    let corners = input(&k, "corners").to_f64();
-    let kind: Vec<u32> = input(&k, "kind")
-        .to_f64()
-        .iter()
-        .map(|&x| x as u32)
-        .collect();
-    let weight = F::new(input(&k, "boundary_weight").to_f64()[0] as f32);
-    let offsets: Vec<usize> = input(&k, "vertex_offsets")
-        .to_f64()
-        .iter()
-        .map(|&x| x as usize)
-        .collect();
-    let sources: Vec<usize> = input(&k, "vertex_sources")
-        .to_f64()
-        .iter()
-        .map(|&x| x as usize)
-        .collect();
-    let quadric = |s: usize, j: usize| -> Quadric<F> {
-        let p = [0, 1, 2].map(|c| {
-            let v = corners[3 * s + c] as usize;
-            let o = 3 * (v * poses + j);
-            V3::new(
-                F::new(posed[o] as f32),
-                F::new(posed[o + 1] as f32),
-                F::new(posed[o + 2] as f32),
-            )
-        });
-        with_model(model, || plane_quadric(kind[s], p, weight))
-    };
-    let vertices = offsets.len() - 1;
-    let mut out = Vec::with_capacity(vertices * poses * 10);
-    for v in 0..vertices {
-        for j in 0..poses {
-            let qs: Vec<Quadric<F>> = gather(&offsets, &sources, &kind, v)
-                .into_iter()
-                .map(|s| quadric(s, pose_of(j)))
-                .collect();
-            let q = with_model(model, || vertex_quadric(&qs));
-            out.extend(q.iter().map(|x| x.get()));
-        }
-    }
-    Array::f32(&[vertices, poses, 10], out)
+    vertex_candidate_with(&dir(), &named(VERTEX), model, gather, pose_of).unwrap()
 }
 
 #[test]

@@ -91,3 +91,5 @@ pub mod sweep;
 pub mod timing;
 #[cfg(feature = "gpu")]
 pub mod unwarp;
+/// The `unwarp_pass` step bound, derived from the f32 search's reachable outcomes.
+pub mod unwarp_bound;

@@ -9,183 +9,19 @@
 use reparam_gpu::Gpu;
 
 use super::timing::{time_cpu, time_gpu};
+pub use super::unwarp_bound::{
+    indistinguishable_radius, no_step_bound, step_bound, sublevel_interval, ETA,
+    STEP_BOUND_FORMULA, U32,
+};
 use super::{Bounds, Row, Timing};
 use crate::error::Result;
-use crate::unwarp::energy::{node_energy, node_gradient, triangle_gradient, Fan};
-use crate::unwarp::fixation::pin_gradient;
 use crate::unwarp::gpu::{round_problem, GpuPass};
-use crate::unwarp::pass::{descend_texel_traced, line_point, pass, sweep_phases};
-use crate::unwarp::stats::{area_ratios, coefficient_of_variation};
-use crate::unwarp::{solve, solve_with, HeightMap, Problem, UnwarpOptions};
-
-/// The size u of one rounding: [`super::WGSL_U`] = 2⁻²³ (WGSL rounds up or down).
-pub const U32: f64 = super::WGSL_U;
-
-/// Relative error of one f32 evaluation of a node energy F (or of one triangle-gradient term):
-/// each triangle is a chain of ≈ 30 roundings (edges, a, D, Y, Y^5 by 3 multiplications, the
-/// quotient), the six are summed: η ≈ 30 u.
-pub const ETA: f64 = 30.0 * U32;
-
 /// Errors are reported in texels of a texture this wide.
 pub const TEXTURE_SIZE: f64 = 4096.0;
 
-/// [`step_bound`] in one line, for the cross-check's table and the conformance vectors'
-/// manifest.
-pub const STEP_BOUND_FORMULA: &str =
-    "|Δt||g| (Δt: the interval where F ≤ F(t*) + 2ηF) + 2φs + guard s + 1e-6 hi|g|, η = 30 ε; \
-     where f64 finds no step: √(4ηF/λ_min) at a stationary node, else max_k |U_k|";
-
-/// The bound on |Δo| (texels of the map) between the f32 and f64 steps of texel (x, y), from
-/// the reference's quantities at its step t* along −g:
-///
-/// 1. f32 cannot order F(t1), F(t2) once they differ by less than 2ηF, so the search may end
-///    anywhere on the interval around t* where F(t) ≤ F(t*) + 2ηF (near a quadratic minimum
-///    ½F''(t − t*)² ≤ 2ηF, |Δt| ≤ 2√(ηF/F''); measured on F itself by
-///    [`indistinguishable_radius`], since a hostile height map's F need not be quadratic
-///    there), |Δo| ≤ |Δt|·|g|;
-/// 2. the f32 gradient's direction is off by φ ≤ η Σ|∇E_k|/|g| (the sum of the terms' sizes,
-///    cancellation included), which moves the line's minimiser by ≤ 2φ·s, s = t*|g|;
-/// 3. when the f64 guard's margin F(0) − F(t*) is below 2ηF, f32 may decide the other way:
-///    |Δo| ≤ s.
-///
-/// The final bracket width 1e-6·hi adds ≤ 1e-6 hi|g|. Where the reference finds no step (g
-/// zero or not finite, or no bracket) the bound is [`no_step_bound`]'s.
-pub fn step_bound(problem: &Problem, offsets: &[[f64; 2]], x: usize, y: usize) -> f64 {
-    let mesh = &problem.mesh;
-    let i = mesh.index(x, y);
-    // r: the pin barrier's R (the finest level's), as the reference's energy uses it; the
-    // bound is reported in texels of this level's map.
-    let (o, w, r, theta) = (
-        offsets[i],
-        problem.pins[i],
-        problem.pin_resolution,
-        problem.theta,
-    );
-    let fan = Fan::new(mesh, offsets, x, y);
-    let step = descend_texel_traced(problem, offsets, x, y);
-    let g = node_gradient(&fan, w, r, o, theta);
-    let gn = g[0].hypot(g[1]);
-    let texels = mesh.width.max(mesh.height) as f64;
-    let Some([_, hi]) = step.bracket else {
-        return no_step_bound(&fan, w, r, o, g, theta) * texels;
-    };
-    let f = |t: f64| node_energy(&fan, w, r, line_point(o, g, t), theta);
-    let t = step.search.t;
-    let ft = f(t);
-    let search = indistinguishable_radius(&f, t, hi, ft + 2.0 * ETA * ft.abs()) * gn;
-    let u = fan.uv_edges(o);
-    let terms: f64 = (0..6)
-        .map(|k| {
-            let gk = triangle_gradient(&fan.geometry[k], u[(k + 5) % 6], u[k], theta);
-            gk[0].hypot(gk[1])
-        })
-        .sum::<f64>()
-        + {
-            let p = pin_gradient(w, r, o);
-            p[0].hypot(p[1])
-        };
-    let s = t * gn;
-    let direction = 2.0 * (ETA * terms / gn) * s;
-    let guard = if f(0.0) - ft <= 2.0 * ETA * f(0.0) {
-        s
-    } else {
-        0.0
-    };
-    (search + direction + guard + 1e-6 * hi * gn) * texels
-}
-
-/// The bound on |Δo| (UV units) at a node where the f64 reference finds no step (g = 0 or not
-/// finite, or an empty bracket), so that its offset stays o. A conforming f32 pass either stays
-/// too (error 0) or, its decisions differing near a tie, takes a step p:
-///
-/// 1. the step stays inside its flip-free bracket, i.e. inside the fan's UV polygon around the
-///    node: |p − o| ≤ max_k |U_k| (U_k the UV edges to the six neighbours, ≈ 1–1.5 texels);
-/// 2. at a stationary node (g = 0, a minimum of F: the Hessian H of F at o positive definite,
-///    smallest eigenvalue λ_min), the guard accepted p only if F_f32(p) < F_f32(o), so
-///    F(p) ≤ (1 + 2η) F(o); with F(p) ≥ F(o) + ½ λ_min |p − o|² near the minimum,
-///    |p − o| ≤ √(4ηF(o)/λ_min). H by central differences of the analytic gradient, step
-///    10⁻⁵ texel (its error, O(10⁻¹⁰) relative, far below η).
-///
-/// The smaller of the two where both apply; never 0 (a flat map's nodes are stationary).
-pub fn no_step_bound(
-    fan: &Fan,
-    weight: f64,
-    resolution: [f64; 2],
-    o: [f64; 2],
-    g: [f64; 2],
-    theta: f64,
-) -> f64 {
-    let polygon = fan
-        .uv_edges(o)
-        .iter()
-        .map(|u| u[0].hypot(u[1]))
-        .fold(0.0, f64::max);
-    if g != [0.0, 0.0] {
-        return polygon;
-    }
-    let delta = 1e-5 / resolution[0].max(resolution[1]);
-    let column = |j: usize| {
-        let mut plus = o;
-        let mut minus = o;
-        plus[j] += delta;
-        minus[j] -= delta;
-        let (gp, gm) = (
-            node_gradient(fan, weight, resolution, plus, theta),
-            node_gradient(fan, weight, resolution, minus, theta),
-        );
-        [
-            (gp[0] - gm[0]) / (2.0 * delta),
-            (gp[1] - gm[1]) / (2.0 * delta),
-        ]
-    };
-    let (c0, c1) = (column(0), column(1));
-    let (a, b, d) = (c0[0], 0.5 * (c0[1] + c1[0]), c1[1]);
-    let lambda_min = 0.5 * ((a + d) - (a - d).hypot(2.0 * b));
-    let f = node_energy(fan, weight, resolution, o, theta);
-    let stationary = (4.0 * ETA * f / lambda_min).sqrt();
-    if lambda_min > 0.0 && stationary.is_finite() {
-        stationary.min(polygon)
-    } else {
-        polygon
-    }
-}
-
-/// The largest |t − t*| over the interval around t* within [0, hi] on which F(t) ≤ `level`
-/// (bound 1 of [`step_bound`]): on each side, distances 2⁻⁴⁰·span … span are tried in doubling
-/// steps until F exceeds the level, then bisection between the last point under it and the
-/// first above, keeping the outer end (so the radius is never underestimated by more than the
-/// first step, 2⁻⁴⁰ of the side's span).
-pub fn indistinguishable_radius(f: &impl Fn(f64) -> f64, t: f64, hi: f64, level: f64) -> f64 {
-    let side = |end: f64| -> f64 {
-        let span = end - t;
-        if span == 0.0 {
-            return 0.0;
-        }
-        let mut inside = 0.0;
-        let mut outside = None;
-        for k in (0..=40).rev() {
-            let d = span / f64::from(1u32 << (k / 2)) / f64::from(1u32 << (k - k / 2));
-            if f(t + d) > level {
-                outside = Some(d);
-                break;
-            }
-            inside = d;
-        }
-        let Some(mut outside) = outside else {
-            return span.abs();
-        };
-        for _ in 0..50 {
-            let mid = 0.5 * (inside + outside);
-            if f(t + mid) > level {
-                outside = mid;
-            } else {
-                inside = mid;
-            }
-        }
-        outside.abs()
-    };
-    side(0.0).max(side(hi))
-}
+use crate::unwarp::pass::{descend_texel_traced, pass, sweep_phases};
+use crate::unwarp::stats::{area_ratios, coefficient_of_variation};
+use crate::unwarp::{solve, solve_with, HeightMap, Problem, UnwarpOptions};
 
 /// The relative difference of the total energies after `p` passes, from the reference's totals
 /// `energy[q]` before each pass q (index 0: the start): each f32 pass can leave every texel at

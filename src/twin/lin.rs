@@ -69,10 +69,14 @@ pub const SECOND_ORDER: f64 = 2.0;
 /// exact value lies between π and it (a symmetric ring's opposite slot, at exactly π).
 pub const TABLE_PI: f64 = std::f32::consts::PI as f64;
 
-/// One operation on the tape: its allowance and its parents' range in `Tape::parents`.
+/// One operation on the tape: its allowance, its parents' range in `Tape::parents`, and a
+/// cheap upper bound of its first-order bound (allowance + Σ |∂/∂parent| · the parent's, in
+/// forward order, without cancellation) that spares [`product_remainder`] a reverse sweep
+/// wherever a factor is clearly trusted.
 struct Node {
     allowance: f64,
     parents_end: u32,
+    forward: f64,
 }
 
 /// The operations of one evaluation, in order (a parent always precedes its child).
@@ -215,13 +219,16 @@ fn push(v: f64, allowance: f64, parents: &[(Lin, f64)]) -> Lin {
             t.ambiguous = true;
             0.0
         };
+        let mut forward = allowance;
         for &(p, d) in parents {
             t.parents.push((p.id, d));
+            forward += d.abs() * t.nodes[p.id as usize].forward;
         }
         let parents_end = t.parents.len() as u32;
         t.nodes.push(Node {
             allowance,
             parents_end,
+            forward,
         });
         Lin {
             v,
@@ -274,8 +281,30 @@ impl Mul for Lin {
     type Output = Lin;
     fn mul(self, b: Lin) -> Lin {
         let v = self.v * b.v;
-        push(v, rounding(v, 1.0), &[(self, b.v), (b, self.v)])
+        let allowance = rounding(v, 1.0) + product_remainder(self, b);
+        push(v, allowance, &[(self, b.v), (b, self.v)])
     }
+}
+
+/// The neglected term of a product a·b, |δa δb|, where first order does not cover it: when
+/// neither factor is trusted (|x| ≤ [`TRUST`] · bound(x) for both; else δa δb is at most
+/// 2/[`TRUST`] of the first-order term |a| δb or |b| δa), it is added as an allowance of the
+/// product, (2 bound(a)) (2 bound(b)) with each δ at most [`SECOND_ORDER`] times its first-order
+/// bound. Found on a real mesh (issue #34): a 4-ring's curvature fit z = A x² + B xy + C y²
+/// with B = 0 but barely determined (bound 4.1); B² has derivative 0 there, so first order saw
+/// no effect of B on κ, and a GPU at the edge of the WGSL table moved κ 49–107 times that
+/// bound.
+fn product_remainder(a: Lin, b: Lin) -> f64 {
+    let forward = |x: Lin| TAPE.with(|t| t.borrow().nodes[x.id as usize].forward);
+    let trusted = |x: Lin, bound: f64| x.v.abs() > TRUST * bound;
+    if trusted(a, forward(a)) || trusted(b, forward(b)) {
+        return 0.0;
+    }
+    let (ba, bb) = (first_order_bound(a), first_order_bound(b));
+    if trusted(a, ba) || trusted(b, bb) {
+        return 0.0;
+    }
+    SECOND_ORDER * ba * SECOND_ORDER * bb
 }
 
 impl Div for Lin {
@@ -495,6 +524,22 @@ mod tests {
     }
 
     /// A divisor within its bound of zero, and a branch within its bound, are not trusted.
+    #[test]
+    fn a_product_of_two_untrusted_factors_carries_their_bounds_product() {
+        // B = 0 ± 0.5: B² has derivative 0 at 0, but moves by up to (2 · 0.5)².
+        let (bound, _) = record(|| {
+            let b = Lin::input(0.0, 0.5);
+            first_order_bound(b * b)
+        });
+        assert!(bound >= 1.0, "{bound}");
+        // One trusted factor (3 ± 0.01): first order covers the product, nothing is added.
+        let (bound, _) = record(|| {
+            let (a, b) = (Lin::input(3.0, 3.01), Lin::input(0.0, 0.5));
+            first_order_bound(a * b)
+        });
+        assert!((bound - 1.5).abs() < 1e-4, "{bound}");
+    }
+
     #[test]
     fn a_pole_or_a_close_branch_is_ambiguous() {
         let (_, ambiguous) = record(|| Lin::exact(1.0) / Lin::input(1e-9, 0.0));

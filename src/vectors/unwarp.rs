@@ -188,10 +188,10 @@ fn pass_covers(problem: &Problem, start: &[[f64; 2]], texels: &[(usize, usize)])
 
 /// The direction of [`translated_start`]'s translation, in texels (both components non-zero
 /// and unequal, so that both offset components and both R components matter).
-pub const START_TRANSLATION: [f64; 2] = [0.6, -0.5];
+pub const START_TRANSLATION: [f64; 2] = [1.2, -1.0];
 
 /// The largest pin level ‖w R⊙o‖ [`translated_start`] brings a node to.
-pub const START_PIN_LEVEL: f64 = 0.9;
+pub const START_PIN_LEVEL: f64 = 0.98;
 
 /// The pass's start: `offsets` (a state after reference sweeps) translated by s·δ texels,
 /// δ = [`START_TRANSLATION`], s ≤ 1 the largest (to 2⁻³⁰) that keeps every node's pin level
@@ -199,7 +199,7 @@ pub const START_PIN_LEVEL: f64 = 0.9;
 ///
 /// The triangle energies see only differences of offsets, so the translation leaves them and
 /// their gradients unchanged; it moves the pinned nodes towards their barrier (q = ‖w R⊙o‖²
-/// up to 0.81), where the pin terms E_pin = ½/(1 − q) and ∇E_pin shape the step. From the
+/// up to 0.9604), where the pin terms E_pin = ½/(1 − q) and ∇E_pin shape the step. From the
 /// untranslated state (q ≤ 0.03 on the canonical map) a port that ignores the pins passes.
 pub fn translated_start(problem: &Problem, offsets: &[[f64; 2]]) -> Vec<[f64; 2]> {
     let r = problem.pin_resolution;
@@ -333,9 +333,10 @@ pub fn vectors(
             unit: "texels of a 4096² texture".into(),
         },
         bound_formula: crate::crosscheck::unwarp::STEP_BOUND_FORMULA.into(),
-        derivation: "crosscheck::unwarp::step_bound: the f32 search's resolution, the f32 \
+        derivation:
+            "crosscheck::unwarp_bound::step_bound: the f32 search's reachable steps, the f32 \
             gradient's direction, the guard's decision"
-            .into(),
+                .into(),
         per_element: vec!["active".into()],
         covers: pass_covers(&problem, &start, &texels),
     };

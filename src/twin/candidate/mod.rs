@@ -8,11 +8,15 @@
 //!
 //! [`Model`]: super::Model
 
+pub mod bpm;
+pub mod gridwarp_aa;
 pub mod maps_flatten;
 pub mod maps_inverse;
 pub mod maps_priority;
 pub mod maps_rings;
 pub mod skinsimp_collapse_cost;
+pub mod skinsimp_lbs;
+pub mod skinsimp_quadrics;
 pub mod unwarp_pass;
 
 use std::path::Path;
@@ -37,10 +41,21 @@ pub type Runner = fn(&Path, &KernelVectors, super::Model) -> Result<Array>;
 /// their vectors here.
 pub fn runner(name: &str) -> Option<Runner> {
     match name {
+        "bpm_eval" => Some(bpm::bpm_eval),
+        "bpm_eval_linear" => Some(bpm::bpm_eval_linear),
+        "bpm_precompute" => Some(bpm::bpm_precompute),
+        "gridwarp_aa.residuals" => Some(gridwarp_aa::residuals),
+        "gridwarp_aa.cell_energy"
+        | "gridwarp_aa.energy"
+        | "gridwarp_aa.jtj"
+        | "gridwarp_aa.jtr" => Some(gridwarp_aa::normal_equations),
         "maps_flatten.points" | "maps_flatten.rings" => Some(maps_flatten::candidate),
         "maps_inverse" => Some(maps_inverse::candidate),
         "maps_priority" => Some(maps_priority::candidate),
         "skinsimp_collapse_cost" => Some(skinsimp_collapse_cost::candidate),
+        "skinsimp_lbs" => Some(skinsimp_lbs::candidate),
+        "skinsimp_quadrics.source" => Some(skinsimp_quadrics::source_candidate),
+        "skinsimp_quadrics.vertex" => Some(skinsimp_quadrics::vertex_candidate),
         "unwarp_pass" => Some(unwarp_pass::candidate),
         _ => None,
     }
