@@ -1,5 +1,5 @@
 //! The bound on one `unwarp_pass` step: how far a conforming f32 pass may land from the f64
-//! reference's step at one texel ([`step_bound`]), from the same state.
+//! reference's step at one texel ([`step_bound`](crate::crosscheck::unwarp_bound::step_bound)), from the same state.
 //!
 //! The f32 pass runs the reference's algorithm (gradient, flip-free bracket, ternary search,
 //! guard: [`crate::unwarp::pass`]) on values that differ from the reference's by roundings. Its
@@ -9,7 +9,7 @@
 //! once kept the other sub-bracket may end in another local minimum, far from the reference's
 //! (seen on `spot_texture.png` used as a height map: the f32 step found a lower minimum
 //! 3.3× the old bound away). The bound therefore follows every search path a conforming pass
-//! can take ([`reachable_steps`]), not only the reference's.
+//! can take ([`reachable_steps`](crate::crosscheck::unwarp_bound::reachable_steps)), not only the reference's.
 
 use crate::unwarp::energy::{
     node_energy, node_gradient, triangle_energy, triangle_gradient, uv_area, Fan, TriangleGeometry,

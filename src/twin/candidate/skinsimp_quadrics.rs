@@ -101,7 +101,7 @@ pub fn source_candidate_with(
     Ok(Array::f32(&[sources, x.poses, 10], out))
 }
 
-/// The CSR layout as stored: vertex v sums sources[offsets[v]..offsets[v + 1]].
+/// The CSR layout as stored: vertex v sums `sources[offsets[v]..offsets[v + 1]]`.
 pub fn as_stored(offsets: &[usize], sources: &[usize], _: &[u32], v: usize) -> Vec<usize> {
     sources[offsets[v]..offsets[v + 1]].to_vec()
 }
