@@ -261,3 +261,29 @@ fn solves_with_the_gpu_objective_match_the_cpu_solves() {
     }
     println!("sequence: CPU {cpu_s:.2} s, GPU objective {gpu_s:.2} s");
 }
+
+/// The derivatives' term sizes M (the JᵀJ and Jᵀr bounds' magnitudes) cover |J| entry by
+/// entry, and exceed it where the near line's two terms u(1 − α) − v partly cancel: the case the JᵀJ
+/// bound missed when it used |J| (Fox.glb, an FMA-contracted twin at the edge of the WGSL
+/// table, 1.8× over). CPU only.
+#[test]
+fn derivative_term_sizes_cover_the_jacobian_and_exceed_it_where_terms_cancel() {
+    let size = 32;
+    let rigidity = disc_rigidity(size, &[(0.5, 0.5, 0.2)], 0.1);
+    let scene = plane_stretch(size, 4, 2.0, rigidity);
+    let grid = Grid::new(vec![0.0, 0.3, 0.65, 1.0], vec![0.0, 0.5, 1.0]).unwrap();
+    let cpu = AaEnergy::new(&scene.rest, &grid, &scene.frames[2], 4, 4);
+    let x = grid.to_unknowns();
+    let (j, m) = (cpu.jacobian(&x), cpu.jacobian_magnitudes(&x));
+    assert_eq!(j.shape(), m.shape());
+    assert!(j
+        .iter()
+        .zip(m.iter())
+        .all(|(j, m)| j.abs() <= m * (1.0 + 1e-12)));
+    let cancelling = j
+        .iter()
+        .zip(m.iter())
+        .filter(|(j, m)| **m > 1.01 * j.abs())
+        .count();
+    assert!(cancelling > 0, "no derivative whose terms cancel");
+}

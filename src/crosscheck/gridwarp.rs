@@ -14,10 +14,12 @@
 //! - **energy**: |r̃² − r²| ≤ 2|r| C_r ε m + (C_r ε m)², and the kernel's f32 sum of 2KL squares
 //!   per cell adds ≤ 2KL ε Σ r² (the cross-cell sum is f64): [`energy_bound`]
 //!   |ΔF| ≤ 2 C_r ε Σ|r_k| m_k + 2KL ε F (per cell: the same over the cell's residuals);
-//! - **JᵀJ and Jᵀr**: each derivative is ≈ 8 f32 operations (C_d ≈ 12 ε of its terms' size,
-//!   which do not cancel), a product adds both factors' errors and ε, the per-cell f32 sum of
-//!   2KL products adds ≤ 2KL ε: |Δ(JᵀJ)_uv| ≤ (2·12 + 1 + 2KL) ε (|J|ᵀ|J|)_uv and
-//!   |Δ(Jᵀr)_u| ≤ (12 + 10 + 1 + 2KL) ε (|J|ᵀ(|r| + m))_u; with KL = 16 both are ≤ 64 ε
+//! - **JᵀJ and Jᵀr**: each derivative is ≈ 8 f32 operations, C_d ≈ 12 ε of the size M of its
+//!   terms (the near line's u(1 − α) − v cancels where the two are alike: M = |u|(1 − α) + |v|,
+//!   [`AaEnergy::jacobian_magnitudes`]; on Fox.glb an FMA-contracted edge-of-spec twin was 1.8×
+//!   over a bound that used |J| instead), a product adds both factors' errors and ε, the
+//!   per-cell f32 sum of 2KL products adds ≤ 2KL ε: |Δ(JᵀJ)_uv| ≤ (2·12 + 1 + 2KL) ε (MᵀM)_uv
+//!   and |Δ(Jᵀr)_u| ≤ (12 + 10 + 1 + 2KL) ε (Mᵀ(|r| + m))_u; with KL = 16 both are ≤ 64 ε
 //!   ([`normal_equations_factor`]).
 
 use nalgebra::{DMatrix, DVector};
@@ -37,7 +39,7 @@ pub const EPS: f64 = super::WGSL_U;
 /// C_r: a residual's f32 error in units of ε·m_k (module docs).
 pub const RESIDUAL_FACTOR: f64 = 10.0;
 
-/// The factor c in |Δ(JᵀJ)_uv| ≤ c ε (|J|ᵀ|J|)_uv and |Δ(Jᵀr)_u| ≤ c ε (|J|ᵀ(|r| + m))_u for
+/// The factor c in |Δ(JᵀJ)_uv| ≤ c ε (MᵀM)_uv and |Δ(Jᵀr)_u| ≤ c ε (Mᵀ(|r| + m))_u for
 /// K×L samples per cell: 25 + 2KL (module docs), at least 64 (the value derived for K = L = 4
 /// and used since).
 pub fn normal_equations_factor(k: usize, l: usize) -> f64 {
@@ -82,6 +84,8 @@ pub fn texel_margin(lines: &[f64], k: usize, n: usize) -> f64 {
 /// column, row, sample, axis; σ = 0 samples have no residual).
 pub struct Magnitudes {
     pub r: Vec<f64>,
+    /// The sizes of the terms of each derivative (|J| where its terms do not cancel; more where
+    /// they do): [`AaEnergy::jacobian_magnitudes`].
     pub jac: DMatrix<f64>,
     pub m: Vec<f64>,
     /// The cell of each residual (cell index i·(N−1) + j).
@@ -97,7 +101,7 @@ pub fn magnitudes(
     x: &[f64],
 ) -> Magnitudes {
     let r = cpu.residuals(x);
-    let jac = cpu.jacobian(x);
+    let jac = cpu.jacobian_magnitudes(x);
     let per_cell = k * l;
     let samples: Vec<(usize, _)> = rest_samples(rest, rest_grid, k, l)
         .into_iter()
@@ -127,7 +131,7 @@ pub fn energy_bound(r: &[f64], m: &[f64], (k, l): (usize, usize)) -> f64 {
     2.0 * RESIDUAL_FACTOR * EPS * scale + energy_sum_factor(k, l) * EPS * f
 }
 
-/// The bound c ε (|J|ᵀ(|r| + m))_u on |Δ(Jᵀr)_u| for every unknown u (module docs).
+/// The bound c ε (Mᵀ(|r| + m))_u on |Δ(Jᵀr)_u| for every unknown u (module docs).
 pub fn gradient_bound(mg: &Magnitudes, (k, l): (usize, usize)) -> Vec<f64> {
     let weights =
         DVector::from_iterator(mg.r.len(), mg.r.iter().zip(&mg.m).map(|(r, m)| r.abs() + m));
@@ -137,7 +141,7 @@ pub fn gradient_bound(mg: &Magnitudes, (k, l): (usize, usize)) -> Vec<f64> {
         .collect()
 }
 
-/// The bound c ε (|J|ᵀ|J|)_uv on |Δ(JᵀJ)_uv| for every entry (module docs).
+/// The bound c ε (MᵀM)_uv on |Δ(JᵀJ)_uv| for every entry (module docs).
 pub fn jtj_bound(mg: &Magnitudes, (k, l): (usize, usize)) -> DMatrix<f64> {
     let a = mg.jac.abs();
     (a.transpose() * &a) * (normal_equations_factor(k, l) * EPS)
@@ -315,7 +319,7 @@ pub fn kernel_rows(
         &jtj_errors,
         &[],
         Bounds::PerElement(jtj_bounds),
-        &format!("{c} ε (|J|ᵀ|J|)_uv / max|JᵀJ|"),
+        &format!("{c} ε (MᵀM)_uv / max|JᵀJ|, M the derivatives' term sizes"),
     );
 
     let g_max = reference.jtr.amax().max(f64::MIN_POSITIVE);
@@ -331,7 +335,7 @@ pub fn kernel_rows(
         &jtr_errors,
         &[],
         Bounds::PerElement(g_bound.iter().map(|b| b / g_max).collect()),
-        &format!("{c} ε (|J|ᵀ(|r| + m))_u / max|Jᵀr|"),
+        &format!("{c} ε (Mᵀ(|r| + m))_u / max|Jᵀr|, M the derivatives' term sizes"),
     );
     Ok(vec![cells_row, energy_row, jtj_row, jtr_row])
 }

@@ -699,6 +699,33 @@ impl Chunk<'_> {
             ),
         ]
     }
+
+    /// The sizes of the terms of [`Self::residuals_and_derivatives`]' derivatives, which may
+    /// cancel there: |u|(1 − α) + |v|, |u| α + |v| along the axis, |w|(1 − β), |w| β across (and
+    /// the same for r^t). An f32 derivative's error is relative to these, not to its value.
+    fn derivative_magnitudes(
+        &self,
+        w: WarpedCell,
+        [cs, ct]: [Sample; 2],
+        lane: usize,
+    ) -> [[f64; 4]; 2] {
+        let (al, be, sg) = (self.alpha[lane], self.beta[lane], self.sigma[lane]);
+        let (sa, sb) = ((sg * w.a).abs(), (sg * w.b).abs());
+        let (us, vs, ws) = (
+            sa * cs.ds.abs(),
+            (sg * w.inv_h * cs.value).abs(),
+            sa * cs.dt.abs(),
+        );
+        let (ut, vt, wt) = (
+            sb * ct.dt.abs(),
+            (sg * w.inv_k * ct.value).abs(),
+            sb * ct.ds.abs(),
+        );
+        [
+            [us * (1.0 - al) + vs, us * al + vs, ws * (1.0 - be), ws * be],
+            [wt * (1.0 - al), wt * al, ut * (1.0 - be) + vt, ut * be + vt],
+        ]
+    }
 }
 
 /// Chunks whose residuals the axis-aligned normal equations compute before summing them.
@@ -1150,7 +1177,7 @@ impl<'a> AaEnergy<'a> {
         &self,
         w: &WarpedAxes,
         cell: usize,
-        mut visit: impl FnMut(f64, &[f64; 4]),
+        mut visit: impl FnMut(f64, &[f64; 4], &[f64; 4]),
     ) {
         match self.rest.chunk_columns {
             2 => self.for_each_residual_in::<2>(w, cell, &mut visit),
@@ -1162,7 +1189,7 @@ impl<'a> AaEnergy<'a> {
         &self,
         w: &WarpedAxes,
         cell: usize,
-        visit: &mut impl FnMut(f64, &[f64; 4]),
+        visit: &mut impl FnMut(f64, &[f64; 4], &[f64; 4]),
     ) {
         let warped = self.warped_cell(w, cell);
         let rows_per_chunk = LANES / COLUMNS;
@@ -1174,8 +1201,13 @@ impl<'a> AaEnergy<'a> {
                     let (a, b) = (a0 + lane / rows_per_chunk, b0 + lane % rows_per_chunk);
                     if a < self.rest.k && b < self.rest.l && chunk.sigma[lane] != 0.0 {
                         let c = chunk.samples(lane);
-                        for (r, d) in chunk.residuals_and_derivatives(warped, c, lane) {
-                            visit(r, &d);
+                        let sizes = chunk.derivative_magnitudes(warped, c, lane);
+                        for ((r, d), m) in chunk
+                            .residuals_and_derivatives(warped, c, lane)
+                            .iter()
+                            .zip(&sizes)
+                        {
+                            visit(*r, d, m);
                         }
                     }
                 }
@@ -1188,18 +1220,31 @@ impl<'a> AaEnergy<'a> {
         let axes = self.warped_axes(&self.rest.grid.with_unknowns(x));
         let mut out = Vec::new();
         for cell in 0..self.cells() {
-            self.for_each_residual(&axes, cell, |r, _| out.push(r));
+            self.for_each_residual(&axes, cell, |r, _, _| out.push(r));
         }
         out
     }
 
     /// The dense Jacobian at `x` (rows as in [`AaEnergy::residuals`]). For tests.
     pub fn jacobian(&self, x: &[f64]) -> DMatrix<f64> {
+        self.jacobian_of(x, false)
+    }
+
+    /// The sizes of the terms of every derivative in [`Self::jacobian`] (the same layout): where
+    /// a derivative's terms cancel, its f32 error is relative to these, not to |J|. For the
+    /// cross-check's bounds.
+    pub fn jacobian_magnitudes(&self, x: &[f64]) -> DMatrix<f64> {
+        self.jacobian_of(x, true)
+    }
+
+    fn jacobian_of(&self, x: &[f64], magnitudes: bool) -> DMatrix<f64> {
         let axes = self.warped_axes(&self.rest.grid.with_unknowns(x));
         let mut rows = Vec::new();
         for cell in 0..self.cells() {
             let slots = self.cell_unknowns(cell);
-            self.for_each_residual(&axes, cell, |_, d| rows.push((slots, *d)));
+            self.for_each_residual(&axes, cell, |_, d, m| {
+                rows.push((slots, if magnitudes { *m } else { *d }))
+            });
         }
         let mut jac = DMatrix::zeros(rows.len(), x.len());
         for (row, (slots, d)) in rows.iter().enumerate() {

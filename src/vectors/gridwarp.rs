@@ -186,14 +186,14 @@ pub fn vectors(
             "JᵀJ, unknowns × unknowns (s unknowns first, then t)",
             Array::f64(&[n, n], reference.jtj.transpose().iter().copied().collect()),
             Array::f64(&[n, n], jtj_b.transpose().iter().copied().collect()),
-            &format!("{c} ε (|J|ᵀ|J|)_uv"),
+            &format!("{c} ε (MᵀM)_uv, M the derivatives' term sizes"),
         ),
         kernel(
             "jtr",
             "Jᵀr, per unknown",
             Array::f64(&[n], reference.jtr.iter().copied().collect()),
             Array::f64(&[n], gradient_bound(&mg, (k, l))),
-            &format!("{c} ε (|J|ᵀ(|r| + m))_u"),
+            &format!("{c} ε (Mᵀ(|r| + m))_u"),
         ),
     ];
     // A residual's row in `samples` is its own first index.
