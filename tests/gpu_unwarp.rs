@@ -259,3 +259,44 @@ fn a_line_function_far_from_quadratic_stays_within_the_pass_bound() {
     assert_eq!(row["verdict"], "pass", "{row}");
     assert_eq!(result.unwrap(), std::process::ExitCode::SUCCESS);
 }
+
+/// The run-energy row is judged where the bound's premise held on the first pass (every
+/// texel's F within 2ηF of the reference's) and shown, not judged, where it failed (36 of a
+/// million texels of `spot_texture.png` as a height map, whose run was 1.6× over on both
+/// adapters): the gate, on the cones; the premise itself below.
+#[test]
+fn the_run_energy_row_is_judged_only_where_its_premise_held() {
+    use reparam::crosscheck::row::Verdict;
+    use reparam::crosscheck::unwarp::run_rows;
+    let Some(gpu) = gpu_or_skip() else { return };
+    let options = UnwarpOptions {
+        sweeps: 2,
+        tolerance: None,
+        coarse_moves: 0,
+        ..Default::default()
+    };
+    let cones = procedural("cones", 16).unwrap();
+    let verdict = |violations: usize| {
+        let rows = run_rows(&gpu, "cones", &cones, &options, violations).unwrap();
+        (rows[0].verdict, rows[0].note.clone())
+    };
+    let (held, note) = verdict(0);
+    assert_eq!(held, Verdict::Pass, "{note}");
+    let (failed, note) = verdict(36);
+    assert_eq!(failed, Verdict::Info, "{note}");
+    assert!(note.contains("premise") && note.contains("36"), "{note}");
+}
+
+/// `within_run_premise`: a step to the reference's own point holds it, one half a texel away
+/// from it does not (F moves by far more than 2ηF). CPU only.
+#[test]
+fn the_run_premise_rejects_a_step_that_lands_elsewhere() {
+    use reparam::crosscheck::unwarp::within_run_premise;
+    let (problem, start) = rounded_state();
+    let (x, y) = problem.mesh.active_texels(0)[5];
+    let cpu = descend_texel_traced(&problem, &start, x, y).offset;
+    assert!(within_run_premise(&problem, &start, (x, y), cpu, cpu));
+    let half = 0.5 / problem.mesh.width as f64;
+    let away = [cpu[0] + half, cpu[1]];
+    assert!(!within_run_premise(&problem, &start, (x, y), cpu, away));
+}

@@ -248,6 +248,15 @@ impl Row {
         }
     }
 
+    /// [`Self::informative`] when `condition` holds, else the row unchanged.
+    pub fn informative_if(self, condition: bool, why: &str) -> Row {
+        if condition {
+            self.informative(why)
+        } else {
+            self
+        }
+    }
+
     /// The same row with a note.
     pub fn with_note(self, note: &str) -> Row {
         Row {
