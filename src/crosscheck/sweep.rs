@@ -125,7 +125,8 @@ impl Sweep {
                 x_label: self.parameter.clone(),
                 y_label: self.unit.clone(),
                 series,
-                x_range: None,
+                // Categories (the arithmetic models 1 … n) span their own steps, not decades.
+                x_range: (self.step_names.len() > 1).then(|| (1.0, self.step_names.len() as f64)),
                 y_range: None,
             },
             width,
