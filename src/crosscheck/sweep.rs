@@ -126,7 +126,7 @@ impl Sweep {
                 y_label: self.unit.clone(),
                 series,
                 // Categories (the arithmetic models 1 … n) span their own steps, not decades.
-                x_range: (self.step_names.len() > 1).then(|| (1.0, self.step_names.len() as f64)),
+                x_range: (self.step_names.len() > 1).then_some((1.0, self.step_names.len() as f64)),
                 y_range: None,
             },
             width,
