@@ -147,13 +147,22 @@ pub fn compare_pass(gpu: &Gpu, problem: &Problem, start: &[[f64; 2]]) -> Result<
                 .collect::<Vec<_>>()
         });
         cpu_total += cpu_ms;
+        // Per texel and independent of the others: in parallel (the reachable search paths make
+        // the bound the comparison's most expensive part).
+        let bounds: Vec<f64> = {
+            use rayon::prelude::*;
+            texels
+                .par_iter()
+                .map(|&(x, y)| step_bound(problem, start, x, y))
+                .collect()
+        };
+        out.bounds.extend(bounds);
         for ((&(x, y), r), cpu) in texels.iter().zip(&results).zip(&steps) {
             let i = mesh.index(x, y);
             out.diffs.push(
                 ((cpu.offset[0] - gpu_offsets[i][0]) * res[0])
                     .hypot((cpu.offset[1] - gpu_offsets[i][1]) * res[1]),
             );
-            out.bounds.push(step_bound(problem, start, x, y));
             out.premise_violations += usize::from(!within_run_premise(
                 problem,
                 start,
