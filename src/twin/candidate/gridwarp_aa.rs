@@ -5,7 +5,8 @@
 
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use super::invalid;
+use crate::error::Result;
 use crate::twin::gridwarp_aa::{
     cell_contribution, sample_residuals, CellContribution, CellLines, Field, RestSample,
 };
@@ -56,7 +57,7 @@ impl Inputs {
             let a = k.load_input(dir, name)?;
             match a.shape[..] {
                 [h, w] if w > 0 && h > 0 => Ok((scalars(&a), w, h)),
-                _ => Err(bad(
+                _ => Err(invalid(
                     k,
                     format!("{name} has shape {:?}, expected [H, W]", a.shape),
                 )),
@@ -94,7 +95,7 @@ impl Inputs {
             && x.t_index.len() == x.t.len()
             && x.samples.len() == 5 * columns * rows * x.per_cell;
         if !consistent {
-            return Err(bad(
+            return Err(invalid(
                 k,
                 format!(
                     "{} s and {} t lines need one rest size per column and row, one index per \
@@ -148,14 +149,6 @@ impl Inputs {
                 o_t: v[4],
             })
             .collect()
-    }
-}
-
-/// A [`Error::Vectors`] about kernel `k`'s inputs.
-fn bad(k: &KernelVectors, reason: String) -> Error {
-    Error::Vectors {
-        file: k.name.clone(),
-        reason,
     }
 }
 
@@ -291,5 +284,5 @@ pub fn normal_equations(dir: &Path, k: &KernelVectors, model: Model) -> Result<A
     let x = Inputs::load(dir, k)?;
     assemble(&x, cell_contribution, as_numbered, model)
         .output(&k.name)
-        .ok_or_else(|| bad(k, "not a kernel of the gridwarp_aa assembly".into()))
+        .ok_or_else(|| invalid(k, "not a kernel of the gridwarp_aa assembly".into()))
 }

@@ -24,6 +24,14 @@ use std::path::Path;
 use crate::error::Result;
 use crate::vectors::{Array, KernelVectors};
 
+/// An [`crate::Error::Vectors`] about kernel `k`'s inputs.
+pub fn invalid(k: &KernelVectors, reason: String) -> crate::Error {
+    crate::Error::Vectors {
+        file: k.name.clone(),
+        reason,
+    }
+}
+
 /// An array's values as the f32 a kernel reads.
 pub fn as_f32(a: &Array) -> Vec<f32> {
     a.to_f64().iter().map(|&x| x as f32).collect()

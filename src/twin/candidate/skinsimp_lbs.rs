@@ -4,7 +4,8 @@
 
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use super::invalid;
+use crate::error::Result;
 use crate::twin::skinsimp_lbs::skin;
 use crate::twin::{with_model, Model, F, V3};
 use crate::vectors::{Array, KernelVectors};
@@ -15,14 +16,6 @@ pub type Body = fn(V3<F>, [u32; 4], [F; 4], &dyn Fn(u32) -> [F; 12]) -> V3<F>;
 
 /// Where a pose's matrix of a joint is read: (pose, joint, poses, joints) → matrix index.
 pub type MatrixIndex = fn(usize, usize, usize, usize) -> usize;
-
-/// A [`Error::Vectors`] about kernel `k`'s inputs.
-fn bad(k: &KernelVectors, reason: String) -> Error {
-    Error::Vectors {
-        file: k.name.clone(),
-        reason,
-    }
-}
 
 /// The manifest's layout: pose · J + joint.
 pub fn pose_major(pose: usize, joint: usize, _: usize, joints: usize) -> usize {
@@ -60,7 +53,7 @@ pub fn candidate_with(
         || joints.len() < 4 * vertices
         || weights.len() < 4 * vertices
     {
-        return Err(bad(
+        return Err(invalid(
             k,
             format!(
                 "{vertices} vertices need 4 joints and weights each and matrices [P, J, 12] with \

@@ -5,7 +5,8 @@
 
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use super::invalid;
+use crate::error::Result;
 use crate::twin::skinsimp_quadrics::{plane_quadric, vertex_quadric, Quadric};
 use crate::twin::{with_model, Model, F, V3};
 use crate::vectors::{Array, KernelVectors};
@@ -55,10 +56,10 @@ impl Sources {
         };
         let short = x.corners.len() < 3 * x.kind.len();
         if short || x.corners.iter().any(|&c| c as usize >= vertices) {
-            return Err(Error::Vectors {
-                file: k.name.clone(),
-                reason: format!("every source needs 3 corners among the {vertices} posed vertices"),
-            });
+            return Err(invalid(
+                k,
+                format!("every source needs 3 corners among the {vertices} posed vertices"),
+            ));
         }
         Ok(x)
     }
@@ -136,12 +137,12 @@ pub fn vertex_candidate_with(
         || offsets.last().is_some_and(|&e| e > sources.len())
         || sources.iter().any(|&s| s >= x.kind.len())
     {
-        return Err(Error::Vectors {
-            file: k.name.clone(),
-            reason: "vertex_offsets must rise to at most the number of vertex_sources, each a \
-                     source index"
+        return Err(invalid(
+            k,
+            "vertex_offsets must rise to at most the number of vertex_sources, each a source \
+             index"
                 .into(),
-        });
+        ));
     }
     let vertices = offsets.len().saturating_sub(1);
     let mut out = Vec::with_capacity(vertices * x.poses * 10);
