@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use super::invalid;
+use super::{as_u32, invalid};
 use crate::error::Result;
 use crate::twin::skinsimp_quadrics::{plane_quadric, vertex_quadric, Quadric};
 use crate::twin::{with_model, Model, F, V3};
@@ -40,12 +40,7 @@ impl Sources {
             poses: posed.shape.get(1).copied().unwrap_or(0),
             posed: posed.to_f64(),
             corners: k.load_input(dir, "corners")?.to_f64(),
-            kind: k
-                .load_input(dir, "kind")?
-                .to_f64()
-                .iter()
-                .map(|&x| x as u32)
-                .collect(),
+            kind: as_u32(&k.load_input(dir, "kind")?),
             weight: F::new(
                 k.load_input(dir, "boundary_weight")?
                     .to_f64()
@@ -124,11 +119,8 @@ pub fn vertex_candidate_with(
 ) -> Result<Array> {
     let x = Sources::load(dir, k)?;
     let as_usize = |name: &str| -> Result<Vec<usize>> {
-        Ok(k.load_input(dir, name)?
-            .to_f64()
-            .iter()
-            .map(|&v| v as usize)
-            .collect())
+        let indices = as_u32(&k.load_input(dir, name)?);
+        Ok(indices.into_iter().map(|v| v as usize).collect())
     };
     let offsets = as_usize("vertex_offsets")?;
     let sources = as_usize("vertex_sources")?;
