@@ -236,6 +236,15 @@ fn abs_blend(mats: &[Matrix4<f64>], item: &EdgeItem) -> Matrix4<f64> {
     a
 }
 
+/// `A^j = Σ_k α_k M_k^j`, exact in f64 (f32 weights and entries, at most 8 terms).
+fn signed_blend(mats: &[Matrix4<f64>], item: &EdgeItem) -> Matrix4<f64> {
+    let mut a = Matrix4::zeros();
+    for k in 0..item.candidates as usize {
+        a += mats[item.joints[k] as usize] * item.alpha[k] as f64;
+    }
+    a
+}
+
 /// What [`cost_checks`] found.
 #[derive(Debug, Default)]
 pub struct CostChecks {
@@ -258,33 +267,84 @@ pub struct CostChecks {
     pub unexpected_costs_over: usize,
 }
 
-/// The first-order bounds of one candidate's outputs, from the reference alone, with
-/// T^j = |Q_a^j| + |Q_b^j| (entrywise), Ā^j = Σ α_k |M_k^j| and T_Q = Σ_j Ā^{jT} T^j Ā^j:
+/// One pose j of a candidate, as the bounds of [`CostBound`] need it: the magnitudes
+/// Ā^j = Σ α_k |M_k^j| and T^j = |Q_a^j| + |Q_b^j| (entrywise), and the signed A^j = Σ α_k M_k^j
+/// and Q^j = Q_a^j + Q_b^j (exact in f64: sums of a few f32 products).
+#[derive(Clone, Debug)]
+pub struct PoseTerms {
+    pub abar: Matrix4<f64>,
+    pub t: Matrix4<f64>,
+    pub blend: Matrix4<f64>,
+    pub quadric: Matrix4<f64>,
+}
+
+/// The magnitudes of the f32 evaluations at a point h = (v, 1) that the kernel may have moved
+/// by up to Δv per coordinate (|h| is taken as (|v| + Δv, 1)), summed over the poses, with
+/// P_j = Ā^j |h| (≥ |A^j h|) and G_j = |Q^j A^j h| + T^j Ā^j (Δv, Δv, Δv, 0) (≥ the half
+/// gradient |Q^j p| at the moved point).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PointMagnitudes {
+    /// Σ_j P_jᵀ T^j P_j: what every rounding of an entry of Q^j or of Q^j p is relative to.
+    pub squared: f64,
+    /// Σ_j P_jᵀ G_j: what an error in p = A^j h is relative to (p ↦ pᵀQp has gradient 2Qp).
+    pub gradient: f64,
+    /// Σ_j |h|ᵀ |A^{jT} Q^j A^j| |h|: the pose terms that Q̃'s pose sum adds up.
+    pub pose_terms: f64,
+    /// |h|ᵀ |Q̃| |h|.
+    pub total: f64,
+}
+
+/// γ_n = n u / (1 − n u): n roundings in a row, each ≤ u relative (Higham, *Accuracy and
+/// Stability of Numerical Algorithms*, Lemma 3.1), with u = [`U32`].
+pub fn gamma(n: f64) -> f64 {
+    n * U32 / (1.0 - n * U32)
+}
+
+/// The bounds of one candidate's outputs, from the reference alone, with the per-pose terms
+/// of [`PoseTerms`], T_Q = Σ_j Ā^{jT} T^j Ā^j, and the magnitudes P, G of [`PointMagnitudes`]:
 ///
 /// 1. Q̃ entries: Q_a + Q_b rounds once; an entry of A^j is a K-term sum (≤ (K + 1) u, K ≤ 8);
 ///    (AᵀQA)_rc is two 4-term dot products deep (≤ 8u); P poses add ≤ P u. So
 ///    |ΔQ̃| ≤ η_Q T_Q, η_Q = (1 + 2·9 + 8 + P) u, rounded up to (30 + P) u ([`Self::quadric`]).
-/// 2. The solve: perturbing B, b by ΔB, Δb moves v by ≤ ‖B⁻¹‖_F (‖ΔB‖_F |v| + |Δb|). The
-///    adjugate solve itself (cofactors c_j × c_k: 3 roundings each; det = c0·(c1 × c2): 5 more;
-///    the quotient: 2) adds ≤ u (12 ‖B‖_F² |b| + 10 ‖B‖_F³ |v|) / |det B| ([`Self::solve`]).
-/// 3. A value v̂ᵀQ̃v̂ at a point: Q̃'s error, then Q̃ h and h·(Q̃ h) (4-term dot products, 8
-///    roundings), with |Q̃| ≤ T_Q: ≤ (η_Q + 8u) |v̂|ᵀ T_Q |v̂| ([`Self::value`]).
+/// 2. The solve: perturbing B, b by ΔB, Δb (|ΔB| ≤ η_Q T_B) moves v by
+///    Δv_B = (B + ΔB)⁻¹ (ΔB v + Δb), ≤ ‖B⁻¹‖_F ρ / (1 − κε), ρ = η_Q (‖T_B‖_F |v| + |T_b|),
+///    κε = ‖B⁻¹‖_F η_Q ‖T_B‖_F (the relative size of the perturbation, amplified; ∞ from ½ on).
+///    The adjugate solve itself (cofactors c_j × c_k: 3 roundings each; det = c0·(c1 × c2): 5
+///    more; the quotient: 2) adds σ ≤ u (12 ‖B‖_F² |b| + 10 ‖B‖_F³ |v|) / |det B|
+///    ([`Self::solve`]).
+/// 3. A value v̂ᵀQ̃v̂ at a point, from the kernel's own Q̃: an error ΔA in A^j changes
+///    hᵀA^{jT}Q^jA^jh by 2 (ΔA h)ᵀ(Q^j A^j h), ≤ 2·9u P_jᵀG_j; Q_a + Q_b, AᵀQ and (AᵀQ)A round
+///    (1 + 4 + 4) u relative to P_jᵀT^jP_j; the pose sum, in any order, ≤ γ_{P−1} Σ_j
+///    |h|ᵀ|A^{jT}Q^jA^j||h|; Q̃h and h·(Q̃h) ≤ γ_8 |h|ᵀ|Q̃||h| ([`Self::value`]).
 /// 4. The cost at the GPU's own position ṽ: E is quadratic in v with zero gradient at the
-///    reference's v, so E(ṽ) − E(v) = Δvᵀ B Δv ≤ ‖B‖_F |Δv|²; evaluating E in f32 adds
-///    ≤ η_E Σ_j (Ā^j |v̂|)ᵀ T^j (Ā^j |v̂|), η_E = (1 + 9 + 4 + 4 + 4 + P) u, rounded up to
-///    (25 + P) u (A^j, A^j v̂, Q p, p·Qp, the pose sum) ([`Self::cost`]).
+///    reference's v, so E(ṽ) − E(v) = Δvᵀ B Δv: for the solution
+///    ≤ (√‖B⁻¹‖_F ρ / (1 − κε) + √‖B‖_F σ)² (B's energy norm of step 2's two parts; for Δv_B,
+///    ‖B^{½}(B + ΔB)⁻¹‖ ≤ √‖B⁻¹‖ / (1 − κε)), for a kept end or midpoint 2|g|Δv + ‖B‖_F Δv²
+///    ([`Self::moved`]). Evaluating E = Σ_j p_jᵀQ^jp_j in f32 at ṽ: p = A^j ṽ carries
+///    (9 + 4) u P_j, whose effect is first order in the gradient: 2·13u P_jᵀG_j; Q_a + Q_b and
+///    Q^j p round (1 + 4) u P_jᵀT^jP_j; p·(Qp) rounds 4u P_jᵀ|Q^j p|; so per pose
+///    ≤ 5u PᵀTP + 30u PᵀG + 300u² PᵀTP (the second-order terms, ΔpᵀQΔp and the rest). The pose
+///    sum adds terms p_jᵀQ^jp_j ≥ 0, so its rounding is relative to E itself:
+///    ≤ γ_{P−1} (E(v) + moved + the per-pose errors) ([`Self::cost`]). Only the roundings of
+///    the entries of Q^j and of Q^j p meet the cancellation of a plane's n·p + d; the earlier
+///    bound (25 + P) u Σ_j P_jᵀT^jP_j charged every rounding, the pose sum's included, to it,
+///    and was 2000× the error on `Fox.glb`.
 #[derive(Clone, Debug)]
 pub struct CostBound {
     /// T_Q.
     pub t_q: Matrix4<f64>,
-    /// (Ā^j, T^j) per pose.
-    pub t_mats: Vec<(Matrix4<f64>, Matrix4<f64>)>,
+    /// Per pose, in order.
+    pub poses: Vec<PoseTerms>,
     pub eta_q: f64,
-    pub eta_e: f64,
     /// ‖B‖_F of the reference's B.
     pub b_norm: f64,
-    /// How far the f32 solution may land from the reference's (steps 1–2; ∞ when B is
-    /// singular).
+    /// ‖B⁻¹‖_F (∞ when B is singular).
+    pub inverse_norm: f64,
+    /// Step 2's parts: Δv_B's bound ‖B⁻¹‖_F ρ / (1 − κε), and the solve's own rounding σ.
+    pub solve_perturbation: f64,
+    pub solve_rounding: f64,
+    /// How far the f32 solution may land from the reference's: the sum of the two parts
+    /// (∞ when B is singular or κε ≥ ½).
     pub solve: f64,
     /// How far the f32 midpoint (a + b) · 0.5 may land from the exact one: a + b rounds once,
     /// up or down (one ULP: u relative per coordinate), the halving is exact: ≤ u |a + b| / 2.
@@ -298,39 +358,56 @@ impl CostBound {
     pub fn new(cd: &CostData, item: &EdgeItem, r: &ReferenceCost) -> CostBound {
         let p = cd.mats.len();
         let eta_q = (30.0 + p as f64) * U32;
-        let eta_e = (25.0 + p as f64) * U32;
         let (a, b) = (item.a as usize, item.b as usize);
-        let mut t_q = Matrix4::zeros();
-        let mut t_mats = Vec::with_capacity(p);
-        for j in 0..p {
-            let t = cd.vertex_quadrics[a * p + j].matrix().abs()
-                + cd.vertex_quadrics[b * p + j].matrix().abs();
-            let abar = abs_blend(&cd.mats[j], item);
-            t_q += abar.transpose() * t * abar;
-            t_mats.push((abar, t));
-        }
+        let poses: Vec<PoseTerms> = (0..p)
+            .map(|j| {
+                let (qa, qb) = (
+                    cd.vertex_quadrics[a * p + j].matrix(),
+                    cd.vertex_quadrics[b * p + j].matrix(),
+                );
+                PoseTerms {
+                    abar: abs_blend(&cd.mats[j], item),
+                    t: qa.abs() + qb.abs(),
+                    blend: signed_blend(&cd.mats[j], item),
+                    quadric: qa + qb,
+                }
+            })
+            .collect();
+        let t_q = poses
+            .iter()
+            .map(|pose| pose.abar.transpose() * pose.t * pose.abar)
+            .fold(Matrix4::zeros(), |acc, m| acc + m);
         let bm = r.quadric.fixed_view::<3, 3>(0, 0).into_owned();
         let bv = Vector3::new(r.quadric[(0, 3)], r.quadric[(1, 3)], r.quadric[(2, 3)]);
         let tb = t_q.fixed_view::<3, 3>(0, 0).into_owned();
         let tbv = Vector3::new(t_q[(0, 3)], t_q[(1, 3)], t_q[(2, 3)]);
         let v = r.position.coords.norm();
-        let solve = match bm.try_inverse() {
+        let (inverse_norm, solve_perturbation, solve_rounding) = match bm.try_inverse() {
             Some(inv) => {
-                let perturbation = inv.norm() * eta_q * (tb.norm() * v + tbv.norm());
+                let inverse_norm = inv.norm();
+                let amplified = inverse_norm * eta_q * tb.norm();
+                let rho = eta_q * (tb.norm() * v + tbv.norm());
+                let perturbation = if amplified < 0.5 {
+                    inverse_norm * rho / (1.0 - amplified)
+                } else {
+                    f64::INFINITY
+                };
                 let rounding = U32
                     * (12.0 * bm.norm_squared() * bv.norm() + 10.0 * bm.norm().powi(3) * v)
                     / bm.determinant().abs();
-                perturbation + rounding
+                (inverse_norm, perturbation, rounding)
             }
-            None => f64::INFINITY,
+            None => (f64::INFINITY, f64::INFINITY, f64::INFINITY),
         };
         CostBound {
             t_q,
-            t_mats,
+            poses,
             eta_q,
-            eta_e,
             b_norm: bm.norm(),
-            solve,
+            inverse_norm,
+            solve_perturbation,
+            solve_rounding,
+            solve: solve_perturbation + solve_rounding,
             midpoint: 0.5 * U32 * (cd.rest[a].coords + cd.rest[b].coords).norm(),
             quadric: r.quadric,
         }
@@ -349,10 +426,38 @@ impl CostBound {
         out
     }
 
-    /// Step 3: the bound of v̂ᵀQ̃v̂ evaluated in f32 at the f32 point `v`.
-    pub fn value(&self, v: &Point3<f64>) -> f64 {
-        let h = v.to_homogeneous().abs();
-        (self.eta_q + 8.0 * U32) * h.dot(&(self.t_q * h))
+    /// The [`PointMagnitudes`] at `v`, moved by up to `dv` per coordinate.
+    pub fn magnitudes(&self, v: &Point3<f64>, dv: f64) -> PointMagnitudes {
+        let h = v.to_homogeneous();
+        let habs = h.abs() + nalgebra::Vector4::new(dv, dv, dv, 0.0);
+        let shift = nalgebra::Vector4::new(dv, dv, dv, 0.0);
+        let mut m = PointMagnitudes {
+            total: habs.dot(&(self.quadric.abs() * habs)),
+            ..PointMagnitudes::default()
+        };
+        for pose in &self.poses {
+            let big_p = pose.abar * habs;
+            let g = (pose.quadric * (pose.blend * h)).abs() + pose.t * (pose.abar * shift);
+            m.squared += big_p.dot(&(pose.t * big_p));
+            m.gradient += big_p.dot(&g);
+            let x = pose.blend.transpose() * pose.quadric * pose.blend;
+            m.pose_terms += habs.dot(&(x.abs() * habs));
+        }
+        m
+    }
+
+    /// Step 3: the bound of v̂ᵀQ̃v̂ evaluated in f32, from the kernel's Q̃, at the kernel's
+    /// point, within `dv` per coordinate of `v`:
+    /// 18u ΣPᵀG + 9u ΣPᵀTP + γ_{P−1} Σ|h|ᵀ|AᵀQA||h| + γ_8 |h|ᵀ|Q̃||h|, plus 300u² ΣPᵀTP for
+    /// the second-order terms.
+    pub fn value(&self, v: &Point3<f64>, dv: f64) -> f64 {
+        let m = self.magnitudes(v, dv);
+        let poses = self.poses.len() as f64;
+        (18.0 * U32 * m.gradient
+            + (9.0 * U32 + 300.0 * U32 * U32) * m.squared
+            + gamma((poses - 1.0).max(0.0)) * m.pose_terms
+            + gamma(8.0) * m.total)
+            * (1.0 + 1e-6)
     }
 
     /// Steps 1–2: the bound of the kept position, when both sides keep the point `choice`:
@@ -369,27 +474,35 @@ impl CostBound {
     }
 
     /// How much v̂ᵀQ̃v̂ (or E, equal to it) may change when the kept point `choice`, at `v`,
-    /// moves by Δv ≤ [`Self::position`]: 2 |g| Δv + ‖B‖_F Δv², g = (Q̃ v̂)\[0:3\] the half
-    /// gradient (0 at the solution, the minimum) (step 4).
+    /// moves by Δv ≤ [`Self::position`] (step 4): 2 |g| Δv plus Δvᵀ B Δv, g = (Q̃ v̂)\[0:3\] the
+    /// half gradient (0 at the solution, the minimum); for the solution
+    /// Δvᵀ B Δv ≤ (√‖B⁻¹‖_F ρ/(1 − κε) + √‖B‖_F (σ + 2⁻¹²⁶))², elsewhere ‖B‖_F Δv².
     pub fn moved(&self, choice: u32, v: &Point3<f64>) -> f64 {
         let dv = self.position(choice);
         let g = (self.quadric * v.to_homogeneous()).xyz().norm();
-        2.0 * g * dv + self.b_norm * dv * dv
+        if !dv.is_finite() {
+            return f64::INFINITY;
+        }
+        let energy = if choice == 0 {
+            // ‖Δv_B‖_B ≤ √‖B⁻¹‖ ρ/(1 − κε) = solve_perturbation / √‖B⁻¹‖.
+            let norm = self.solve_perturbation / self.inverse_norm.sqrt()
+                + self.b_norm.sqrt() * (self.solve_rounding + F32_FLUSH);
+            norm * norm * (1.0 + 1e-6)
+        } else {
+            self.b_norm * dv * dv
+        };
+        2.0 * g * dv + energy
     }
 
     /// Step 4: the bound of E(v̂, α) when both sides keep point `choice` of the reference's
-    /// result `r`.
+    /// result `r`: (5u ΣPᵀTP + 30u ΣPᵀG + 300u² ΣPᵀTP) (1 + γ_{P−1}) + moved
+    /// + γ_{P−1} (E + moved).
     pub fn cost(&self, r: &ReferenceCost) -> f64 {
-        let h = r.position.to_homogeneous().abs();
-        let terms: f64 = self
-            .t_mats
-            .iter()
-            .map(|(abar, t)| {
-                let ph = abar * h;
-                ph.dot(&(t * ph))
-            })
-            .sum();
-        self.eta_e * terms + self.moved(r.choice, &r.position)
+        let m = self.magnitudes(&r.position, self.position(r.choice));
+        let per_pose = (5.0 * U32 + 300.0 * U32 * U32) * m.squared + 30.0 * U32 * m.gradient;
+        let moved = self.moved(r.choice, &r.position);
+        let sum = gamma((self.poses.len() as f64 - 1.0).max(0.0));
+        (per_pose * (1.0 + sum) + moved + sum * (r.cost.abs() + moved)) * (1.0 + 1e-6)
     }
 
     /// How far (relatively) an f32 cond_F(B) may be from the reference's `condition`: the
@@ -431,7 +544,7 @@ impl CostBound {
             .into_iter()
             .chain((1..4).map(|k| (k, fallbacks[k as usize - 1])))
             .collect();
-        let slack = |k: u32, v: &Point3<f64>| self.value(v) + self.moved(k, v);
+        let slack = |k: u32, v: &Point3<f64>| self.value(v, self.position(k)) + self.moved(k, v);
         let kept = slack(r.choice, &r.position);
         points
             .iter()
@@ -488,7 +601,9 @@ pub fn cost_checks(data: &CrossCheckData) -> Result<CostChecks> {
             out.ties.push(Checked::new(
                 format!("{what}: choice {} vs {}", r.choice, g.choice),
                 (value(&r.position) - value(&v_gpu)).abs(),
-                bound.value(&r.position) + bound.value(&v_gpu) + moved,
+                bound.value(&r.position, bound.position(r.choice))
+                    + bound.value(&v_gpu, 0.0)
+                    + moved,
             ));
             continue;
         }
@@ -641,14 +756,18 @@ pub fn crosscheck_skinsimp(gpu: &Gpu, input_name: &str, input: &Input) -> Result
         input_name,
         "unit box² (value)",
         &checks.ties,
-        "|E(v_ref) − E(v_gpu)| ≤ 2 (25 + P) u |v̂|ᵀ T |v̂| + ‖B‖ Δv² (Δv the position bound, when one side kept the solution)",
+        "|v̂ᵀQ̃v̂ at the two points| ≤ both values' bounds (18u ΣPᵀG + 9u ΣPᵀTP + γ_{P−1} Σ|h|ᵀ|AᵀQA||h| + γ_8 |h|ᵀ|Q̃||h|) + Δvᵀ B Δv + 2|g|Δv (CostBound::value, moved)",
+    )
+    .with_note(
+        "the error here is how close a tie the GPU's rounding decided the other way: at most \
+         the two values' actual f32 errors, so its ratio follows the cost row's, lower",
     );
     let positions = checked_row(
         "skinsimp_collapse_cost: position v̂",
         input_name,
         "unit box",
         &checks.positions,
-        "‖B⁻¹‖(η_Q(‖T_B‖|v| + |T_b|)) + u(12‖B‖²|b| + 10‖B‖³|v|)/|det B|",
+        "‖B⁻¹‖ η_Q(‖T_B‖|v| + |T_b|)/(1 − κε) + u(12‖B‖²|b| + 10‖B‖³|v|)/|det B|",
     )
     .with_note(&format!(
         "notes' 1e-5 expected for {} (over: {}), exceeded elsewhere by {}",
@@ -659,7 +778,7 @@ pub fn crosscheck_skinsimp(gpu: &Gpu, input_name: &str, input: &Input) -> Result
         input_name,
         "unit box²",
         &checks.costs,
-        "(25 + P) u Σ_j (Ā^j|v̂|)ᵀT^j(Ā^j|v̂|) + ‖B‖ Δv²",
+        "(5u ΣPᵀTP + 30u ΣPᵀG)(1 + γ_{P−1}) + γ_{P−1} E + Δvᵀ B Δv + 2|g|Δv, P = Ā|v̂|, G = |QAv̂| (CostBound::cost)",
     )
     .with_note(&format!(
         "notes' max(1e-4|E|, 1e-7) expected for {} (over: {}), exceeded elsewhere by {}",
