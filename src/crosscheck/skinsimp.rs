@@ -227,20 +227,17 @@ pub fn quadric_checks(data: &CrossCheckData) -> (Vec<Checked>, Vec<Checked>) {
     (plane, vertex)
 }
 
-/// `Σ_k α_k |M_k^j|` with the last row `(0, 0, 0, Σα)`: the magnitude of `A^j`.
-fn abs_blend(mats: &[Matrix4<f64>], item: &EdgeItem) -> Matrix4<f64> {
+/// `Σ_k α_k f(M_k^j)` over the candidate's joints: with f = |·| the magnitude Ā^j of `A^j` (last
+/// row `(0, 0, 0, Σα)`), with f the identity `A^j` itself (exact in f64: f32 weights and
+/// entries, at most 8 terms).
+fn blend_of(
+    mats: &[Matrix4<f64>],
+    item: &EdgeItem,
+    f: impl Fn(&Matrix4<f64>) -> Matrix4<f64>,
+) -> Matrix4<f64> {
     let mut a = Matrix4::zeros();
     for k in 0..item.candidates as usize {
-        a += mats[item.joints[k] as usize].abs() * item.alpha[k] as f64;
-    }
-    a
-}
-
-/// `A^j = Σ_k α_k M_k^j`, exact in f64 (f32 weights and entries, at most 8 terms).
-fn signed_blend(mats: &[Matrix4<f64>], item: &EdgeItem) -> Matrix4<f64> {
-    let mut a = Matrix4::zeros();
-    for k in 0..item.candidates as usize {
-        a += mats[item.joints[k] as usize] * item.alpha[k] as f64;
+        a += f(&mats[item.joints[k] as usize]) * item.alpha[k] as f64;
     }
     a
 }
@@ -366,9 +363,9 @@ impl CostBound {
                     cd.vertex_quadrics[b * p + j].matrix(),
                 );
                 PoseTerms {
-                    abar: abs_blend(&cd.mats[j], item),
+                    abar: blend_of(&cd.mats[j], item, |m| m.abs()),
                     t: qa.abs() + qb.abs(),
-                    blend: signed_blend(&cd.mats[j], item),
+                    blend: blend_of(&cd.mats[j], item, |m| *m),
                     quadric: qa + qb,
                 }
             })
