@@ -128,6 +128,7 @@ impl Sweep {
                 // Categories (the arithmetic models 1 … n) span their own steps, not decades.
                 x_range: (self.step_names.len() > 1).then_some((1.0, self.step_names.len() as f64)),
                 y_range: None,
+                categorical_x: self.step_names.len() > 1,
             },
             width,
             height,

@@ -46,6 +46,9 @@ pub struct LogLogPlot {
     /// Axis ranges; `None`: the points' extent, widened to whole decades.
     pub x_range: Option<(f64, f64)>,
     pub y_range: Option<(f64, f64)>,
+    /// Whether x is a category numbered 1, 2, …: a linear x axis with a tick per whole number
+    /// (the arithmetic models of a sweep), instead of a logarithmic one.
+    pub categorical_x: bool,
 }
 
 /// Distinct colours for measured series (tab10's first entries).
@@ -125,56 +128,43 @@ pub fn draw(plot: &LogLogPlot, width: usize, height: usize) -> Result<Image<Rgba
             .into_drawing_area();
         root.fill(&WHITE).map_err(draw_error)?;
         let small = (height / 40).clamp(10, 16) as u32;
-        let mut chart = ChartBuilder::on(&root)
+        let mut builder = ChartBuilder::on(&root);
+        builder
             .caption(&plot.title, (FAMILY, small + 3))
             .margin(8)
             .x_label_area_size(small * 3)
-            .y_label_area_size(small * 5)
-            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-            .map_err(draw_error)?;
-        chart
-            .configure_mesh()
-            .x_desc(plot.x_label.as_str())
-            .y_desc(plot.y_label.as_str())
-            .label_style((FAMILY, small))
-            .x_label_formatter(&|v| short(*v))
-            .y_label_formatter(&|v| short(*v))
-            .draw()
-            .map_err(draw_error)?;
-        for s in &plot.series {
-            let c = colour(s.colour);
-            let style = ShapeStyle::from(c).stroke_width(2);
-            let visible: Vec<(f64, f64)> = s
-                .points
-                .iter()
-                .copied()
-                .filter(|p| p.0 > 0.0 && p.1 > 0.0)
-                .collect();
-            let legend = match s.style {
-                Style::Measured => {
-                    chart
-                        .draw_series(LineSeries::new(visible.clone(), style))
-                        .map_err(draw_error)?;
-                    chart
-                        .draw_series(visible.iter().map(|&p| Circle::new(p, 3, c.filled())))
-                        .map_err(draw_error)?
-                }
-                Style::Bound => chart
-                    .draw_series(DashedLineSeries::new(visible.clone(), 8, 5, style))
-                    .map_err(draw_error)?,
-            };
-            legend
-                .label(s.label.as_str())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+            .y_label_area_size(small * 5);
+        if plot.categorical_x {
+            let mut chart = builder
+                .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+                .map_err(draw_error)?;
+            let ticks = (x1 - x0).round() as usize + 1;
+            chart
+                .configure_mesh()
+                .x_labels(ticks)
+                .x_label_formatter(&|v| format!("{v:.0}"))
+                .y_label_formatter(&|v| short(*v))
+                .x_desc(plot.x_label.as_str())
+                .y_desc(plot.y_label.as_str())
+                .label_style((FAMILY, small))
+                .draw()
+                .map_err(draw_error)?;
+            draw_series(&mut chart, plot, small)?;
+        } else {
+            let mut chart = builder
+                .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+                .map_err(draw_error)?;
+            chart
+                .configure_mesh()
+                .x_label_formatter(&|v| short(*v))
+                .y_label_formatter(&|v| short(*v))
+                .x_desc(plot.x_label.as_str())
+                .y_desc(plot.y_label.as_str())
+                .label_style((FAMILY, small))
+                .draw()
+                .map_err(draw_error)?;
+            draw_series(&mut chart, plot, small)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .label_font((FAMILY, small))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(draw_error)?;
         root.present().map_err(draw_error)?;
     }
     let mut image = Image::new(width, height, [255, 255, 255, 255]);
@@ -182,6 +172,53 @@ pub fn draw(plot: &LogLogPlot, width: usize, height: usize) -> Result<Image<Rgba
         *pixel = [rgb[0], rgb[1], rgb[2], 255];
     }
     Ok(image)
+}
+
+/// Every series of `plot` on `chart` (measured: solid with markers; bounds: dashed; points with
+/// x, y > 0 only) and the legend in the upper left, whatever the x axis.
+fn draw_series<'a, X>(
+    chart: &mut ChartContext<'a, BitMapBackend<'a>, Cartesian2d<X, LogCoord<f64>>>,
+    plot: &LogLogPlot,
+    small: u32,
+) -> Result<()>
+where
+    X: Ranged<ValueType = f64>,
+{
+    for s in &plot.series {
+        let c = colour(s.colour);
+        let style = ShapeStyle::from(c).stroke_width(2);
+        let visible: Vec<(f64, f64)> = s
+            .points
+            .iter()
+            .copied()
+            .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+            .collect();
+        let legend = match s.style {
+            Style::Measured => {
+                chart
+                    .draw_series(LineSeries::new(visible.clone(), style))
+                    .map_err(draw_error)?;
+                chart
+                    .draw_series(visible.iter().map(|&p| Circle::new(p, 3, c.filled())))
+                    .map_err(draw_error)?
+            }
+            Style::Bound => chart
+                .draw_series(DashedLineSeries::new(visible.clone(), 8, 5, style))
+                .map_err(draw_error)?,
+        };
+        legend
+            .label(s.label.as_str())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .label_font((FAMILY, small))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(draw_error)?;
+    Ok(())
 }
 
 /// A tick label: 1e-5, 0.01, 1, 100, 1e4.

@@ -623,6 +623,7 @@ pub fn draw_error_plot(
             series: lines,
             x_range: Some((x_min, x_max)),
             y_range: Some((y_min, y_max)),
+            categorical_x: false,
         },
         width,
         height,
