@@ -139,31 +139,13 @@ pub fn draw(plot: &LogLogPlot, width: usize, height: usize) -> Result<Image<Rgba
                 .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
                 .map_err(draw_error)?;
             let ticks = (x1 - x0).round() as usize + 1;
-            chart
-                .configure_mesh()
-                .x_labels(ticks)
-                .x_label_formatter(&|v| format!("{v:.0}"))
-                .y_label_formatter(&|v| short(*v))
-                .x_desc(plot.x_label.as_str())
-                .y_desc(plot.y_label.as_str())
-                .label_style((FAMILY, small))
-                .draw()
-                .map_err(draw_error)?;
-            draw_series(&mut chart, plot, small)?;
+            draw_chart(&mut chart, plot, small, ticks, &|v| format!("{v:.0}"))?;
         } else {
             let mut chart = builder
                 .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
                 .map_err(draw_error)?;
-            chart
-                .configure_mesh()
-                .x_label_formatter(&|v| short(*v))
-                .y_label_formatter(&|v| short(*v))
-                .x_desc(plot.x_label.as_str())
-                .y_desc(plot.y_label.as_str())
-                .label_style((FAMILY, small))
-                .draw()
-                .map_err(draw_error)?;
-            draw_series(&mut chart, plot, small)?;
+            // plotters' default count of x labels (`MeshStyle`'s 11).
+            draw_chart(&mut chart, plot, small, 11, &|v| short(*v))?;
         }
         root.present().map_err(draw_error)?;
     }
@@ -174,16 +156,29 @@ pub fn draw(plot: &LogLogPlot, width: usize, height: usize) -> Result<Image<Rgba
     Ok(image)
 }
 
-/// Every series of `plot` on `chart` (measured: solid with markers; bounds: dashed; points with
-/// x, y > 0 only) and the legend in the upper left, whatever the x axis.
-fn draw_series<'a, X>(
+/// The mesh of `chart` (`x_labels` x ticks written by `x_format`, log y ticks, the axis
+/// descriptions), every series of `plot` (measured: solid with markers; bounds: dashed; points
+/// with x, y > 0 only) and the legend in the upper left, whatever the x axis.
+fn draw_chart<'a, X>(
     chart: &mut ChartContext<'a, BitMapBackend<'a>, Cartesian2d<X, LogCoord<f64>>>,
     plot: &LogLogPlot,
     small: u32,
+    x_labels: usize,
+    x_format: &dyn Fn(&f64) -> String,
 ) -> Result<()>
 where
-    X: Ranged<ValueType = f64>,
+    X: Ranged<ValueType = f64> + plotters::coord::ranged1d::ValueFormatter<f64>,
 {
+    chart
+        .configure_mesh()
+        .x_labels(x_labels)
+        .x_label_formatter(x_format)
+        .y_label_formatter(&|v| short(*v))
+        .x_desc(plot.x_label.as_str())
+        .y_desc(plot.y_label.as_str())
+        .label_style((FAMILY, small))
+        .draw()
+        .map_err(draw_error)?;
     for s in &plot.series {
         let c = colour(s.colour);
         let style = ShapeStyle::from(c).stroke_width(2);
