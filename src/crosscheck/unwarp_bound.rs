@@ -390,7 +390,7 @@ pub fn fan_radius(fan: &Fan, o: [f64; 2]) -> f64 {
 /// 3. **guard**: when F(0) − F(t) is within the errors for some reachable t (or the
 ///    reference does not move), f32 may decide the other way: |Δo| ≤ s.
 ///
-/// The f32 bracket's ends lie within [`bracket_range`] (every value its roots can take under
+/// The f32 bracket's ends lie within `bracket_range` (every value its roots can take under
 /// the inputs' errors, the gradient's included), at most dt0 from the f64 ends; the f32
 /// search's points are the model's moved by ≤ dt0 (plus 3u·hi per iteration), which widens the
 /// hull of bound 1 by as much, and where f32 may find no bracket at all bound 3 applies. The
@@ -537,7 +537,7 @@ pub fn step_bound_parts(
 /// so |Δo| ≤ |t* − t'||g| + t'Δg ≤ max(t*, hi_max − t*)|g| + hi_max Δg. Either way the step
 /// turns no triangle over, so it stays in the fan's polygon: |Δo| ≤ t*|g| + [`fan_radius`]
 /// (with 10⁻⁶ relative for the f32 areas' roundings near 0). The smaller of the two.
-fn wide_bound(fan: &Fan, o: [f64; 2], t: f64, gn: f64, dg: f64, hi_max: f64) -> f64 {
+pub fn wide_bound(fan: &Fan, o: [f64; 2], t: f64, gn: f64, dg: f64, hi_max: f64) -> f64 {
     let along = (t.max(hi_max - t)) * gn + hi_max * dg;
     let polygon = t * gn + fan_radius(fan, o) * (1.0 + 1e-6);
     if along.is_finite() {
