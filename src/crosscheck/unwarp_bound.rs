@@ -264,12 +264,14 @@ fn quotient_range(a: f64, da: f64, d: f64, dd: f64) -> Option<[f64; 2]> {
 }
 
 /// The range of the pin barrier's root t₊(α, β, c) of α t² − 2β t − c = 0
-/// ([`crate::unwarp::fixation::pin_root`], c = 1 − γ) over the f32 inputs: t₊ grows with β and c and falls with α
-/// (∂t/∂β = t/√D, ∂t/∂c = 1/(2√D), ∂t/∂α = −t²/(2√D), √D = αt − β > 0), so its range is
-/// [t₊(α + Δα, β − Δβ, c(1 − δ_c)), t₊(α − Δα, β + Δβ, c(1 + δ_c))], each end widened by the
-/// root's own ≈ 20 roundings. With |g' − g| ≤ Δg: α = w²|R⊙g|² lies in
-/// w²(|R⊙g| ∓ R_max Δg)²(1 ± 5u), β = w²(R²⊙o)·g moves by ≤ w²|R²⊙o| Δg + 5u w² Σ R_i² |o_i g_i|
-/// (Cauchy–Schwarz, and the sums' roundings), c by δ_c = [`pin_cancellation`] + u relatively. `None` without a barrier (w = 0 or γ ≥ 1).
+/// ([`crate::unwarp::fixation::pin_root`], c = 1 − γ) over the f32 inputs. t₊ grows with β
+/// and c and falls with α (∂t/∂β = t/√D, ∂t/∂c = 1/(2√D), ∂t/∂α = −t²/(2√D),
+/// √D = αt − β > 0), so its range is [t₊(α_max, β − Δβ, c(1 − δ_c)),
+/// t₊(α_min, β + Δβ, c(1 + δ_c))], each end widened by the root's own ≈ 20 roundings. With
+/// |g' − g| ≤ Δg: α = w²|R⊙g|² lies in w²(|R⊙g| ∓ R_max Δg)²(1 ± 5u); β = w²(R²⊙o)·g moves
+/// by ≤ w²|R²⊙o| Δg + 5u w² Σ R_i² |o_i g_i| (Cauchy–Schwarz, and the sums' roundings); c by
+/// δ_c = [`pin_cancellation`] + u relatively. The root itself is `pin_root`'s formula, without
+/// cancellation. `None` without a barrier (w = 0 or γ ≥ 1).
 fn pin_root_range(line: &LineModel) -> Option<[f64; 2]> {
     let (w2, r, o, g, dg) = (
         line.weight * line.weight,
