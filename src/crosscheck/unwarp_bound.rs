@@ -706,9 +706,8 @@ mod tests {
             scale: 0.08,
             ..Default::default()
         };
-        let heights = procedural("cones", 32).unwrap();
-        let (problem, offsets) =
-            crate::crosscheck::unwarp::rounded_state(&heights, &options, 2).unwrap();
+        let heights = procedural("cones", 32)?;
+        let (problem, offsets) = crate::crosscheck::unwarp::rounded_state(&heights, &options, 2)?;
         let (mut texels, mut tight) = (0, 0);
         for y in 0..32 {
             for x in 0..32 {
