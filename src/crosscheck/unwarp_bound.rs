@@ -459,7 +459,7 @@ pub fn step_bound_parts(
     );
     let fan = Fan::new(mesh, offsets, x, y);
     let step = descend_texel_traced(problem, offsets, x, y);
-    let g = node_gradient(&fan, w, r, o, theta);
+    let g = step.gradient;
     let gn = g[0].hypot(g[1]);
     let texels = mesh.width.max(mesh.height) as f64;
     let Some([lo, hi]) = step.bracket else {
