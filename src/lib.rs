@@ -28,6 +28,7 @@ pub mod crosscheck;
 pub mod error;
 pub mod gridwarp;
 pub mod input;
+pub mod lbfgs;
 pub mod lm;
 pub mod maps;
 pub mod mesh;

@@ -14,6 +14,7 @@ pub mod relax;
 pub mod remesh;
 pub mod retriangulate;
 pub mod smooth;
+pub mod stretch;
 
 use std::collections::BTreeSet;
 use std::time::Instant;
