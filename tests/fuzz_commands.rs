@@ -222,8 +222,8 @@ fn fuzz_maps() {
     fuzz::assert_clean(&[obj, off]);
 }
 
-/// The remeshes on mutated meshes: uniform, Loop-smoothed and relaxed (`maps::relax`), each
-/// with its distance figures.
+/// The remeshes on mutated meshes: uniform, Loop-smoothed, relaxed (`maps::relax`) and
+/// equalised (`maps::equalise`), each with its distance figures.
 #[test]
 fn fuzz_maps_remesh() {
     let args = [
@@ -234,6 +234,8 @@ fn fuzz_maps_remesh() {
         "--smooth",
         "--relax",
         "3",
+        "--equalise",
+        "2",
         "--picture-size",
         "0",
         "--out",

@@ -1477,7 +1477,7 @@ fn maps_remesh_of_a_spike_over_a_two_face_base_domain_is_finite() {
         let mut args = vec!["reparam", "maps", &path, "--remesh", "uniform:1", "--json"];
         args.extend(["--picture-size", "0", "--out", &out]);
         if relax {
-            args.extend(["--smooth", "--relax", "3"]);
+            args.extend(["--smooth", "--relax", "3", "--equalise", "2"]);
         }
         let (result, stdout) = reparam::cli::run_captured(args);
         assert_eq!(result.unwrap(), std::process::ExitCode::SUCCESS);

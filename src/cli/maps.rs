@@ -5,6 +5,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use crate::maps::distortion::{distortion, Distortion};
+use crate::maps::distortion::{map_distortion, DistortionStats};
+use crate::maps::equalise::{
+    equalise, uniform_equalised, uniform_equalised_relaxed, EqualiseOptions, EqualiseReport,
+    Equalised,
+};
 use crate::maps::quality::{AngleStats, WrongFacing};
 use crate::maps::relax::{uniform_relaxed, RelaxOptions, RelaxStats};
 use crate::maps::remesh::{adaptive, uniform, AdaptiveOptions, Remesh};
@@ -82,6 +87,12 @@ pub struct MapsArgs {
     /// `--relax` alone: 15 sweeps (`RelaxOptions::default`).
     #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = RELAX_SWEEPS)]
     pub relax: Option<usize>,
+    /// Also make, for every `uniform:J`, the remesh of Π' = Φ ∘ Π: Φ maps each base face onto
+    /// itself, piecewise linearly on a lattice of 4^K triangles per face, minimising Sander et
+    /// al.'s L² stretch over the whole base domain (`maps::equalise`, beyond the paper; same
+    /// connectivity). `--equalise` alone: K = 5. With `--relax`, Π''s remesh is relaxed too.
+    #[arg(long, value_name = "K", num_args = 0..=1, default_missing_value = EQUALISE_DEPTH)]
+    pub equalise: Option<u32>,
     /// Remeshes to make: `uniform:J` (quadrisect J times) or `adaptive:EPS` (EPS relative to
     /// the longest bounding-box side). May be repeated.
     #[arg(long)]
@@ -99,6 +110,10 @@ pub struct MapsArgs {
 
 /// `--relax` without a value: [`crate::maps::relax::DEFAULT_SWEEPS`] (a test checks they agree).
 pub const RELAX_SWEEPS: &str = "15";
+
+/// `--equalise` without a value: [`crate::maps::equalise::DEFAULT_DEPTH`] (a test checks they
+/// agree).
+pub const EQUALISE_DEPTH: &str = "5";
 
 /// One requested remesh.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -167,6 +182,16 @@ pub struct RemeshSummary {
     pub relaxation: Option<RelaxStats>,
 }
 
+/// What `--equalise` did: the solve ([`EqualiseReport`]) and the distortion of Π' = Φ ∘ Π,
+/// measured as `distortion.final_map` is for Π.
+#[derive(Clone, Debug, Serialize)]
+pub struct EqualisedSummary {
+    pub solve: EqualiseReport,
+    pub distortion: DistortionStats,
+    /// Wall-clock seconds of the solve (lattice and L-BFGS).
+    pub seconds: f64,
+}
+
 /// The `--json` summary.
 #[derive(Clone, Debug, Serialize)]
 pub struct MapsSummary {
@@ -192,6 +217,9 @@ pub struct MapsSummary {
     pub input_folds: crate::maps::quality::InputFolds,
     /// Seconds spent measuring the distortion.
     pub distortion_seconds: f64,
+    /// With `--equalise`: the solve of Φ and the distortion of Π' = Φ ∘ Π.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub equalised: Option<EqualisedSummary>,
     /// Set when a remesh is not faithful to the input: what was measured and what to try.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub warning: Option<String>,
@@ -399,6 +427,20 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         made.push(r);
         Ok(())
     };
+    let phi: Option<(Equalised, f64)> = match args.equalise {
+        Some(depth) => {
+            let t = Instant::now();
+            let phi = equalise(
+                &maps,
+                &EqualiseOptions {
+                    depth,
+                    ..EqualiseOptions::default()
+                },
+            )?;
+            Some((phi, t.elapsed().as_secs_f64()))
+        }
+        _ => None,
+    };
     for spec in specs {
         let t = Instant::now();
         let (r, kind) = match spec {
@@ -443,12 +485,56 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
                 Some(s.stats),
             )?;
         }
+        if let (RemeshSpec::Uniform(j), Some((phi, _))) = (spec, &phi) {
+            let t = Instant::now();
+            let r = uniform_equalised(&maps, j, phi)?;
+            record(
+                r,
+                format!("uniform:{j} equalised"),
+                t.elapsed().as_secs_f64(),
+                None,
+                None,
+            )?;
+            if let Some(n) = args.relax {
+                let t = Instant::now();
+                let options = RelaxOptions {
+                    iterations: n,
+                    ..RelaxOptions::default()
+                };
+                let s = uniform_equalised_relaxed(&maps, j, phi, &options)?;
+                let kind = format!("uniform:{j} equalised relaxed");
+                record(
+                    s.remesh,
+                    kind,
+                    t.elapsed().as_secs_f64(),
+                    None,
+                    Some(s.stats),
+                )?;
+            }
+        }
     }
+    let equalised = phi.as_ref().map(|(phi, seconds)| {
+        let (distortion, log_area_ratio) = map_distortion(&maps, &phi.vertex_parameters(&maps));
+        (
+            EqualisedSummary {
+                solve: phi.report,
+                distortion,
+                seconds: *seconds,
+            },
+            log_area_ratio,
+        )
+    });
     let t = Instant::now();
     let distortion = distortion(&maps);
     let distortion_seconds = t.elapsed().as_secs_f64();
     let input_folds = crate::maps::quality::input_folds(&maps.positions, &maps.input_faces);
-    let warning = unfaithful_warning(&remeshes, &distortion, maps.base_faces.len(), &input_folds);
+    let warning = unfaithful_warning(
+        &remeshes,
+        &distortion,
+        maps.base_faces.len(),
+        &input_folds,
+        equalised.is_some(),
+    );
     if let Some(w) = &warning {
         eprintln!("{w}");
     }
@@ -456,6 +542,7 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         write_pictures(
             &maps,
             &distortion,
+            equalised.as_ref().map(|e| e.1.as_slice()),
             &made,
             &args.out,
             &stem,
@@ -487,6 +574,7 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         distortion,
         input_folds,
         distortion_seconds,
+        equalised: equalised.map(|e| e.0),
         warning,
         timings: maps.timings,
         remeshes,
@@ -535,6 +623,7 @@ pub fn unfaithful_warning(
     distortion: &Distortion,
     base_faces: usize,
     folds: &crate::maps::quality::InputFolds,
+    equalised: bool,
 ) -> Option<String> {
     let bad: Vec<&RemeshSummary> = remeshes.iter().filter(|r| !r.faithful).collect();
     let worst = bad
@@ -567,7 +656,7 @@ pub fn unfaithful_warning(
          of the diagonal, no wrong-facing area); worst {}: Hausdorff {}%, mean {}%, wrong-facing \
          area {}%. The base domain of {base_faces} faces does not represent the shape there \
          (Π: area distortion p95 {} against the input's spread {}, σmax/σmin p95 {}, {} folded \
-         images). Try {}a larger --base-size or --features auto; the picture \
+         images). Try {}{}a larger --base-size or --features auto; the picture \
          *_area_distortion.png shows where.{}",
         bad.len(),
         remeshes.len(),
@@ -580,6 +669,7 @@ pub fn unfaithful_warning(
         sig(d.conformal_p95, 3),
         d.folded,
         relax_hint(remeshes, &bad),
+        equalise_hint(distortion, equalised),
         wrong_facing_note(worst, folds)
     ))
 }
@@ -591,6 +681,17 @@ fn relax_hint(remeshes: &[RemeshSummary], bad: &[&RemeshSummary]) -> &'static st
     if uniform_missed && !relaxed {
         "--relax (the uniform remesh's parameters moved towards the surface's area, beyond the \
          paper), "
+    } else {
+        ""
+    }
+}
+
+/// `--equalise, ` when Π's area distortion (p95) exceeds the input's own spread and Π was not
+/// composed with the reparameterisation (issue #37).
+fn equalise_hint(distortion: &Distortion, equalised: bool) -> &'static str {
+    if !equalised && distortion.final_map.area_p95 > distortion.input_area_spread {
+        "--equalise (Π composed with a stretch-minimising reparameterisation of each base face, \
+         so that its area follows the surface's; beyond the paper), "
     } else {
         ""
     }
@@ -664,6 +765,7 @@ fn stem_of(spec: &str) -> String {
 pub fn write_pictures(
     maps: &Maps,
     distortion: &Distortion,
+    equalised: Option<&[Option<f64>]>,
     remeshes: &[Remesh],
     out: &Path,
     stem: &str,
@@ -693,8 +795,14 @@ pub fn write_pictures(
     )?;
     save(
         format!("{stem}_area_distortion.png"),
-        &picture::area_distortion(maps, distortion, size),
+        &picture::area_distortion(maps, &distortion.log_area_ratio, size),
     )?;
+    if let Some(log_area_ratio) = equalised {
+        save(
+            format!("{stem}_equalised_area_distortion.png"),
+            &picture::area_distortion(maps, log_area_ratio, size),
+        )?;
+    }
     for r in remeshes {
         let name = r
             .mesh
@@ -743,6 +851,26 @@ fn print_summary(s: &MapsSummary) {
         d.triangles,
         sig(s.distortion.round_trip_max_relative, 2)
     );
+    if let Some(e) = &s.equalised {
+        let (d, r) = (&e.distortion, &e.solve);
+        outln!(
+            "distortion of Π' = Φ ∘ Π (--equalise, lattice depth {}, {} unknowns, L² stretch {} → {} \
+             in {} L-BFGS iterations, {} s): |log area ratio| mean {} p95 {} max {}, σmax/σmin \
+             mean {} p95 {} max {}",
+            r.depth,
+            r.unknowns,
+            sig(r.stretch_before, 4),
+            sig(r.stretch_after, 4),
+            r.solver.iterations,
+            sig(e.seconds, 3),
+            sig(d.area_mean, 3),
+            sig(d.area_p95, 3),
+            sig(d.area_max, 3),
+            sig(d.conformal_mean, 3),
+            sig(d.conformal_p95, 3),
+            sig(d.conformal_max, 3),
+        );
+    }
     if !s.remeshes.is_empty() {
         let header: Vec<String> = [
             "remesh",
@@ -786,6 +914,14 @@ mod tests {
         assert_eq!(
             super::RELAX_SWEEPS.parse::<usize>(),
             Ok(crate::maps::relax::DEFAULT_SWEEPS)
+        );
+    }
+
+    #[test]
+    fn equalise_without_a_value_uses_the_default_depth() {
+        assert_eq!(
+            super::EQUALISE_DEPTH.parse::<u32>(),
+            Ok(crate::maps::equalise::DEFAULT_DEPTH)
         );
     }
 }

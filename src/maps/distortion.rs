@@ -283,6 +283,22 @@ pub fn distortion(maps: &Maps) -> Distortion {
     }
 }
 
+/// The distortion of another map of the input onto the base domain, given by its value at
+/// every input vertex (`None`: a vertex no face uses), measured as the final map of
+/// [`distortion`] is: each input triangle's image is the 3D triangle between its corners'
+/// images on the base faces. Returns the statistics and log r_t per input triangle (the
+/// picture's colours). Used for Π' = Φ ∘ Π ([`super::equalise`]).
+pub fn map_distortion(
+    maps: &Maps,
+    params: &[Option<super::BasePoint>],
+) -> (DistortionStats, Vec<Option<f64>>) {
+    let loc: Vec<Option<(u32, [f64; 3])>> = params
+        .iter()
+        .map(|p| p.and_then(|p| Some((maps.param.decimation_face(p.face)?, p.bary))))
+        .collect();
+    stats_of(maps, &images(maps, &loc))
+}
+
 /// max_v |Π⁻¹(Π(p_v)) − p_v| / diagonal over the input vertices that have a parameter
 /// ([`Distortion::round_trip_max_relative`]); 0 for a mesh without extent.
 pub fn round_trip_max_relative(maps: &Maps) -> f64 {

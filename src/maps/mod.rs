@@ -1,6 +1,7 @@
 #![doc = include_str!("README.md")]
 
 pub mod distortion;
+pub mod equalise;
 pub mod features;
 pub mod flatten;
 #[cfg(feature = "gpu")]

@@ -196,6 +196,11 @@ impl Param {
         (f, l)
     }
 
+    /// The decimation face id of base face `b` (see [`Param::face`]); `None` out of range.
+    pub fn decimation_face(&self, b: u32) -> Option<u32> {
+        self.base_to_face.get(b as usize).copied()
+    }
+
     /// The committed removals in order (each level's map; for tests and pictures).
     pub fn removals(&self) -> &[Removal] {
         &self.records

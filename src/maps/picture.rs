@@ -355,26 +355,18 @@ pub fn distortion_colour(log_r: Option<f64>, range: f64) -> Rgba8 {
     }
 }
 
-/// The input mesh, each triangle coloured by the area distortion log r of the final Π
-/// ([`distortion_colour`], saturated at |log r| = ln 4: a triangle whose share of the base
+/// The input mesh, each triangle t coloured by the area distortion log r_t of a map onto the
+/// base domain (`log_area_ratio`: [`super::distortion::Distortion::log_area_ratio`] for the
+/// final Π, or [`super::distortion::map_distortion`]'s for Π' = Φ ∘ Π; [`distortion_colour`], saturated at |log r| = ln 4: a triangle whose share of the base
 /// domain is 4× or ¼ of its share of the surface).
-pub fn area_distortion(
-    maps: &Maps,
-    distortion: &super::distortion::Distortion,
-    size: usize,
-) -> Image<Rgba8> {
+pub fn area_distortion(maps: &Maps, log_area_ratio: &[Option<f64>], size: usize) -> Image<Rgba8> {
     let input = input_mesh(maps);
     let range = 4f64.ln();
     render_wire(
         &input,
         &camera(&input),
         size,
-        |f| {
-            distortion_colour(
-                distortion.log_area_ratio.get(f as usize).copied().flatten(),
-                range,
-            )
-        },
+        |f| distortion_colour(log_area_ratio.get(f as usize).copied().flatten(), range),
         0.0,
     )
 }

@@ -27,7 +27,7 @@ use nalgebra::Point3;
 use rayon::prelude::*;
 
 use super::param::BasePoint;
-use super::remesh::{finish, Remesh, VKey};
+use super::remesh::{finish, place, Remesh, VKey};
 use super::smooth::{
     crease_chain, dyadic_net, even_kind, place_in_chart, root_chart, topology, BaseDomain,
     EvenKind, ParamNet, SmoothOptions, SmoothStats, StencilPoint, Topology,
@@ -256,15 +256,29 @@ impl Sweep<'_> {
     }
 }
 
-/// `options.iterations` sweeps of the relaxation on `net` (module docs).
+/// `options.iterations` sweeps of the relaxation on `net` (module docs), vertices placed by Π⁻¹.
 pub fn relax_net(maps: &Maps, net: &ParamNet, options: &RelaxOptions) -> (ParamNet, RelaxStats) {
+    relax_net_with(maps, net, options, &|p| place(maps, p))
+}
+
+/// The map from parameters to the surface the relaxation weighs faces with: `(position, found)`
+/// as [`super::remesh::place`] gives for Π⁻¹ (or Π⁻¹ ∘ Φ⁻¹ for [`super::equalise`]).
+pub type Placement<'a> = &'a (dyn Fn(&BasePoint) -> (Point3<f64>, bool) + Sync);
+
+/// [`relax_net`] with the vertices placed by `place`.
+pub fn relax_net_with(
+    maps: &Maps,
+    net: &ParamNet,
+    options: &RelaxOptions,
+    place: Placement,
+) -> (ParamNet, RelaxStats) {
     let base = BaseDomain::new(maps, options.charts.corner_turn);
     let topo = topology(maps, net);
     let stars = vertex_faces(net);
     let mut net = net.clone();
     let mut stats = RelaxStats::default();
     for _ in 0..options.iterations {
-        let (positions, _) = net.positions(maps);
+        let positions: Vec<Point3<f64>> = net.params.par_iter().map(|p| place(p).0).collect();
         let sweep = Sweep {
             base: &base,
             net: &net,

@@ -1,0 +1,875 @@
+//! A stretch-minimising reparameterisation of the base domain, Π' = Φ ∘ Π (beyond the paper;
+//! issue #37).
+//!
+//! MAPS's Π gives each part of the surface the share of the base domain its removals happened
+//! to leave it; a uniform remesh then puts the same number of vertices in every base triangle
+//! wherever Π put the surface ([`super::relax`] moves the remesh's own parameters instead, a
+//! fraction of a face per sweep). Here Π itself is composed with a homeomorphism Φ of the base
+//! domain chosen over the whole domain at once:
+//!
+//! - **The net.** Every base face f is cut into the 2^K × 2^K lattice of its dyadic points
+//!   (i, j) ↦ barycentrics ((s − i − j)/s, i/s, j/s), s = 2^K, and its 2·4^K lattice triangles
+//!   (the uniform remesh's triangles of level K); a lattice point is shared by the faces it lies
+//!   on ([`VKey`]). Each base face is laid out isometrically in the plane ([`frame`]), so the
+//!   parameter domain carries the base triangles' own metric.
+//! - **Φ is piecewise linear on the net and maps every base face onto itself:** a base vertex
+//!   stays, a lattice point on a base edge slides along that edge (one unknown: its arclength
+//!   from the edge's lower vertex, shared by the edge's faces), an interior lattice point moves
+//!   in its face's plane (two unknowns). Φ of a point is Σ λ_c Φ(corner_c) in the lattice
+//!   triangle that holds it, Φ⁻¹ the same through the moved triangle that holds it: while no
+//!   moved triangle folds, Φ is a bijection of every base face, continuous across base edges,
+//!   and Π' = Φ ∘ Π stays a bijection whose inverse Π⁻¹ ∘ Φ⁻¹ is exact up to rounding. Base
+//!   edges, and the feature chains Π maps onto them, stay where they were.
+//! - **The energy** is Sander et al.'s L² stretch ([`super::stretch`]) of the piecewise-linear
+//!   map from the moved net to the surface, each lattice triangle t going to the 3D triangle
+//!   X_t of Π⁻¹ of its reference corners:
+//!
+//!   E(Φ) = Σ_t A(X_t) ‖J_t‖²_F / 2,  J_t the Jacobian of Φ(t) → X_t.
+//!
+//!   Its minimiser gives each lattice triangle a parameter area proportional to A(X_t) under
+//!   the fixed total area of each base face ([`super::stretch`] module docs), and E → ∞ as a
+//!   moved triangle degenerates, so a descent that never accepts a fold keeps Φ a bijection.
+//! - **The solve** is global: all unknowns at once by L-BFGS ([`crate::lbfgs`]) from Φ = id, a
+//!   step refused wherever a moved triangle would fold. Area flows across a base face in one
+//!   solve, not by a fraction of a lattice triangle per sweep.
+//!
+//! What Φ cannot do: move area from one base face to another (each maps onto itself). A base
+//! face's share of the base domain is its 3D area, close to the area of the surface Π maps
+//! onto it wherever that part of the surface is not much more curved than the face; where a
+//! whole tip is squeezed into a corner of a base face, Φ can widen the corner within the face.
+//! Neither can it widen what a single lattice triangle's corners do not see: X_t is flat.
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use nalgebra::Point3;
+use rayon::prelude::*;
+
+use super::param::BasePoint;
+use super::remesh::{finish, place, uniform_leaves, vkey, Remesh, VKey};
+use super::retriangulate::{barycentric, locate};
+use super::stretch::{l2_stretch, signed_area, weighted_stretch, StretchTarget};
+use super::Maps;
+use crate::error::{Error, Result};
+use crate::lbfgs::{minimise, LbfgsOptions, LbfgsReport};
+
+/// Options of the reparameterisation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EqualiseOptions {
+    /// K: each base face is cut into 4^K lattice triangles. Default 5 (measured in
+    /// `src/maps/README.md`).
+    pub depth: u32,
+    /// The coarsest lattice solved first (coarse to fine, [`equalise`]). Default 1 (its
+    /// unknowns are the base edges' midpoints).
+    pub start_depth: u32,
+    /// The solver's options at each depth; `first_step` is scaled by the lattice's shortest
+    /// edge. Default: [`LbfgsOptions::default`] with at most 1000 iterations per depth, a
+    /// tolerance of 1e-6 and a first step of ¼ of the shortest edge (measured in
+    /// `src/maps/README.md`).
+    pub solver: LbfgsOptions,
+}
+
+impl Default for EqualiseOptions {
+    fn default() -> Self {
+        EqualiseOptions {
+            depth: DEFAULT_DEPTH,
+            start_depth: 1,
+            solver: LbfgsOptions {
+                max_iterations: 1000,
+                tolerance: 1e-6,
+                first_step: 0.25,
+                ..LbfgsOptions::default()
+            },
+        }
+    }
+}
+
+/// [`EqualiseOptions::depth`] by default.
+pub const DEFAULT_DEPTH: u32 = 5;
+
+/// The largest depth accepted (4^7 lattice triangles per base face).
+pub const MAX_DEPTH: u32 = 7;
+
+/// What the solve did.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct EqualiseReport {
+    /// K.
+    pub depth: u32,
+    /// Unknowns: 2 per interior lattice point, 1 per lattice point inside a base edge.
+    pub unknowns: usize,
+    /// Lattice triangles.
+    pub triangles: usize,
+    /// Sander et al.'s L²(M) of the net before (Φ = id) and after (1 is an isometry up to
+    /// scale).
+    pub stretch_before: f64,
+    pub stretch_after: f64,
+    /// The solver's iterations, evaluations and stop.
+    pub solver: LbfgsReport,
+    /// Wall-clock seconds: Π⁻¹ of the lattice, and the solve.
+    pub lattice_seconds: f64,
+    pub solve_seconds: f64,
+}
+
+/// How a lattice point moves (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Unknown {
+    /// A base vertex: fixed.
+    Fixed,
+    /// On base edge (lo, hi) of 3D length `length`: x[offset] is the arclength from lo.
+    Edge {
+        lo: u32,
+        hi: u32,
+        length: f64,
+        offset: usize,
+    },
+    /// Inside base face `face`: x[offset], x[offset + 1] in that face's [`frame`].
+    Inside { face: u32, offset: usize },
+}
+
+/// Where a lattice point is, seen from one base face's frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Corner {
+    Fixed([f64; 2]),
+    Edge {
+        origin: [f64; 2],
+        unit: [f64; 2],
+        offset: usize,
+    },
+    Inside(usize),
+}
+
+impl Corner {
+    fn at(&self, x: &[f64]) -> [f64; 2] {
+        match *self {
+            Corner::Fixed(p) => p,
+            Corner::Edge {
+                origin,
+                unit,
+                offset,
+            } => [
+                origin[0] + x[offset] * unit[0],
+                origin[1] + x[offset] * unit[1],
+            ],
+            Corner::Inside(o) => [x[o], x[o + 1]],
+        }
+    }
+
+    /// Add the gradient with respect to this corner's 2D position to the unknowns' gradient.
+    fn add_gradient(&self, g: [f64; 2], grad: &mut [f64]) {
+        match *self {
+            Corner::Fixed(_) => {}
+            Corner::Edge { unit, offset, .. } => grad[offset] += g[0] * unit[0] + g[1] * unit[1],
+            Corner::Inside(o) => {
+                grad[o] += g[0];
+                grad[o + 1] += g[1];
+            }
+        }
+    }
+}
+
+/// The isometric layout of base face `f` in the plane: corner 0 at the origin, corner 1 on the
+/// positive x axis, corner 2 above it (counter-clockwise). Error for a degenerate face.
+pub fn frame(maps: &Maps, f: u32) -> Result<[[f64; 2]; 3]> {
+    let [a, b, c] = maps.base_faces[f as usize].map(|v| maps.positions[v as usize]);
+    let (e, d) = (b - a, c - a);
+    let length = e.norm();
+    let height = e.cross(&d).norm() / length;
+    if !(length > 0.0 && height > 0.0 && height.is_finite()) {
+        return Err(Error::InvalidArgument(format!(
+            "{}: base face {f} (input vertices {}, {}, {}) has no area, so --equalise cannot lay \
+             it out in the plane; try another --base-size, or leave out --equalise",
+            maps.name,
+            maps.base_faces[f as usize][0],
+            maps.base_faces[f as usize][1],
+            maps.base_faces[f as usize][2]
+        )));
+    }
+    Ok([[0.0, 0.0], [length, 0.0], [d.dot(&e) / length, height]])
+}
+
+/// The point with barycentrics `b` in a frame.
+fn in_frame(frame: &[[f64; 2]; 3], b: [f64; 3]) -> [f64; 2] {
+    [
+        b[0] * frame[0][0] + b[1] * frame[1][0] + b[2] * frame[2][0],
+        b[0] * frame[0][1] + b[1] * frame[1][1] + b[2] * frame[2][1],
+    ]
+}
+
+/// The reparameterisation Φ of a MAPS base domain (module docs).
+#[derive(Clone, Debug)]
+pub struct Equalised {
+    depth: u32,
+    frames: Vec<[[f64; 2]; 3]>,
+    /// Per base face, the lattice point (i, j) as index i (s + 1) + j: its moved position in
+    /// the face's frame (0 where i + j > s, outside the face).
+    moved: Vec<Vec<[f64; 2]>>,
+    /// The lattice triangles of a face as cells, counter-clockwise ([`lattice_cells`]).
+    cells: Vec<[usize; 3]>,
+    /// The solve's figures.
+    pub report: EqualiseReport,
+}
+
+/// The 4^K triangles of a face's lattice (s = 2^K) as cells i (s + 1) + j of its points: for
+/// each (i, j) the upward triangle (i, j), (i + 1, j), (i, j + 1) and, inside the face, the
+/// downward one (i + 1, j + 1), (i, j + 1), (i + 1, j); both counter-clockwise.
+fn lattice_cells(s: u32) -> Vec<[usize; 3]> {
+    let mut tris = Vec::with_capacity((s * s) as usize);
+    for i in 0..s {
+        for j in 0..s - i {
+            tris.push([cell(s, i, j), cell(s, i + 1, j), cell(s, i, j + 1)]);
+            if i + j + 1 < s {
+                tris.push([cell(s, i + 1, j + 1), cell(s, i, j + 1), cell(s, i + 1, j)]);
+            }
+        }
+    }
+    tris
+}
+
+/// The lattice of depth K over the base domain: the distinct points (by key), each one's
+/// unknown, each face's (i, j) → point index, and the lattice triangles (face, corners).
+struct Lattice {
+    points: Vec<BasePoint>,
+    keys: Vec<VKey>,
+    unknowns: Vec<Unknown>,
+    count: usize,
+    grid: Vec<Vec<u32>>,
+    triangles: Vec<(u32, [u32; 3])>,
+}
+
+/// Index of lattice point (i, j) in a face's dense grid.
+fn cell(s: u32, i: u32, j: u32) -> usize {
+    (i * (s + 1) + j) as usize
+}
+
+impl Lattice {
+    fn new(maps: &Maps, depth: u32) -> Lattice {
+        let s = 1u32 << depth;
+        let mut index: HashMap<VKey, u32> = HashMap::new();
+        let (mut points, mut keys, mut unknowns) = (Vec::new(), Vec::new(), Vec::new());
+        let mut count = 0;
+        let mut grid = Vec::with_capacity(maps.base_faces.len());
+        for f in 0..maps.base_faces.len() as u32 {
+            let mut g = vec![u32::MAX; ((s + 1) * (s + 1)) as usize];
+            for i in 0..=s {
+                for j in 0..=s - i {
+                    let p = [s - i - j, i, j];
+                    let key = vkey(&maps.base_faces, f, p, depth);
+                    let id = *index.entry(key).or_insert_with(|| {
+                        let unknown = match key {
+                            VKey::Vertex(_) => Unknown::Fixed,
+                            VKey::Edge { lo, hi, .. } => {
+                                count += 1;
+                                Unknown::Edge {
+                                    lo,
+                                    hi,
+                                    length: (maps.positions[hi as usize]
+                                        - maps.positions[lo as usize])
+                                        .norm(),
+                                    offset: count - 1,
+                                }
+                            }
+                            VKey::Face { .. } => {
+                                count += 2;
+                                Unknown::Inside {
+                                    face: f,
+                                    offset: count - 2,
+                                }
+                            }
+                        };
+                        points.push(BasePoint {
+                            face: f,
+                            bary: p.map(|x| x as f64 / s as f64),
+                        });
+                        keys.push(key);
+                        unknowns.push(unknown);
+                        points.len() as u32 - 1
+                    });
+                    g[cell(s, i, j)] = id;
+                }
+            }
+            grid.push(g);
+        }
+        let cells = lattice_cells(s);
+        let triangles = grid
+            .iter()
+            .enumerate()
+            .flat_map(|(f, g)| cells.iter().map(move |c| (f as u32, c.map(|k| g[k]))))
+            .collect();
+        Lattice {
+            points,
+            keys,
+            unknowns,
+            count,
+            grid,
+            triangles,
+        }
+    }
+
+    /// How lattice point `p` is seen from base face `f` (whose frame is `frame`).
+    fn corner(&self, maps: &Maps, f: u32, frame: &[[f64; 2]; 3], p: u32) -> Corner {
+        let slot = |v: u32| {
+            maps.base_faces[f as usize]
+                .iter()
+                .position(|&w| w == v)
+                .unwrap_or(0)
+        };
+        match (self.unknowns[p as usize], self.keys[p as usize]) {
+            (Unknown::Fixed, VKey::Vertex(v)) => Corner::Fixed(frame[slot(v)]),
+            (Unknown::Edge { lo, hi, offset, .. }, _) => {
+                let (a, b) = (frame[slot(lo)], frame[slot(hi)]);
+                let d = [b[0] - a[0], b[1] - a[1]];
+                let n = d[0].hypot(d[1]);
+                Corner::Edge {
+                    origin: a,
+                    unit: [d[0] / n, d[1] / n],
+                    offset,
+                }
+            }
+            (Unknown::Inside { offset, .. }, _) => Corner::Inside(offset),
+            (Unknown::Fixed, _) => Corner::Fixed(in_frame(frame, self.points[p as usize].bary)),
+        }
+    }
+
+    /// The unknowns that put every lattice point p at `at(p)` (a point of p's own base face,
+    /// on its base edge for a point of an edge): Φ = id for `at(p) = p`.
+    fn start(
+        &self,
+        maps: &Maps,
+        frames: &[[[f64; 2]; 3]],
+        at: impl Fn(&BasePoint) -> BasePoint,
+    ) -> Vec<f64> {
+        let mut x = vec![0.0; self.count];
+        for (p, u) in self.points.iter().zip(&self.unknowns) {
+            let p = &at(p);
+            match *u {
+                Unknown::Fixed => {}
+                Unknown::Edge {
+                    hi, length, offset, ..
+                } => {
+                    let corners = maps.base_faces[p.face as usize];
+                    let slot = corners.iter().position(|&w| w == hi).unwrap_or(0);
+                    x[offset] = p.bary[slot] * length;
+                }
+                Unknown::Inside { face, offset } => {
+                    let q = in_frame(&frames[face as usize], p.bary);
+                    x[offset] = q[0];
+                    x[offset + 1] = q[1];
+                }
+            }
+        }
+        x
+    }
+}
+
+/// The energy E(x) of the module docs and its gradient; `None` where a moved triangle folds.
+/// Per triangle in parallel, summed in triangle order (the same on any thread count).
+fn energy(
+    corners: &[[Corner; 3]],
+    targets: &[StretchTarget],
+    x: &[f64],
+) -> Option<(f64, Vec<f64>)> {
+    let terms: Vec<Option<(f64, [[f64; 2]; 3])>> = corners
+        .par_iter()
+        .zip(targets)
+        .map(|(c, t)| weighted_stretch(t, c.map(|k| k.at(x))))
+        .collect();
+    let mut e = 0.0;
+    let mut grad = vec![0.0; x.len()];
+    for (term, c) in terms.into_iter().zip(corners) {
+        let (value, g) = term?;
+        e += value;
+        for k in 0..3 {
+            c[k].add_gradient(g[k], &mut grad);
+        }
+    }
+    Some((e, grad))
+}
+
+/// Sander et al.'s L²(M) of the net at x (module docs of [`super::stretch`]).
+fn net_stretch(corners: &[[Corner; 3]], targets: &[StretchTarget], x: &[f64]) -> f64 {
+    let e = energy(corners, targets, x).map_or(f64::INFINITY, |r| r.0);
+    let area: f64 = targets.iter().map(|t| t.area).sum();
+    let parameter_area: f64 = corners
+        .iter()
+        .map(|c| signed_area(c.map(|k| k.at(x))))
+        .sum();
+    l2_stretch(e, area, parameter_area)
+}
+
+/// Build Φ for `maps` by minimising the net's stretch (module docs), coarse to fine: the
+/// solve runs on the lattice of depth `options.start_depth`, then on each finer one up to
+/// `options.depth`, each started from the coarser Φ (exact: a lattice triangle lies in one
+/// triangle of the coarser lattice, on which Φ is affine, so the start has no fold). Errors: a
+/// depth above [`MAX_DEPTH`], a degenerate base face.
+pub fn equalise(maps: &Maps, options: &EqualiseOptions) -> Result<Equalised> {
+    if options.depth > MAX_DEPTH {
+        return Err(Error::InvalidArgument(format!(
+            "reparameterisation depth {} is above {MAX_DEPTH}",
+            options.depth
+        )));
+    }
+    let frames: Vec<[[f64; 2]; 3]> = (0..maps.base_faces.len() as u32)
+        .map(|f| frame(maps, f))
+        .collect::<Result<_>>()?;
+    let mut phi: Option<Equalised> = None;
+    let mut report: Option<EqualiseReport> = None;
+    for depth in options.start_depth.min(options.depth)..=options.depth {
+        let level = solve_level(maps, &frames, depth, phi.as_ref(), &options.solver);
+        report = Some(match report {
+            None => level.report,
+            Some(r) => EqualiseReport {
+                solver: LbfgsReport {
+                    iterations: r.solver.iterations + level.report.solver.iterations,
+                    evaluations: r.solver.evaluations + level.report.solver.evaluations,
+                    ..level.report.solver
+                },
+                lattice_seconds: r.lattice_seconds + level.report.lattice_seconds,
+                solve_seconds: r.solve_seconds + level.report.solve_seconds,
+                ..level.report
+            },
+        });
+        phi = Some(level);
+    }
+    let mut phi = phi.ok_or_else(|| Error::InvalidArgument("no lattice depth".into()))?;
+    if let Some(r) = report {
+        phi.report = r;
+    }
+    Ok(phi)
+}
+
+/// The lattice of `depth`, the 3D target of each lattice triangle (Π⁻¹ of its reference
+/// corners; a base vertex is its input vertex) and how each triangle's corners move.
+fn problem(
+    maps: &Maps,
+    frames: &[[[f64; 2]; 3]],
+    depth: u32,
+) -> (Lattice, Vec<StretchTarget>, Vec<[Corner; 3]>) {
+    let lattice = Lattice::new(maps, depth);
+    let surface: Vec<Point3<f64>> = lattice
+        .points
+        .par_iter()
+        .zip(&lattice.keys)
+        .map(|(p, k)| match k {
+            VKey::Vertex(v) => maps.positions[*v as usize],
+            _ => place(maps, p).0,
+        })
+        .collect();
+    let targets = lattice
+        .triangles
+        .iter()
+        .map(|(_, t)| StretchTarget::of(t.map(|p| surface[p as usize].coords.into())))
+        .collect();
+    let corners = lattice
+        .triangles
+        .iter()
+        .map(|&(f, t)| t.map(|p| lattice.corner(maps, f, &frames[f as usize], p)))
+        .collect();
+    (lattice, targets, corners)
+}
+
+/// One level of [`equalise`]: the lattice of `depth`, started at Φ = `coarser` (identity
+/// without one), solved.
+fn solve_level(
+    maps: &Maps,
+    frames: &[[[f64; 2]; 3]],
+    depth: u32,
+    coarser: Option<&Equalised>,
+    solver: &LbfgsOptions,
+) -> Equalised {
+    let t0 = Instant::now();
+    let (lattice, targets, corners) = problem(maps, frames, depth);
+    let lattice_seconds = t0.elapsed().as_secs_f64();
+
+    let t1 = Instant::now();
+    let identity = lattice.start(maps, frames, |p| *p);
+    let stretch_before = net_stretch(&corners, &targets, &identity);
+    let shortest = shortest_edge(&corners, &identity);
+    let mut x = match coarser {
+        Some(phi) => lattice.start(maps, frames, |p| phi.forward(p)),
+        None => identity,
+    };
+    let solver = LbfgsOptions {
+        first_step: solver.first_step * shortest,
+        ..*solver
+    };
+    let report = minimise(&mut x, |x| energy(&corners, &targets, x), &solver);
+    let stretch_after = net_stretch(&corners, &targets, &x);
+    let solve_seconds = t1.elapsed().as_secs_f64();
+
+    let moved = lattice
+        .grid
+        .iter()
+        .enumerate()
+        .map(|(f, g)| {
+            g.iter()
+                .map(|&p| {
+                    if p == u32::MAX {
+                        [0.0; 2] // (i, j) outside the face: never read
+                    } else {
+                        lattice.corner(maps, f as u32, &frames[f], p).at(&x)
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    Equalised {
+        depth,
+        frames: frames.to_vec(),
+        moved,
+        cells: lattice_cells(1 << depth),
+        report: EqualiseReport {
+            depth,
+            unknowns: lattice.count,
+            triangles: lattice.triangles.len(),
+            stretch_before,
+            stretch_after,
+            solver: report,
+            lattice_seconds,
+            solve_seconds,
+        },
+    }
+}
+
+/// The shortest edge of the net at x (the solver's length scale).
+fn shortest_edge(corners: &[[Corner; 3]], x: &[f64]) -> f64 {
+    corners
+        .iter()
+        .flat_map(|c| {
+            let q = c.map(|k| k.at(x));
+            (0..3).map(move |k| {
+                let (a, b) = (q[k], q[(k + 1) % 3]);
+                (b[0] - a[0]).hypot(b[1] - a[1])
+            })
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+impl Equalised {
+    fn side(&self) -> u32 {
+        1 << self.depth
+    }
+
+    /// The lattice triangle of base face `f` holding barycentrics `b`, as its corners' (i, j)
+    /// and the barycentrics λ of `b` in it (by the lattice's arithmetic: i = ⌊b₁ s⌋,
+    /// j = ⌊b₂ s⌋, the lower or upper triangle of that cell by the fractional parts).
+    fn lattice_triangle(&self, b: [f64; 3]) -> ([(u32, u32); 3], [f64; 3]) {
+        let s = self.side();
+        let sf = s as f64;
+        let (u, v) = (b[1] * sf, b[2] * sf);
+        let i = (u.floor().max(0.0) as u32).min(s - 1);
+        let j = (v.floor().max(0.0) as u32).min(s - 1 - i);
+        let (fu, fv) = (u - i as f64, v - j as f64);
+        if fu + fv <= 1.0 || i + j + 1 == s {
+            ([(i, j), (i + 1, j), (i, j + 1)], [1.0 - fu - fv, fu, fv])
+        } else {
+            (
+                [(i + 1, j + 1), (i, j + 1), (i + 1, j)],
+                [fu + fv - 1.0, 1.0 - fu, 1.0 - fv],
+            )
+        }
+    }
+
+    /// Φ(p): Σ λ_c Φ(corner_c) over the lattice triangle holding p, in p's base face.
+    pub fn forward(&self, p: &BasePoint) -> BasePoint {
+        let s = self.side();
+        let (ij, l) = self.lattice_triangle(p.bary);
+        let moved = &self.moved[p.face as usize];
+        let mut q = [0.0; 2];
+        for c in 0..3 {
+            let m = moved[cell(s, ij[c].0, ij[c].1)];
+            q[0] += l[c] * m[0];
+            q[1] += l[c] * m[1];
+        }
+        let fr = &self.frames[p.face as usize];
+        BasePoint {
+            face: p.face,
+            bary: super::param::clamp(barycentric(q, fr[0], fr[1], fr[2])),
+        }
+    }
+
+    /// Φ⁻¹(d): the moved lattice triangle of d's base face holding d (robust orientations, the
+    /// nearest when rounding put d a hair outside every one), and the same barycentrics in its
+    /// reference triangle. A scan of the face's 4^K triangles.
+    pub fn inverse(&self, d: &BasePoint) -> BasePoint {
+        let s = self.side();
+        let fr = &self.frames[d.face as usize];
+        let u = in_frame(fr, d.bary);
+        let moved = &self.moved[d.face as usize];
+        let tris = &self.cells;
+        let (t, l) = locate(u, moved, tris);
+        let sf = s as f64;
+        let mut b = [0.0; 3];
+        for c in 0..3 {
+            let k = tris[t][c] as u32;
+            let (i, j) = (k / (s + 1), k % (s + 1));
+            let r = [(s - i - j) as f64 / sf, i as f64 / sf, j as f64 / sf];
+            for a in 0..3 {
+                b[a] += l[c] * r[a];
+            }
+        }
+        BasePoint {
+            face: d.face,
+            bary: super::param::clamp(b),
+        }
+    }
+
+    /// Π'(v) = Φ(Π(p_v)) of every input vertex (`None` for a vertex no face uses).
+    pub fn vertex_parameters(&self, maps: &Maps) -> Vec<Option<BasePoint>> {
+        (0..maps.positions.len() as u32)
+            .into_par_iter()
+            .map(|v| maps.param.vertex(v).map(|p| self.forward(&p)))
+            .collect()
+    }
+}
+
+/// The uniform remesh of level `j` of Π' = Φ ∘ Π: the connectivity and numbering of
+/// [`super::remesh::uniform`], vertex i at Π⁻¹(Φ⁻¹(d_i)) for its dyadic point d_i (a base
+/// vertex stays the input vertex). Error: `j` above [`super::remesh::MAX_UNIFORM_LEVEL`].
+pub fn uniform_equalised(maps: &Maps, j: u32, phi: &Equalised) -> Result<Remesh> {
+    let net = super::smooth::ParamNet::dyadic(maps, uniform_leaves(maps, j)?);
+    let params: Vec<BasePoint> = net
+        .dyadic
+        .par_iter()
+        .zip(&net.keys)
+        .map(|(d, k)| match k {
+            VKey::Vertex(_) => *d,
+            _ => phi.inverse(d),
+        })
+        .collect();
+    let placed: Vec<(Point3<f64>, bool)> = params
+        .par_iter()
+        .zip(&net.keys)
+        .map(|(p, k)| match k {
+            VKey::Vertex(v) => (maps.positions[*v as usize], true),
+            _ => place(maps, p),
+        })
+        .collect();
+    let unmapped = placed.iter().filter(|p| !p.1).count();
+    let positions = placed.into_iter().map(|p| p.0).collect();
+    let name = format!("{} (equalised uniform remesh j={j})", maps.name);
+    Ok(finish(maps, name, positions, net.faces, params, unmapped))
+}
+
+/// [`uniform_equalised`] whose parameters are then relaxed ([`super::relax`]) in the domain of
+/// Π': the relaxation's sweeps on the dyadic net with every vertex placed by Π⁻¹ ∘ Φ⁻¹; vertex
+/// i at Π⁻¹(Φ⁻¹(u_i)) for its relaxed parameter u_i. Error: `j` above
+/// [`super::remesh::MAX_UNIFORM_LEVEL`].
+pub fn uniform_equalised_relaxed(
+    maps: &Maps,
+    j: u32,
+    phi: &Equalised,
+    options: &super::relax::RelaxOptions,
+) -> Result<super::relax::Relaxed> {
+    let placement = |p: &BasePoint| place(maps, &phi.inverse(p));
+    let net = super::smooth::dyadic_net(maps, j)?;
+    let (net, stats) = super::relax::relax_net_with(maps, &net, options, &placement);
+    let params: Vec<BasePoint> = net.params.par_iter().map(|p| phi.inverse(p)).collect();
+    let placed: Vec<(Point3<f64>, bool)> = params.par_iter().map(|p| place(maps, p)).collect();
+    let unmapped = placed.iter().filter(|p| !p.1).count();
+    let positions = placed.into_iter().map(|p| p.0).collect();
+    let name = format!("{} (equalised relaxed uniform remesh j={j})", maps.name);
+    let remesh = finish(maps, name, positions, net.faces, params, unmapped);
+    Ok(super::relax::Relaxed { remesh, stats })
+}
+
+impl Equalised {
+    /// The moved lattice triangles that are not strictly counter-clockwise (robust
+    /// orientation): 0 for a Φ that is a bijection of every base face.
+    pub fn folded_triangles(&self) -> usize {
+        self.moved
+            .iter()
+            .map(|m| {
+                self.cells
+                    .iter()
+                    .filter(|t| super::retriangulate::orient2d(m[t[0]], m[t[1]], m[t[2]]) <= 0.0)
+                    .count()
+            })
+            .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::maps::{build, remesh::uniform, Features, MapsOptions};
+    use crate::mesh::procedural::torus;
+
+    fn torus_maps() -> crate::Result<Maps> {
+        // 48 × 24 torus: the inner side's triangles are (1 − 0.35)/(1 + 0.35) ≈ 0.48 of the
+        // outer side's, so the hierarchy's Π is uneven enough for Φ to have work to do.
+        build(
+            &torus(48, 24, 1.0, 0.35),
+            &Features::default(),
+            &MapsOptions {
+                base_size: 64,
+                ..MapsOptions::default()
+            },
+        )
+    }
+
+    fn options(depth: u32, iterations: usize) -> EqualiseOptions {
+        let mut o = EqualiseOptions {
+            depth,
+            ..EqualiseOptions::default()
+        };
+        o.solver.max_iterations = iterations;
+        o
+    }
+
+    /// With no iterations Φ = id, and the remesh of Π' is the uniform remesh: each dyadic
+    /// point is located in the lattice and mapped back through the same triangle (rounding of
+    /// a few operations on barycentrics of order 1, then Π⁻¹ of a point moved by ~1e-16:
+    /// 1e-12 of the diagonal leaves room for Π⁻¹'s conditioning, ~10³ on this torus).
+    #[test]
+    fn identity_reproduces_the_uniform_remesh() -> crate::Result<()> {
+        let maps = torus_maps()?;
+        let phi = equalise(&maps, &options(3, 0))?;
+        assert_eq!(phi.folded_triangles(), 0);
+        let (plain, ours) = (uniform(&maps, 2)?, uniform_equalised(&maps, 2, &phi)?);
+        assert_eq!(plain.mesh.faces, ours.mesh.faces);
+        for (a, b) in plain.mesh.positions.iter().zip(&ours.mesh.positions) {
+            assert!((a - b).norm() <= 1e-12 * plain.diagonal, "{a} vs {b}");
+        }
+        Ok(())
+    }
+
+    /// The solve lowers the stretch, Φ stays a bijection of every base face (no moved
+    /// triangle folds, Φ⁻¹(Φ(p)) = p), and Π' spreads the base domain more evenly over the
+    /// surface than Π. The round trip's tolerance: two lattice locations, each a few
+    /// operations on coordinates of order 1 through lattice triangles whose aspect is at most
+    /// ~10² here: 1e-11.
+    #[test]
+    fn solve_is_a_bijection_that_lowers_the_stretch() -> crate::Result<()> {
+        let maps = torus_maps()?;
+        let phi = equalise(&maps, &options(3, 300))?;
+        let r = phi.report;
+        assert!(r.stretch_after < r.stretch_before, "{r:?}");
+        assert!(r.solver.iterations > 0, "{r:?}");
+        assert_eq!(phi.folded_triangles(), 0);
+        let mut worst: f64 = 0.0;
+        for f in 0..maps.base_faces.len() as u32 {
+            for k in 0..20 {
+                let a = (k as f64 * 0.618_034).fract();
+                let b = (k as f64 * 0.414_214).fract() * (1.0 - a);
+                let p = BasePoint {
+                    face: f,
+                    bary: [1.0 - a - b, a, b],
+                };
+                let back = phi.inverse(&phi.forward(&p));
+                for c in 0..3 {
+                    worst = worst.max((back.bary[c] - p.bary[c]).abs());
+                }
+            }
+        }
+        assert!(worst < 1e-11, "round trip off by {worst}");
+        let plain = crate::maps::distortion::distortion(&maps).final_map;
+        let (ours, _) =
+            crate::maps::distortion::map_distortion(&maps, &phi.vertex_parameters(&maps));
+        assert!(
+            ours.area_p95 < plain.area_p95,
+            "{} vs {}",
+            ours.area_p95,
+            plain.area_p95
+        );
+        Ok(())
+    }
+
+    /// The fold check can fail: swapping two moved lattice points of a face folds triangles.
+    #[test]
+    fn a_swapped_lattice_is_counted_as_folded() -> crate::Result<()> {
+        let maps = torus_maps()?;
+        let mut phi = equalise(&maps, &options(2, 0))?;
+        let s = phi.side();
+        phi.moved[0].swap(cell(s, 1, 1), cell(s, 1, 2));
+        assert!(phi.folded_triangles() > 0);
+        Ok(())
+    }
+
+    /// The same Φ on one thread and on two (every sum is in triangle order).
+    #[test]
+    fn thread_count_does_not_change_phi() -> Result<(), Box<dyn std::error::Error>> {
+        let maps = torus_maps()?;
+        let run = |threads: usize| -> Result<Equalised, Box<dyn std::error::Error>> {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()?;
+            Ok(pool.install(|| equalise(&maps, &options(2, 50)))?)
+        };
+        let (one, two) = (run(1)?, run(2)?);
+        assert!(one.moved == two.moved, "the moved lattices differ");
+        assert_eq!(one.report.solver, two.report.solver);
+        Ok(())
+    }
+
+    /// The assembled gradient (the chain through edge arclengths and interior positions)
+    /// against central differences of the energy, at a state 3 iterations away from Φ = id
+    /// (not yet near the minimum, where the gradient would be lost in rounding).
+    /// h = 1e-6 of coordinates of order 0.1–1 on an energy of order 10: truncation O(h²) and
+    /// rounding ε·E/h ≈ 1e-9; 1e-5 relative to the largest component leaves room for both.
+    #[test]
+    fn gradient_matches_differences() -> crate::Result<()> {
+        let maps = torus_maps()?;
+        let frames: Vec<[[f64; 2]; 3]> = (0..maps.base_faces.len() as u32)
+            .map(|f| frame(&maps, f))
+            .collect::<crate::Result<_>>()?;
+        let (lattice, targets, corners) = problem(&maps, &frames, 2);
+        let mut x = lattice.start(&maps, &frames, |p| *p);
+        let solver = LbfgsOptions {
+            max_iterations: 3,
+            tolerance: 0.0,
+            first_step: 0.01,
+            ..LbfgsOptions::default()
+        };
+        minimise(&mut x, |x| energy(&corners, &targets, x), &solver);
+        let e = |x: &[f64]| energy(&corners, &targets, x).map(|r| r.0);
+        let (_, grad) =
+            energy(&corners, &targets, &x).ok_or(Error::InvalidArgument("fold".into()))?;
+        let largest = grad.iter().fold(0.0f64, |m, g| m.max(g.abs()));
+        let mut kinds = [0usize; 2];
+        for u in &lattice.unknowns {
+            let (k, offsets) = match *u {
+                Unknown::Edge { offset, .. } => (0, vec![offset]),
+                Unknown::Inside { offset, .. } => (1, vec![offset, offset + 1]),
+                Unknown::Fixed => continue,
+            };
+            kinds[k] += 1;
+            for o in offsets {
+                let h = 1e-6;
+                let (mut plus, mut minus) = (x.clone(), x.clone());
+                plus[o] += h;
+                minus[o] -= h;
+                let fd = match (e(&plus), e(&minus)) {
+                    (Some(a), Some(b)) => (a - b) / (2.0 * h),
+                    _ => continue,
+                };
+                assert!(
+                    (fd - grad[o]).abs() <= 1e-5 * largest,
+                    "unknown {o}: {fd} vs {} (largest component {largest})",
+                    grad[o]
+                );
+            }
+        }
+        assert!(kinds[0] > 0 && kinds[1] > 0, "{kinds:?}");
+        Ok(())
+    }
+
+    /// Errors: a lattice deeper than [`MAX_DEPTH`]; a degenerate base face, named.
+    #[test]
+    fn errors_name_the_problem() -> crate::Result<()> {
+        let mut maps = torus_maps()?;
+        let deep = equalise(&maps, &options(MAX_DEPTH + 1, 0));
+        assert!(matches!(deep, Err(Error::InvalidArgument(ref m)) if m.contains("depth")));
+        let [a, b, _] = maps.base_faces[3];
+        maps.positions[b as usize] = maps.positions[a as usize];
+        match equalise(&maps, &options(2, 0)) {
+            Err(Error::InvalidArgument(m)) => {
+                assert!(
+                    m.contains("base face 3") && m.contains("has no area"),
+                    "{m}"
+                )
+            }
+            other => panic!("expected an error, got {:?}", other.map(|p| p.report)),
+        }
+        Ok(())
+    }
+}
