@@ -14,6 +14,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use reparam::maps::equalise::{equalise, EqualiseOptions};
 use reparam::maps::relax::{relax_net, uniform_relaxed, RelaxOptions};
 use reparam::maps::remesh::{adaptive, uniform, AdaptiveOptions};
 use reparam::maps::smooth::dyadic_net;
@@ -162,6 +163,24 @@ fn bench_relax(c: &mut Criterion) {
     group.finish();
 }
 
+/// The equalised parameterisation (issue #37, `maps::equalise`): the solve of Φ (lattice of
+/// depth 5, 93 744 unknowns at 96 base faces, coarse to fine from depth 1) on the unevenly
+/// sampled genus-2 100k model at base size 96.
+fn bench_equalise(c: &mut Criterion) {
+    let mesh = procedural::genus_uneven(2, 80);
+    let opts = MapsOptions {
+        base_size: 96,
+        ..options()
+    };
+    let maps = build(&mesh, &Features::default(), &opts).expect("builds");
+    let mut group = c.benchmark_group("maps_equalise");
+    group.sample_size(10);
+    group.bench_function("genus2_uneven 100k base 96, depth 5", |b| {
+        b.iter(|| black_box(equalise(&maps, &EqualiseOptions::default()).expect("solves")))
+    });
+    group.finish();
+}
+
 /// The GPU kernels (issue #5, "GPU"): priority terms and flattening of every ring of the
 /// 100k-triangle torus's input level, Π⁻¹ of its uniform:3 remesh points (base size 200), each
 /// beside the f64 reference doing the same work on the CPU (rayon over the rings / points).
@@ -264,5 +283,11 @@ fn bench_gpu(c: &mut Criterion) {
 #[cfg(not(feature = "gpu"))]
 fn bench_gpu(_: &mut Criterion) {}
 
-criterion_group!(benches, bench_hierarchy, bench_relax, bench_gpu);
+criterion_group!(
+    benches,
+    bench_hierarchy,
+    bench_relax,
+    bench_equalise,
+    bench_gpu
+);
 criterion_main!(benches);

@@ -262,7 +262,8 @@ pub fn relax_net(maps: &Maps, net: &ParamNet, options: &RelaxOptions) -> (ParamN
 }
 
 /// The map from parameters to the surface the relaxation weighs faces with: `(position, found)`
-/// as [`super::remesh::place`] gives for Π⁻¹ (or Π⁻¹ ∘ Φ⁻¹ for [`super::equalise`]).
+/// as Π⁻¹ gives it ([`super::Param::inverse`], the flat base point where it finds no input face),
+/// or Π⁻¹ ∘ Φ⁻¹ for [`super::equalise`].
 pub type Placement<'a> = &'a (dyn Fn(&BasePoint) -> (Point3<f64>, bool) + Sync);
 
 /// [`relax_net`] with the vertices placed by `place`.
