@@ -90,6 +90,10 @@ pub const DEFAULT_DEPTH: u32 = 5;
 /// The largest depth accepted (4^7 lattice triangles per base face).
 pub const MAX_DEPTH: u32 = 7;
 
+/// The most lattice triangles (base faces × 4^K) a solve may hold: about 250 bytes each (the
+/// target, the corners' rules, the energy's terms), so 2²¹ keep it near half a gigabyte.
+pub const MAX_LATTICE_TRIANGLES: usize = 1 << 21;
+
 /// What the solve did.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct EqualiseReport {
@@ -205,8 +209,65 @@ pub struct Equalised {
     moved: Vec<Vec<[f64; 2]>>,
     /// The lattice triangles of a face as cells, counter-clockwise ([`lattice_cells`]).
     cells: Vec<[usize; 3]>,
+    /// Per base face, the moved triangles binned by their bounding boxes (Φ⁻¹'s search).
+    buckets: Vec<Buckets>,
     /// The solve's figures.
     pub report: EqualiseReport,
+}
+
+/// A uniform grid of s × s buckets over a face's frame, each holding the moved triangles whose
+/// bounding box meets it: Φ⁻¹ tests the few triangles of one bucket instead of all 4^K.
+#[derive(Clone, Debug)]
+struct Buckets {
+    lo: [f64; 2],
+    cell: [f64; 2],
+    side: usize,
+    triangles: Vec<Vec<u32>>,
+}
+
+impl Buckets {
+    fn new(frame: &[[f64; 2]; 3], moved: &[[f64; 2]], cells: &[[usize; 3]], side: usize) -> Self {
+        let lo = [0, 1].map(|a| frame.iter().map(|p| p[a]).fold(f64::INFINITY, f64::min));
+        let hi = [0, 1].map(|a| frame.iter().map(|p| p[a]).fold(f64::NEG_INFINITY, f64::max));
+        let cell = [0, 1].map(|a| (hi[a] - lo[a]) / side as f64);
+        let mut b = Buckets {
+            lo,
+            cell,
+            side,
+            triangles: vec![Vec::new(); side * side],
+        };
+        for (t, c) in cells.iter().enumerate() {
+            let q = c.map(|k| moved[k]);
+            let (a0, a1) = b.bucket(
+                q.iter()
+                    .fold([f64::INFINITY; 2], |m, p| [m[0].min(p[0]), m[1].min(p[1])]),
+            );
+            let (z0, z1) = b.bucket(q.iter().fold([f64::NEG_INFINITY; 2], |m, p| {
+                [m[0].max(p[0]), m[1].max(p[1])]
+            }));
+            for x in a0..=z0 {
+                for y in a1..=z1 {
+                    b.triangles[x * side + y].push(t as u32);
+                }
+            }
+        }
+        b
+    }
+
+    /// The bucket (column, row) of a point, clamped to the grid.
+    fn bucket(&self, u: [f64; 2]) -> (usize, usize) {
+        let at = |a: usize| {
+            let x = ((u[a] - self.lo[a]) / self.cell[a]).floor();
+            (x.max(0.0) as usize).min(self.side - 1)
+        };
+        (at(0), at(1))
+    }
+
+    /// The triangles of u's bucket.
+    fn near(&self, u: [f64; 2]) -> &[u32] {
+        let (x, y) = self.bucket(u);
+        &self.triangles[x * self.side + y]
+    }
 }
 
 /// The 4^K triangles of a face's lattice (s = 2^K) as cells i (s + 1) + j of its points: for
@@ -400,12 +461,25 @@ fn net_stretch(corners: &[[Corner; 3]], targets: &[StretchTarget], x: &[f64]) ->
 /// solve runs on the lattice of depth `options.start_depth`, then on each finer one up to
 /// `options.depth`, each started from the coarser Φ (exact: a lattice triangle lies in one
 /// triangle of the coarser lattice, on which Φ is affine, so the start has no fold). Errors: a
-/// depth above [`MAX_DEPTH`], a degenerate base face.
+/// depth above [`MAX_DEPTH`], more than [`MAX_LATTICE_TRIANGLES`], a degenerate base face.
 pub fn equalise(maps: &Maps, options: &EqualiseOptions) -> Result<Equalised> {
     if options.depth > MAX_DEPTH {
         return Err(Error::InvalidArgument(format!(
             "reparameterisation depth {} is above {MAX_DEPTH}",
             options.depth
+        )));
+    }
+    let triangles = maps
+        .base_faces
+        .len()
+        .saturating_mul(1 << (2 * options.depth));
+    if triangles > MAX_LATTICE_TRIANGLES {
+        return Err(Error::InvalidArgument(format!(
+            "{}: --equalise {} on {} base faces needs {triangles} lattice triangles, more than \
+             {MAX_LATTICE_TRIANGLES}; use a smaller depth K or a smaller --base-size",
+            maps.name,
+            options.depth,
+            maps.base_faces.len()
         )));
     }
     let frames: Vec<[[f64; 2]; 3]> = (0..maps.base_faces.len() as u32)
@@ -496,7 +570,7 @@ fn solve_level(
     let stretch_after = net_stretch(&corners, &targets, &x);
     let solve_seconds = t1.elapsed().as_secs_f64();
 
-    let moved = lattice
+    let moved: Vec<Vec<[f64; 2]>> = lattice
         .grid
         .iter()
         .enumerate()
@@ -512,11 +586,18 @@ fn solve_level(
                 .collect()
         })
         .collect();
+    let cells = lattice_cells(1 << depth);
+    let buckets = frames
+        .iter()
+        .zip(&moved)
+        .map(|(fr, m)| Buckets::new(fr, m, &cells, 1 << depth))
+        .collect();
     Equalised {
         depth,
         frames: frames.to_vec(),
         moved,
-        cells: lattice_cells(1 << depth),
+        cells,
+        buckets,
         report: EqualiseReport {
             depth,
             unknowns: lattice.count,
@@ -589,18 +670,29 @@ impl Equalised {
 
     /// Φ⁻¹(d): the moved lattice triangle of d's base face holding d (robust orientations, the
     /// nearest when rounding put d a hair outside every one), and the same barycentrics in its
-    /// reference triangle. A scan of the face's 4^K triangles.
+    /// reference triangle. The triangles of d's bucket are tested first; when none holds d
+    /// (rounding on the face's border), all 4^K.
     pub fn inverse(&self, d: &BasePoint) -> BasePoint {
         let s = self.side();
         let fr = &self.frames[d.face as usize];
         let u = in_frame(fr, d.bary);
         let moved = &self.moved[d.face as usize];
-        let tris = &self.cells;
-        let (t, l) = locate(u, moved, tris);
+        let near: Vec<[usize; 3]> = self.buckets[d.face as usize]
+            .near(u)
+            .iter()
+            .map(|&t| self.cells[t as usize])
+            .collect();
+        let (t, l) = match locate(u, moved, &near) {
+            (t, l) if !near.is_empty() && l.iter().all(|&x| x >= 0.0) => (near[t], l),
+            _ => {
+                let (t, l) = locate(u, moved, &self.cells);
+                (self.cells[t], l)
+            }
+        };
         let sf = s as f64;
         let mut b = [0.0; 3];
         for c in 0..3 {
-            let k = tris[t][c] as u32;
+            let k = t[c] as u32;
             let (i, j) = (k / (s + 1), k % (s + 1));
             let r = [(s - i - j) as f64 / sf, i as f64 / sf, j as f64 / sf];
             for a in 0..3 {
@@ -853,12 +945,64 @@ mod tests {
         Ok(())
     }
 
-    /// Errors: a lattice deeper than [`MAX_DEPTH`]; a degenerate base face, named.
+    /// Φ⁻¹ through the buckets finds the triangle a scan of all 4^K finds, on a grid of points
+    /// of every face (its border included) after a solve.
+    #[test]
+    fn buckets_find_what_a_scan_finds() -> crate::Result<()> {
+        let maps = torus_maps()?;
+        let phi = equalise(&maps, &options(3, 100))?;
+        let s = phi.side();
+        for f in 0..maps.base_faces.len() as u32 {
+            for i in 0..=12u32 {
+                for j in 0..=12 - i {
+                    let b = [(12 - i - j) as f64 / 12.0, i as f64 / 12.0, j as f64 / 12.0];
+                    let d = BasePoint { face: f, bary: b };
+                    let u = in_frame(&phi.frames[f as usize], b);
+                    let (t, l) = locate(u, &phi.moved[f as usize], &phi.cells);
+                    let sf = s as f64;
+                    let mut want = [0.0; 3];
+                    for c in 0..3 {
+                        let k = phi.cells[t][c] as u32;
+                        let (a, bb) = (k / (s + 1), k % (s + 1));
+                        let r = [(s - a - bb) as f64 / sf, a as f64 / sf, bb as f64 / sf];
+                        for x in 0..3 {
+                            want[x] += l[c] * r[x];
+                        }
+                    }
+                    let got = phi.inverse(&d);
+                    for x in 0..3 {
+                        // Two triangles sharing the point give the same image up to rounding.
+                        assert!((got.bary[x] - want[x]).abs() < 1e-12, "{got:?} vs {want:?}");
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Errors: a lattice deeper than [`MAX_DEPTH`] or larger than [`MAX_LATTICE_TRIANGLES`];
+    /// a degenerate base face, named.
     #[test]
     fn errors_name_the_problem() -> crate::Result<()> {
         let mut maps = torus_maps()?;
         let deep = equalise(&maps, &options(MAX_DEPTH + 1, 0));
         assert!(matches!(deep, Err(Error::InvalidArgument(ref m)) if m.contains("depth")));
+        // A base of 200 faces at depth 7: 200 · 4⁷ ≈ 3.3·10⁶ > 2²¹.
+        let fine = build(
+            &torus(48, 24, 1.0, 0.35),
+            &Features::default(),
+            &MapsOptions {
+                base_size: 200,
+                ..MapsOptions::default()
+            },
+        )?;
+        assert!(fine.base_faces.len() * (1 << (2 * MAX_DEPTH)) > MAX_LATTICE_TRIANGLES);
+        let big = equalise(&fine, &options(MAX_DEPTH, 0));
+        assert!(
+            matches!(big, Err(Error::InvalidArgument(ref m)) if m.contains("lattice triangles")),
+            "{:?}",
+            big.map(|p| p.report)
+        );
         let [a, b, _] = maps.base_faces[3];
         maps.positions[b as usize] = maps.positions[a as usize];
         match equalise(&maps, &options(2, 0)) {
