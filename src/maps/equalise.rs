@@ -673,7 +673,6 @@ impl Equalised {
     /// reference triangle. The triangles of d's bucket are tested first; when none holds d
     /// (rounding on the face's border), all 4^K.
     pub fn inverse(&self, d: &BasePoint) -> BasePoint {
-        let s = self.side();
         let fr = &self.frames[d.face as usize];
         let u = in_frame(fr, d.bary);
         let moved = &self.moved[d.face as usize];
@@ -689,20 +688,27 @@ impl Equalised {
                 (self.cells[t], l)
             }
         };
-        let sf = s as f64;
-        let mut b = [0.0; 3];
-        for c in 0..3 {
-            let k = t[c] as u32;
-            let (i, j) = (k / (s + 1), k % (s + 1));
-            let r = [(s - i - j) as f64 / sf, i as f64 / sf, j as f64 / sf];
-            for a in 0..3 {
-                b[a] += l[c] * r[a];
-            }
-        }
+        let b = self.reference(t, l);
         BasePoint {
             face: d.face,
             bary: super::param::clamp(b),
         }
+    }
+
+    /// Σ_c λ_c r_c: the point with barycentrics λ in the reference lattice triangle of cells
+    /// `t`, r_c = ((s − i − j)/s, i/s, j/s) for cell c = i (s + 1) + j.
+    fn reference(&self, t: [usize; 3], l: [f64; 3]) -> [f64; 3] {
+        let s = self.side();
+        let sf = s as f64;
+        let mut b = [0.0; 3];
+        for (&k, lc) in t.iter().zip(l) {
+            let (i, j) = (k as u32 / (s + 1), k as u32 % (s + 1));
+            let r = [(s - i - j) as f64 / sf, i as f64 / sf, j as f64 / sf];
+            for (ba, ra) in b.iter_mut().zip(r) {
+                *ba += lc * ra;
+            }
+        }
+        b
     }
 
     /// Π'(v) = Φ(Π(p_v)) of every input vertex (`None` for a vertex no face uses).
@@ -951,7 +957,6 @@ mod tests {
     fn buckets_find_what_a_scan_finds() -> crate::Result<()> {
         let maps = torus_maps()?;
         let phi = equalise(&maps, &options(3, 100))?;
-        let s = phi.side();
         for f in 0..maps.base_faces.len() as u32 {
             for i in 0..=12u32 {
                 for j in 0..=12 - i {
@@ -959,16 +964,7 @@ mod tests {
                     let d = BasePoint { face: f, bary: b };
                     let u = in_frame(&phi.frames[f as usize], b);
                     let (t, l) = locate(u, &phi.moved[f as usize], &phi.cells);
-                    let sf = s as f64;
-                    let mut want = [0.0; 3];
-                    for c in 0..3 {
-                        let k = phi.cells[t][c] as u32;
-                        let (a, bb) = (k / (s + 1), k % (s + 1));
-                        let r = [(s - a - bb) as f64 / sf, a as f64 / sf, bb as f64 / sf];
-                        for x in 0..3 {
-                            want[x] += l[c] * r[x];
-                        }
-                    }
+                    let want = phi.reference(phi.cells[t], l);
                     let got = phi.inverse(&d);
                     for x in 0..3 {
                         // Two triangles sharing the point give the same image up to rounding.
