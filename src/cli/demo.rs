@@ -691,8 +691,9 @@ fn maps_relax_demo(out: &Path, report: &mut Report, torus: super::maps::MapsArgs
         report.paragraph(&format!(
             "`uniform:3 equalised` samples Π' = Φ ∘ Π instead (`maps::equalise`, beyond the \
              paper): Φ maps each base face onto itself, piecewise linearly on a lattice of 4^{} \
-             triangles per face, and minimises Sander et al.'s L² stretch of the whole lattice \
-             by L-BFGS ({} → {} in {} iterations, {} s), so Π''s area follows the surface's: \
+             triangles per face, and minimises Sander et al.'s L² stretch (plus a Dirichlet \
+             term against slivers) of the whole lattice by L-BFGS (stretch {} → {} in {} \
+             iterations, {} s), so Π''s area follows the surface's: \
              |log area ratio| p95 {} → {} (the input's own spread {}). `uniform:3 equalised \
              relaxed` relaxes that remesh's parameters too. `horned_equalised_area_distortion.png` \
              colours the input by Π''s area ratio.",

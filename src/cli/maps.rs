@@ -89,8 +89,9 @@ pub struct MapsArgs {
     pub relax: Option<usize>,
     /// Also make, for every `uniform:J`, the remesh of Π' = Φ ∘ Π: Φ maps each base face onto
     /// itself, piecewise linearly on a lattice of 4^K triangles per face, minimising Sander et
-    /// al.'s L² stretch over the whole base domain (`maps::equalise`, beyond the paper; same
-    /// connectivity). `--equalise` alone: K = 5. With `--relax`, Π''s remesh is relaxed too.
+    /// al.'s L² stretch plus 5× the Dirichlet energy over the whole base domain
+    /// (`maps::equalise`, beyond the paper; same connectivity). `--equalise` alone: K = 5.
+    /// With `--relax`, Π''s remesh is relaxed too.
     #[arg(long, value_name = "K", num_args = 0..=1, default_missing_value = EQUALISE_DEPTH)]
     pub equalise: Option<u32>,
     /// Remeshes to make: `uniform:J` (quadrisect J times) or `adaptive:EPS` (EPS relative to

@@ -17,6 +17,11 @@
 //! ‖J‖² = 2 s² = 2 A/A', and Σ A · A/A' under a fixed Σ A' is least when A' ∝ A (Lagrange:
 //! A²/A'² is the same for every triangle): minimising it makes the parameter area follow the
 //! surface's area.
+//!
+//! [`weighted_stretch`] adds μ A' L²(T)², the Dirichlet energy of the same map, which is at
+//! least A (= A' σ₁σ₂ ≤ A' (σ₁² + σ₂²)/2) with equality only for a conformal map: its excess over
+//! the fixed Σ A charges anisotropy, which stretch alone tolerates where it equalises area
+//! (measured in `src/maps/README.md`: slivers of the remesh that face the wrong way).
 
 use nalgebra::{Matrix2, Matrix3x2};
 
@@ -49,14 +54,20 @@ impl StretchTarget {
     }
 }
 
-/// A · L²(T)² = A ‖J‖²_F / 2 = A tr(G Q⁻¹ Q⁻ᵀ)/2 of the parameter triangle `q` (module docs),
-/// and its gradient with respect to q₁, q₂, q₃:
+/// (A + μ A') L²(T)² = (A + μ A') f, f = ‖J‖²_F / 2 = tr(G Q⁻¹ Q⁻ᵀ)/2, of the parameter
+/// triangle `q` (module docs; μ = 0: Sander et al.'s A L²(T)²), and its gradient with respect
+/// to q₁, q₂, q₃:
 ///
-/// ∂(‖J‖²_F)/∂Q = −2 Q⁻ᵀ G Q⁻¹ Q⁻ᵀ = −2 JᵀJ Q⁻ᵀ,
+/// ∂f/∂Q = −Q⁻ᵀ G Q⁻¹ Q⁻ᵀ = −JᵀJ Q⁻ᵀ,  ∂A'/∂Q = A' Q⁻ᵀ (A' = det Q / 2),
+/// ∂((A + μ A') f)/∂Q = −A JᵀJ Q⁻ᵀ + μ A' (f I − JᵀJ) Q⁻ᵀ,
 ///
 /// whose columns are the derivatives by q₂ and q₃, and ∂/∂q₁ = −(∂/∂q₂ + ∂/∂q₃). `None` when
 /// det Q ≤ 0 (a folded or degenerate parameter triangle: the energy is +∞ there).
-pub fn weighted_stretch(target: &StretchTarget, q: [[f64; 2]; 3]) -> Option<(f64, [[f64; 2]; 3])> {
+pub fn weighted_stretch(
+    target: &StretchTarget,
+    q: [[f64; 2]; 3],
+    mu: f64,
+) -> Option<(f64, [[f64; 2]; 3])> {
     let qm = Matrix2::new(
         q[1][0] - q[0][0],
         q[2][0] - q[0][0],
@@ -69,8 +80,11 @@ pub fn weighted_stretch(target: &StretchTarget, q: [[f64; 2]; 3]) -> Option<(f64
     }
     let inv = qm.try_inverse()?;
     let jtj = inv.transpose() * target.gram * inv;
-    let value = 0.5 * target.area * jtj.trace();
-    let d = -target.area * jtj * inv.transpose();
+    let f = 0.5 * jtj.trace();
+    let parameter_area = 0.5 * det;
+    let value = (target.area + mu * parameter_area) * f;
+    let d = (-target.area * jtj + mu * parameter_area * (Matrix2::identity() * f - jtj))
+        * inv.transpose();
     if !(value.is_finite() && d.iter().all(|x| x.is_finite())) {
         return None;
     }
@@ -97,35 +111,52 @@ mod tests {
     use super::*;
 
     /// An isometric parameter triangle has ‖J‖² = 2, so A · L² = A; scaling the parameter
-    /// triangle by s divides ‖J‖² by s².
+    /// triangle by s divides ‖J‖² by s²; the Dirichlet term is μ A for a similarity and more
+    /// for a sheared map.
     #[test]
     fn isometry_and_scale() -> Result<(), String> {
         let p = [[0.0, 0.0, 1.0], [2.0, 0.0, 1.0], [0.0, 1.0, 1.0]];
         let t = StretchTarget::of(p);
         assert!((t.area - 1.0).abs() < 1e-15);
         let q = [[0.0, 0.0], [2.0, 0.0], [0.0, 1.0]];
-        let (e, _) = weighted_stretch(&t, q).ok_or("isometric triangle refused")?;
+        let (e, _) = weighted_stretch(&t, q, 0.0).ok_or("isometric triangle refused")?;
         assert!((e - 1.0).abs() < 1e-14, "{e}");
         let half = q.map(|x| [0.5 * x[0], 0.5 * x[1]]);
-        let (e2, _) = weighted_stretch(&t, half).ok_or("scaled triangle refused")?;
+        let (e2, _) = weighted_stretch(&t, half, 0.0).ok_or("scaled triangle refused")?;
         assert!((e2 - 4.0).abs() < 1e-13, "{e2}");
         assert!(
-            weighted_stretch(&t, [q[0], q[2], q[1]]).is_none(),
+            weighted_stretch(&t, [q[0], q[2], q[1]], 0.0).is_none(),
             "a folded triangle"
         );
+        // The Dirichlet term of a similarity is μ A (A' f = A' · A/A'): 4 + 2 · 1 here.
+        let (e3, _) = weighted_stretch(&t, half, 2.0).ok_or("scaled triangle refused")?;
+        assert!((e3 - 6.0).abs() < 1e-13, "{e3}");
+        // A sheared map of the same parameter area costs more than μ A in the Dirichlet term.
+        let sheared = [[0.0, 0.0], [1.0, 0.0], [0.0, 2.0]];
+        let (e4, _) = weighted_stretch(&t, sheared, 2.0).ok_or("sheared triangle refused")?;
+        let (e5, _) = weighted_stretch(&t, sheared, 0.0).ok_or("sheared triangle refused")?;
+        assert!(e4 - e5 > 2.0 * t.area + 0.1, "{e4} {e5}");
         let l2 = l2_stretch(e2, t.area, signed_area(half));
         assert!((l2 - 1.0).abs() < 1e-14, "a similarity has L²(M) = 1: {l2}");
         Ok(())
     }
 
-    /// The gradient against central differences on a skewed triangle (error O(h²): h = 1e-6
-    /// on values of order 1 leaves ~1e-10 of truncation and ~1e-10 of rounding, ε/h).
+    /// The gradient against central differences on a skewed triangle, with and without the
+    /// Dirichlet term (error O(h²): h = 1e-6 on values of order 1 leaves ~1e-10 of truncation
+    /// and ~1e-10 of rounding, ε/h).
     #[test]
     fn gradient_matches_differences() -> Result<(), String> {
+        for mu in [0.0, 5.0] {
+            gradient_check(mu)?;
+        }
+        Ok(())
+    }
+
+    fn gradient_check(mu: f64) -> Result<(), String> {
         let p = [[0.1, 0.2, 0.3], [1.3, -0.2, 0.5], [0.4, 0.9, -0.6]];
         let t = StretchTarget::of(p);
         let q = [[0.2, 0.1], [1.1, 0.3], [0.5, 0.8]];
-        let (_, g) = weighted_stretch(&t, q).ok_or("refused")?;
+        let (_, g) = weighted_stretch(&t, q, mu).ok_or("refused")?;
         let h = 1e-6;
         for c in 0..3 {
             for k in 0..2 {
@@ -133,12 +164,12 @@ mod tests {
                 let mut minus = q;
                 plus[c][k] += h;
                 minus[c][k] -= h;
-                let ep = weighted_stretch(&t, plus).ok_or("refused")?.0;
-                let em = weighted_stretch(&t, minus).ok_or("refused")?.0;
+                let ep = weighted_stretch(&t, plus, mu).ok_or("refused")?.0;
+                let em = weighted_stretch(&t, minus, mu).ok_or("refused")?.0;
                 let fd = (ep - em) / (2.0 * h);
                 assert!(
                     (fd - g[c][k]).abs() <= 1e-7 * (1.0 + fd.abs()),
-                    "corner {c} axis {k}: {fd} vs {}",
+                    "μ {mu}, corner {c} axis {k}: {fd} vs {}",
                     g[c][k]
                 );
             }
