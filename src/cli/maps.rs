@@ -428,6 +428,10 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         made.push(r);
         Ok(())
     };
+    let relax = args.relax.map(|n| RelaxOptions {
+        iterations: n,
+        ..RelaxOptions::default()
+    });
     let phi: Option<(Equalised, f64)> = match args.equalise {
         Some(depth) => {
             let t = Instant::now();
@@ -470,13 +474,9 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
                 None,
             )?;
         }
-        if let (RemeshSpec::Uniform(j), Some(n)) = (spec, args.relax) {
+        if let (RemeshSpec::Uniform(j), Some(options)) = (spec, &relax) {
             let t = Instant::now();
-            let options = RelaxOptions {
-                iterations: n,
-                ..RelaxOptions::default()
-            };
-            let s = uniform_relaxed(&maps, j, &options)?;
+            let s = uniform_relaxed(&maps, j, options)?;
             let kind = format!("uniform:{j} relaxed");
             record(
                 s.remesh,
@@ -496,13 +496,9 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
                 None,
                 None,
             )?;
-            if let Some(n) = args.relax {
+            if let Some(options) = &relax {
                 let t = Instant::now();
-                let options = RelaxOptions {
-                    iterations: n,
-                    ..RelaxOptions::default()
-                };
-                let s = uniform_equalised_relaxed(&maps, j, phi, &options)?;
+                let s = uniform_equalised_relaxed(&maps, j, phi, options)?;
                 let kind = format!("uniform:{j} equalised relaxed");
                 record(
                     s.remesh,
