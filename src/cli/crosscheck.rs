@@ -146,7 +146,7 @@ pub fn try_run(_: CrosscheckArgs) -> Result<u8> {
 /// status 2).
 #[cfg(feature = "gpu")]
 pub fn try_run(args: CrosscheckArgs) -> Result<u8> {
-    use crate::crosscheck::run::{AdapterRows, CrosscheckReport};
+    use crate::crosscheck::run::{AdapterRows, CrosscheckReport, SkippedAdapter};
     use reparam_gpu::Gpu;
 
     if args.list_adapters {
@@ -159,6 +159,7 @@ pub fn try_run(args: CrosscheckArgs) -> Result<u8> {
                 .into(),
         ));
     };
+    let mut skipped = Vec::new();
     let gpus: Vec<Gpu> = if args.all_adapters {
         let all = Gpu::all_adapters();
         if all.is_empty() {
@@ -168,8 +169,24 @@ pub fn try_run(args: CrosscheckArgs) -> Result<u8> {
         for (description, gpu) in all {
             match gpu {
                 Ok(g) => gpus.push(g),
-                Err(e) => eprintln!("adapter {} skipped: {e}", description.summary()),
+                Err(e) => {
+                    eprintln!("adapter {} skipped: {e}", description.summary());
+                    skipped.push(SkippedAdapter {
+                        adapter: description.summary(),
+                        reason: e.to_string(),
+                    });
+                }
             }
+        }
+        if gpus.is_empty() {
+            return Err(Error::Gpu(format!(
+                "no adapter could create a device, so nothing was checked: {}",
+                skipped
+                    .iter()
+                    .map(|s| format!("{} ({})", s.adapter, s.reason))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            )));
         }
         gpus
     } else {
@@ -189,6 +206,7 @@ pub fn try_run(args: CrosscheckArgs) -> Result<u8> {
         });
     }
     let mut report = CrosscheckReport::new(adapters);
+    report.skipped = skipped;
     if common.sweep {
         let (sweeps, plots) = sweeps(&gpus[0], &algorithm, &args.plots)?;
         report.sweeps = sweeps;
@@ -289,6 +307,9 @@ fn print_report(report: &crate::crosscheck::run::CrosscheckReport) -> Result<()>
         outln!("\nsweep: {} (first adapter; plot {plot})", sweep.title);
         let (header, rows) = sweep.table();
         outln!("{}", super::text_table(&header, &rows));
+    }
+    for s in &report.skipped {
+        outln!("adapter {} skipped, not checked: {}", s.adapter, s.reason);
     }
     if report.failures.is_empty() {
         outln!("every kernel within its bound");

@@ -30,6 +30,15 @@ impl AdapterRows {
     }
 }
 
+/// An adapter that `--all-adapters` found but could not run on.
+#[derive(Clone, Debug, Serialize)]
+pub struct SkippedAdapter {
+    /// The adapter's one-line summary.
+    pub adapter: String,
+    /// Why: the error of its device request.
+    pub reason: String,
+}
+
 /// What `reparam crosscheck … --json` prints.
 #[derive(Clone, Debug, Serialize)]
 pub struct CrosscheckReport {
@@ -37,6 +46,9 @@ pub struct CrosscheckReport {
     pub adapters: Vec<AdapterRows>,
     /// `adapter: algorithm kernel (input)` of every row over its bound; empty when all pass.
     pub failures: Vec<String>,
+    /// With `--all-adapters`: the adapters that refused a device, so were not checked.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub skipped: Vec<SkippedAdapter>,
     /// 0 when every kernel is within its bound, 1 otherwise (the exit code).
     pub exit_code: u8,
     /// With `--sweep`: the sweeps (first adapter) and the paths of their plots.
@@ -61,6 +73,7 @@ impl CrosscheckReport {
         CrosscheckReport {
             adapters: adapters.iter().map(AdapterRows::rounded).collect(),
             failures,
+            skipped: Vec::new(),
             exit_code,
             sweeps: Vec::new(),
             plots: Vec::new(),
