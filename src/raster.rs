@@ -209,22 +209,29 @@ pub fn rasterize(
     width: usize,
     height: usize,
 ) -> FrameBuffer {
-    let clip: Vec<Vector4<f64>> = mesh
-        .positions
+    rasterize_clip(mesh, &clip_positions(mesh, view_proj), width, height, |p| p)
+}
+
+/// Every vertex of `mesh` in clip space, `view_proj · (p, 1)`.
+pub fn clip_positions(mesh: &TriMesh, view_proj: &Matrix4<f64>) -> Vec<Vector4<f64>> {
+    mesh.positions
         .par_iter()
         .map(|p| view_proj * p.to_homogeneous())
-        .collect();
-    let repeated = repeated_faces(mesh);
-    let triangles: Vec<ScreenTriangle> = mesh
-        .faces
-        .par_iter()
-        .enumerate()
-        .filter(|&(f, _)| !repeated[f])
-        .filter_map(|(f, tri)| {
-            let corners = tri.map(|v| clip[v as usize]);
-            ScreenTriangle::new(f as u32, &corners, width, height)
-        })
-        .collect();
+        .collect()
+}
+
+/// [`rasterize`] from the vertices' clip-space positions `clip` (one per vertex of `mesh`), with
+/// each projected corner passed through `snap` (pixel coordinates in, pixel coordinates out)
+/// before the edge functions are set up: the identity for the reference, a rounding to the
+/// sub-pixel grid to model a GPU's fixed-function rasteriser (`twin::bpm_render`).
+pub fn rasterize_clip(
+    mesh: &TriMesh,
+    clip: &[Vector4<f64>],
+    width: usize,
+    height: usize,
+    snap: impl Fn([f64; 2]) -> [f64; 2] + Sync,
+) -> FrameBuffer {
+    let triangles = screen_triangles_with(mesh, clip, width, height, 0.0, &snap);
     let bins = bin_by_band(&triangles, height);
 
     let mut fb = FrameBuffer {
@@ -253,6 +260,39 @@ pub fn rasterize(
     fb
 }
 
+/// The drawable faces of `mesh` set up for rasterisation (see [`rasterize`] for which are
+/// skipped), with each pixel box widened by `margin` pixels on every side: a face is kept when
+/// some pixel centre lies within its corners' box widened so.
+pub fn screen_triangles(
+    mesh: &TriMesh,
+    clip: &[Vector4<f64>],
+    width: usize,
+    height: usize,
+    margin: f64,
+) -> Vec<ScreenTriangle> {
+    screen_triangles_with(mesh, clip, width, height, margin, &|p| p)
+}
+
+fn screen_triangles_with(
+    mesh: &TriMesh,
+    clip: &[Vector4<f64>],
+    width: usize,
+    height: usize,
+    margin: f64,
+    snap: &(impl Fn([f64; 2]) -> [f64; 2] + Sync),
+) -> Vec<ScreenTriangle> {
+    let repeated = repeated_faces(mesh);
+    mesh.faces
+        .par_iter()
+        .enumerate()
+        .filter(|&(f, _)| !repeated[f])
+        .filter_map(|(f, tri)| {
+            let corners = tri.map(|v| clip[v as usize]);
+            ScreenTriangle::new(f as u32, &corners, width, height, margin, snap)
+        })
+        .collect()
+}
+
 /// `repeated[f]`: face `f` has the same corners in the same order as an earlier face.
 ///
 /// Such a face can never be drawn: its depth at every pixel is computed from the same numbers in
@@ -266,7 +306,7 @@ fn repeated_faces(mesh: &TriMesh) -> Vec<bool> {
 }
 
 /// A triangle set up for rasterisation: pixel-space corners, clip data and its pixel box.
-struct ScreenTriangle {
+pub struct ScreenTriangle {
     face: u32,
     /// Corners in pixel coordinates.
     corners: [[f64; 2]; 3],
@@ -282,21 +322,29 @@ struct ScreenTriangle {
 }
 
 impl ScreenTriangle {
-    /// Project the clip-space corners; `None` when the triangle is skipped (see [`rasterize`]) or
-    /// covers no pixel centre of the picture.
-    fn new(face: u32, clip: &[Vector4<f64>; 3], width: usize, height: usize) -> Option<Self> {
+    /// Project the clip-space corners (then `snap` them); `None` when the triangle is skipped
+    /// (see [`rasterize`]) or no pixel centre of the picture lies within `margin` pixels of
+    /// its box.
+    fn new(
+        face: u32,
+        clip: &[Vector4<f64>; 3],
+        width: usize,
+        height: usize,
+        margin: f64,
+        snap: &impl Fn([f64; 2]) -> [f64; 2],
+    ) -> Option<Self> {
         let drawable =
             |c: &Vector4<f64>| c.iter().all(|x| x.is_finite()) && c.w > 0.0 && c.z >= 0.0;
         if !clip.iter().all(drawable) {
             return None;
         }
-        let corners = clip.map(|c| ndc_to_pixel(c.x / c.w, c.y / c.w, width, height));
+        let corners = clip.map(|c| snap(ndc_to_pixel(c.x / c.w, c.y / c.w, width, height)));
         let area2 = edge_function(corners[0], corners[1], corners[2]);
         if area2 == 0.0 {
             return None;
         }
-        let columns = pixel_range(corners.map(|p| p[0]), width)?;
-        let rows = pixel_range(corners.map(|p| p[1]), height)?;
+        let columns = pixel_range(corners.map(|p| p[0]), width, margin)?;
+        let rows = pixel_range(corners.map(|p| p[1]), height, margin)?;
         Some(ScreenTriangle {
             face,
             corners,
@@ -306,6 +354,17 @@ impl ScreenTriangle {
             columns,
             rows,
         })
+    }
+
+    /// The mesh face this triangle draws.
+    pub fn face(&self) -> u32 {
+        self.face
+    }
+
+    /// Inclusive ranges of pixel columns and rows whose centres may lie within the box (and
+    /// its margin).
+    pub fn pixel_box(&self) -> ((usize, usize), (usize, usize)) {
+        (self.columns, self.rows)
     }
 
     /// Screen-space barycentrics `λ` of a point, `λᵢ = (edge opposite corner i)(p) / area2`.
@@ -318,23 +377,62 @@ impl ScreenTriangle {
         ]
     }
 
+    /// Signed distance (pixels) from `p` to the triangle's boundary, positive inside:
+    /// `minᵢ λᵢ(p) · hᵢ`, hᵢ the height over the edge opposite corner i (exact inside and
+    /// near an edge; outside near a corner, a lower bound on the distance's magnitude).
+    pub fn signed_distance(&self, p: [f64; 2]) -> f64 {
+        let lambda = self.screen_barycentrics(p);
+        (0..3)
+            .map(|i| {
+                let (a, b) = (self.corners[(i + 1) % 3], self.corners[(i + 2) % 3]);
+                let length = (b[0] - a[0]).hypot(b[1] - a[1]);
+                lambda[i] * self.area2.abs() / length
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// The screen-linear depth `Σ λᵢ zᵢ / wᵢ` at `p` (extrapolated outside the triangle).
+    pub fn depth_at(&self, p: [f64; 2]) -> f64 {
+        self.depth_of(self.screen_barycentrics(p))
+    }
+
+    fn depth_of(&self, lambda: [f64; 3]) -> f64 {
+        (0..3).map(|i| lambda[i] * self.depth[i]).sum()
+    }
+
+    /// |∇ depth| in depth units per pixel (the depth is linear in screen space).
+    pub fn depth_slope(&self) -> f64 {
+        let at = |p| self.depth_at(p);
+        let o = [0.0, 0.0];
+        (at([1.0, 0.0]) - at(o)).hypot(at([0.0, 1.0]) - at(o))
+    }
+
+    /// Perspective-correct barycentrics `bᵢ = (λᵢ / wᵢ) / Σⱼ (λⱼ / wⱼ)` at `p`, inside the
+    /// triangle or (extrapolated) near it.
+    pub fn barycentrics_at(&self, p: [f64; 2]) -> [f64; 3] {
+        self.barycentrics_of(self.screen_barycentrics(p))
+    }
+
+    fn barycentrics_of(&self, lambda: [f64; 3]) -> [f64; 3] {
+        let weighted = [0, 1, 2].map(|i| lambda[i] * self.inv_w[i]);
+        let total: f64 = weighted.iter().sum();
+        weighted.map(|x| x / total)
+    }
+
     /// The fragment and depth at a pixel centre inside the triangle and the depth range.
     fn fragment_at(&self, centre: [f64; 2]) -> Option<(Fragment, f64)> {
         let lambda = self.screen_barycentrics(centre);
         if lambda.iter().any(|&l| l < 0.0) {
             return None;
         }
-        let depth = (0..3).map(|i| lambda[i] * self.depth[i]).sum::<f64>();
+        let depth = self.depth_of(lambda);
         if !(0.0..=1.0).contains(&depth) {
             return None;
         }
-        let weighted = [0, 1, 2].map(|i| lambda[i] * self.inv_w[i]);
-        let total: f64 = weighted.iter().sum();
-        let bary = weighted.map(|x| x / total);
         Some((
             Fragment {
                 face: self.face,
-                bary,
+                bary: self.barycentrics_of(lambda),
             },
             depth,
         ))
@@ -346,10 +444,11 @@ fn edge_function(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> f64 {
     (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
 }
 
-/// Pixels `i` in `0..size` whose centres `i + ½` lie in `[min, max]` of the given coordinates.
-fn pixel_range(coords: [f64; 3], size: usize) -> Option<(usize, usize)> {
-    let lo = coords.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = coords.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+/// Pixels `i` in `0..size` whose centres `i + ½` lie in `[min − margin, max + margin]` of the
+/// given coordinates.
+fn pixel_range(coords: [f64; 3], size: usize, margin: f64) -> Option<(usize, usize)> {
+    let lo = coords.iter().copied().fold(f64::INFINITY, f64::min) - margin;
+    let hi = coords.iter().copied().fold(f64::NEG_INFINITY, f64::max) + margin;
     let first = (lo - 0.5).ceil().max(0.0);
     let last = (hi - 0.5).floor().min(size as f64 - 1.0);
     (first <= last).then_some((first as usize, last as usize))

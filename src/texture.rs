@@ -413,13 +413,33 @@ fn load_exr_gray(path: &Path) -> Result<Image<f32>> {
 /// `(u, 1 − v)` — up to the GPU's reduced filtering precision (typically 8 fractional bits
 /// for the weights), and ×255. An empty image samples as 0.
 pub fn sample_bilinear(image: &Image<Rgba8>, uv: [f64; 2]) -> [f64; 4] {
+    sample_bilinear_with(image, uv, |f| f)
+}
+
+/// The texel-space point that [`sample_bilinear`] filters at for `uv`: `(s W − ½, t H − ½)`
+/// with `s = u − ⌊u⌋`, `t = 1 − (v − ⌊v⌋)` (texel centres at integers).
+pub fn texel_coordinates(image: &Image<Rgba8>, uv: [f64; 2]) -> [f64; 2] {
+    let s = uv[0] - uv[0].floor();
+    let t = 1.0 - (uv[1] - uv[1].floor());
+    [s * image.width as f64 - 0.5, t * image.height as f64 - 0.5]
+}
+
+/// [`sample_bilinear`] with each of the two filter fractions passed through `fraction` first:
+/// the identity for the reference; a rounding to `2^-bits` for a GPU sampler whose filter
+/// weights have `bits` bits (Vulkan's `subTexelPrecisionBits`, at least 4), as
+/// `twin::bpm_render` models one.
+pub fn sample_bilinear_with(
+    image: &Image<Rgba8>,
+    uv: [f64; 2],
+    fraction: impl Fn(f64) -> f64,
+) -> [f64; 4] {
     if image.width == 0 || image.height == 0 {
         return [0.0; 4];
     }
-    let s = uv[0] - uv[0].floor();
-    let t = 1.0 - (uv[1] - uv[1].floor());
-    let (x0, fx) = texel_and_fraction(s * image.width as f64 - 0.5, image.width);
-    let (y0, fy) = texel_and_fraction(t * image.height as f64 - 0.5, image.height);
+    let [x, y] = texel_coordinates(image, uv);
+    let (x0, fx) = texel_and_fraction(x, image.width);
+    let (y0, fy) = texel_and_fraction(y, image.height);
+    let (fx, fy) = (fraction(fx), fraction(fy));
     let (x1, y1) = ((x0 + 1) % image.width, (y0 + 1) % image.height);
     let corners = [
         (image.get(x0, y0), (1.0 - fx) * (1.0 - fy)),

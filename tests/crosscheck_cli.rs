@@ -52,7 +52,7 @@ fn every_subcommand_passes_on_built_in_data() {
     for kernel in [
         "bpm_eval: BPM uv",
         "bpm_precompute (local fit) → bpm_eval: uv",
-        "bpm_render: pixels off by > 1/255",
+        "bpm_render: colour",
     ] {
         assert_eq!(row(&bpm, kernel)["verdict"], "pass");
     }

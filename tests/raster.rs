@@ -3,7 +3,9 @@
 use approx::assert_relative_eq;
 use nalgebra::{Matrix4, Point3, Vector3, Vector4};
 use reparam::mesh::{procedural, TriMesh};
-use reparam::raster::{image_diff, rasterize, shade, Camera};
+use reparam::raster::{
+    clip_positions, image_diff, rasterize, rasterize_clip, screen_triangles, shade, Camera,
+};
 use reparam::texture::{sample_bilinear, Image};
 
 /// A mesh of triangles given by their corners (no UVs).
@@ -248,4 +250,35 @@ fn uv_grid_and_checker_textures_have_the_requested_size() {
     let both = reparam::texture::side_by_side(&[&grid, &checker], 5);
     assert_eq!((both.width, both.height), (256 + 5 + 64, 256));
     assert_eq!(both.get(261, 0), checker.get(0, 0));
+}
+
+#[test]
+fn screen_triangles_measure_distance_depth_and_barycentrics_in_pixels() {
+    // The lower-left half of an 8 × 8 picture (identity view_proj): corners at pixel (0, 8),
+    // (8, 8), (0, 0); depth 0.25 + 0.5 · (ndc x + 1) / 2 along x.
+    let mesh = triangles(&[[[-1.0, -1.0, 0.25], [1.0, -1.0, 0.75], [-1.0, 1.0, 0.25]]]);
+    let clip = clip_positions(&mesh, &Matrix4::identity());
+    let tris = screen_triangles(&mesh, &clip, 8, 8, 0.0);
+    assert_eq!(tris.len(), 1);
+    let t = &tris[0];
+    assert_eq!(t.face(), 0);
+    // Inside, 1 px from the bottom edge and 2 px from the left one: the nearer counts.
+    assert_relative_eq!(t.signed_distance([2.0, 7.0]), 1.0, epsilon = 1e-12);
+    // Outside, beyond the diagonal x = y (pixel coordinates, y down) by √2 / 2.
+    assert_relative_eq!(
+        t.signed_distance([5.0, 4.0]),
+        -0.5f64.sqrt(),
+        epsilon = 1e-12
+    );
+    assert_relative_eq!(t.depth_at([4.0, 6.0]), 0.5, epsilon = 1e-12);
+    assert_relative_eq!(t.depth_slope(), 0.5 / 8.0, epsilon = 1e-12);
+    let b = t.barycentrics_at([4.0, 6.0]);
+    assert_relative_eq!(b[1], 0.5, epsilon = 1e-12);
+    assert_relative_eq!(b[2], 0.25, epsilon = 1e-12);
+    // A snapped raster moves coverage: the identity snap reproduces `rasterize`.
+    let exact = rasterize(&mesh, &Matrix4::identity(), 8, 8);
+    assert_eq!(rasterize_clip(&mesh, &clip, 8, 8, |p| p), exact);
+    let shifted = rasterize_clip(&mesh, &clip, 8, 8, |p| [p[0] + 0.75, p[1]]);
+    assert_ne!(shifted.covered_pixels(), 0);
+    assert_ne!(shifted, exact);
 }

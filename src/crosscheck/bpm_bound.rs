@@ -32,11 +32,11 @@
 use num_complex::Complex64 as C;
 use rayon::prelude::*;
 
-use crate::bpm::gpu::{triangle_flags, triangle_values};
+use crate::bpm::gpu::{sample_as_gpu_sees_it, triangle_flags, triangle_values};
 use crate::bpm::precompute::{Star, TriangleMaps};
-use crate::bpm::{Bpm, Interp, Sample};
+use crate::bpm::{face_samples, Bpm, Interp, Sample};
 use crate::twin::ball::{evaluate, Ball};
-use crate::twin::bpm_common::{self as common, INTERP_BPM, INTERP_LINEAR};
+use crate::twin::bpm_common as common;
 use crate::twin::bpm_eval::{bpm_eval, Sample as TwinSample};
 use crate::twin::bpm_precompute::{triangle_maps, StarInput, FIT_LOCAL, MASK_DEGENERATE};
 use crate::twin::lin::{self, Lin, SECOND_ORDER};
@@ -48,13 +48,7 @@ pub const TEXTURE_SIZE: f64 = 4096.0;
 /// The bound of an element where the WGSL accuracy table gives none (JSON has no ∞).
 pub const UNBOUNDED: f64 = f64::MAX;
 
-/// The kernels' `interp` code.
-pub fn interp_code(interp: Interp) -> u32 {
-    match interp {
-        Interp::Bpm => INTERP_BPM,
-        Interp::Linear => INTERP_LINEAR,
-    }
-}
+pub use crate::twin::bpm_common::interp_code;
 
 /// The twin's per-triangle data of a reference face: balls around its 44 f64 values with their
 /// f32 rounding as radii.
@@ -107,6 +101,15 @@ fn texel_bound(uv: V2<Ball>, reference: C, ambiguous: bool) -> f64 {
     }
 }
 
+/// [`INTERIOR_POINTS`](crate::bpm::INTERIOR_POINTS) and the three corners of every face, with
+/// b_j, b_k rounded to f32.
+pub fn crosscheck_samples(faces: usize) -> Vec<Sample> {
+    face_samples(faces, true)
+        .iter()
+        .map(sample_as_gpu_sees_it)
+        .collect()
+}
+
 /// Per sample, the bound (texels) of `bpm_eval` on the reference's maps rounded to f32, against
 /// the reference's values `expected` at the same samples.
 pub fn eval_bounds(
@@ -133,6 +136,17 @@ pub fn eval_bounds(
 /// after it), [`SECOND_ORDER`] × the first-order bound of the UV (module docs of
 /// [`crate::twin::lin`]).
 pub fn pipeline_bounds(stars: &[Star], samples: &[Sample], expected: &[C]) -> Vec<f64> {
+    pipeline_bounds_for(stars, samples, Interp::Bpm, expected)
+}
+
+/// [`pipeline_bounds`] with the eval in `interp` mode (the render draws either).
+pub fn pipeline_bounds_for(
+    stars: &[Star],
+    samples: &[Sample],
+    interp: Interp,
+    expected: &[C],
+) -> Vec<f64> {
+    let code = interp_code(interp);
     let mut by_face: Vec<Vec<usize>> = vec![Vec::new(); stars.len()];
     for (n, s) in samples.iter().enumerate() {
         by_face[s.face as usize].push(n);
@@ -140,7 +154,7 @@ pub fn pipeline_bounds(stars: &[Star], samples: &[Sample], expected: &[C]) -> Ve
     let per_face: Vec<Vec<(usize, f64)>> = stars
         .par_iter()
         .zip(&by_face)
-        .map(|(star, indices)| face_pipeline_bounds(star, indices, samples, expected))
+        .map(|(star, indices)| face_pipeline_bounds(star, indices, samples, code, expected))
         .collect();
     let mut bounds = vec![UNBOUNDED; samples.len()];
     for (n, bound) in per_face.into_iter().flatten() {
@@ -154,6 +168,7 @@ fn face_pipeline_bounds(
     star: &Star,
     indices: &[usize],
     samples: &[Sample],
+    interp: u32,
     expected: &[C],
 ) -> Vec<(usize, f64)> {
     let ((maps, prefix), ambiguous) = lin::record(|| {
@@ -176,7 +191,7 @@ fn face_pipeline_bounds(
                         Lin::exact(f64::from(s.bary[2] as f32)),
                     ],
                 };
-                let uv = bpm_eval(&[maps], &sample, INTERP_BPM)?;
+                let uv = bpm_eval(&[maps], &sample, interp)?;
                 let radius = SECOND_ORDER * lin::first_order_bound2(uv.x, uv.y);
                 Some((C::new(uv.x.v, uv.y.v), radius))
             });

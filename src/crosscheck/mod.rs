@@ -81,6 +81,9 @@ pub mod maps_bound;
 /// The per-query bound of `maps_inverse`'s positions, from its twin over `Lin`.
 #[cfg(feature = "gpu")]
 pub mod maps_inverse_bound;
+/// The per-pixel bound of `bpm_render`, fixed-function stages at the spec's least precision.
+#[cfg(feature = "gpu")]
+pub mod render_bound;
 #[cfg(feature = "gpu")]
 pub mod run;
 #[cfg(feature = "gpu")]

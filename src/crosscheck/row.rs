@@ -120,10 +120,12 @@ impl Row {
         let (shown, largest) = match &bounds {
             Bounds::Uniform(b) => (*b, *b),
             Bounds::PerElement(b) => {
-                let mut sorted: Vec<f64> = b.iter().copied().filter(|x| x.is_finite()).collect();
+                // Unbounded elements (f64::MAX, as JSON has no ∞) are counted in the notes,
+                // not shown as the largest bound.
+                let mut sorted: Vec<f64> = b.iter().copied().filter(|&x| x < f64::MAX).collect();
                 sorted.sort_by(f64::total_cmp);
                 let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
-                (median, b.iter().copied().fold(0.0, f64::max))
+                (median, sorted.last().copied().unwrap_or(0.0))
             }
         };
         let ones;

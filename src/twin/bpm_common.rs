@@ -26,6 +26,14 @@ pub const INTERP_BPM: u32 = 0;
 /// `INTERP_LINEAR`.
 pub const INTERP_LINEAR: u32 = 1;
 
+/// The kernels' `interp` code of an interpolation.
+pub fn interp_code(interp: crate::bpm::Interp) -> u32 {
+    match interp {
+        crate::bpm::Interp::Bpm => INTERP_BPM,
+        crate::bpm::Interp::Linear => INTERP_LINEAR,
+    }
+}
+
 fn c<R: Real>(re: f64, im: f64) -> Complex<R> {
     V2::new(R::lit(re), R::lit(im))
 }

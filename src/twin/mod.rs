@@ -26,6 +26,7 @@
 //! | [`bpm_common`] | `bpm_common.wgsl` | `bpm::moebius`, `bpm::eval` |
 //! | [`bpm_eval`] | `bpm_eval.wgsl` | [`crate::bpm::Bpm::eval`] |
 //! | [`bpm_precompute`] | `bpm_precompute.wgsl` | [`crate::bpm::precompute()`] |
+//! | [`bpm_render`] | `bpm_render.wgsl` (and the fixed-function stages) | [`crate::bpm::render::render_cpu`] |
 //! | [`gridwarp_aa`] | `gridwarp_aa.wgsl`, `gridwarp_aa_residuals.wgsl` | `gridwarp::plain::aa` |
 //! | [`maps_flatten`] | `maps_flatten.wgsl` | [`crate::maps::flatten::flatten_ring`] |
 //! | [`maps_inverse`] | `maps_inverse.wgsl` | [`crate::maps::Param::inverse`] |
@@ -42,6 +43,7 @@ pub mod ball;
 pub mod bpm_common;
 pub mod bpm_eval;
 pub mod bpm_precompute;
+pub mod bpm_render;
 #[cfg(feature = "gpu")]
 pub mod candidate;
 pub mod gridwarp_aa;
