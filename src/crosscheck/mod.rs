@@ -81,7 +81,8 @@ pub mod maps_bound;
 /// The per-query bound of `maps_inverse`'s positions, from its twin over `Lin`.
 #[cfg(feature = "gpu")]
 pub mod maps_inverse_bound;
-/// The per-pixel bound of `bpm_render`, fixed-function stages at the spec's least precision.
+// The per-pixel bound of `bpm_render` (its module docs; an outer doc here would make rustdoc
+// resolve their links in this module).
 #[cfg(feature = "gpu")]
 pub mod render_bound;
 #[cfg(feature = "gpu")]
