@@ -196,3 +196,22 @@ pub fn side_by_side(adapters: &[AdapterRows]) -> Result<(Vec<String>, Vec<Vec<St
     }
     Ok((header, rows))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn skipped_adapters_are_in_the_json_only_when_there_are_some() {
+        let mut report = CrosscheckReport::new(Vec::new());
+        let json = serde_json::to_value(&report).unwrap();
+        assert!(json.get("skipped").is_none(), "{json}");
+        report.skipped.push(SkippedAdapter {
+            adapter: "GPU (Gl)".into(),
+            reason: "Parent device is lost".into(),
+        });
+        let json = serde_json::to_value(&report).unwrap();
+        assert_eq!(json["skipped"][0]["adapter"], "GPU (Gl)");
+        assert_eq!(json["skipped"][0]["reason"], "Parent device is lost");
+    }
+}
