@@ -202,16 +202,17 @@ mod tests {
     use super::*;
 
     #[test]
-    fn skipped_adapters_are_in_the_json_only_when_there_are_some() {
+    fn skipped_adapters_are_in_the_json_only_when_there_are_some() -> serde_json::Result<()> {
         let mut report = CrosscheckReport::new(Vec::new());
-        let json = serde_json::to_value(&report).unwrap();
+        let json = serde_json::to_value(&report)?;
         assert!(json.get("skipped").is_none(), "{json}");
         report.skipped.push(SkippedAdapter {
             adapter: "GPU (Gl)".into(),
             reason: "Parent device is lost".into(),
         });
-        let json = serde_json::to_value(&report).unwrap();
+        let json = serde_json::to_value(&report)?;
         assert_eq!(json["skipped"][0]["adapter"], "GPU (Gl)");
         assert_eq!(json["skipped"][0]["reason"], "Parent device is lost");
+        Ok(())
     }
 }
