@@ -163,9 +163,10 @@ fn bench_relax(c: &mut Criterion) {
     group.finish();
 }
 
-/// The equalised parameterisation (issue #37, `maps::equalise`): the solve of Φ (lattice of
-/// depth 5, 93 744 unknowns at 96 base faces, coarse to fine from depth 1) on the unevenly
-/// sampled genus-2 100k model at base size 96.
+/// The equalised parameterisation (issue #37, `maps::equalise`) on the unevenly sampled
+/// genus-2 100k model at base size 96: the per-face stage Φ alone (lattice of depth 5, 93 744
+/// unknowns, coarse to fine from depth 1), and with the edge-flap stage Φ_E of the defaults
+/// (`maps::flaps`, depth 4, 3 · 4⁴ lattice triangles per base face).
 fn bench_equalise(c: &mut Criterion) {
     let mesh = procedural::genus_uneven(2, 80);
     let opts = MapsOptions {
@@ -175,7 +176,14 @@ fn bench_equalise(c: &mut Criterion) {
     let maps = build(&mesh, &Features::default(), &opts).expect("builds");
     let mut group = c.benchmark_group("maps_equalise");
     group.sample_size(10);
+    let faces_only = EqualiseOptions {
+        edge_depth: None,
+        ..EqualiseOptions::default()
+    };
     group.bench_function("genus2_uneven 100k base 96, depth 5", |b| {
+        b.iter(|| black_box(equalise(&maps, &faces_only).expect("solves")))
+    });
+    group.bench_function("genus2_uneven 100k base 96, depth 5 + edge flaps 4", |b| {
         b.iter(|| black_box(equalise(&maps, &EqualiseOptions::default()).expect("solves")))
     });
     group.finish();

@@ -1059,6 +1059,23 @@ fn cli_equalise_adds_the_remesh_of_pi_prime_and_the_warning_suggests_it() {
     assert!(!bad.status.success());
     let err = String::from_utf8_lossy(&bad.stderr);
     assert!(err.contains("depth 9 is above 7"), "{err}");
+    // The edge stage (`maps::flaps`) is on by default with --equalise, at depth 4; it lowers
+    // its own stretch. `--edge-flaps 0` leaves it out; `--refine-faces` adds Φ₂ after it.
+    let edge = &e["edge_solve"];
+    assert_eq!(edge["depth"], reparam::maps::flaps::DEFAULT_DEPTH);
+    assert!(edge["stretch_after"].as_f64().unwrap() < edge["stretch_before"].as_f64().unwrap());
+    assert!(e.get("refine_solve").is_none());
+    let faces_only = run(&["--equalise", "3", "--edge-flaps", "0"]);
+    let json: serde_json::Value = serde_json::from_slice(&faces_only.stdout).unwrap();
+    assert!(json["equalised"].get("edge_solve").is_none(), "{json}");
+    let refined = run(&["--equalise", "3", "--edge-flaps", "2", "--refine-faces"]);
+    let json: serde_json::Value = serde_json::from_slice(&refined.stdout).unwrap();
+    assert_eq!(json["equalised"]["edge_solve"]["depth"], 2);
+    assert_eq!(json["equalised"]["refine_solve"]["depth"], 3);
+    let deep = run(&["--equalise", "3", "--edge-flaps", "8"]);
+    assert!(!deep.status.success());
+    let err = String::from_utf8_lossy(&deep.stderr);
+    assert!(err.contains("edge-flap depth 8 is above 7"), "{err}");
 }
 
 #[test]

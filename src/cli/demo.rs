@@ -623,6 +623,8 @@ fn maps_demo(out: &Path, report: &mut Report) -> Result<()> {
         smooth: true,
         relax: Some(crate::maps::relax::DEFAULT_SWEEPS),
         equalise: None,
+        edge_flaps: crate::maps::flaps::DEFAULT_DEPTH,
+        refine_faces: false,
         remesh: vec!["uniform:3".into(), "adaptive:0.005".into()],
         out: out.join("maps"),
         picture_size: 384,
@@ -698,11 +700,13 @@ fn maps_relax_demo(out: &Path, report: &mut Report, torus: super::maps::MapsArgs
     ));
     if let Some(e) = &s.equalised {
         report.paragraph(&format!(
-            "`uniform:3 equalised` samples Π' = Φ ∘ Π instead (`maps::equalise`, beyond the \
+            "`uniform:3 equalised` samples Π' = Φ_E ∘ Φ ∘ Π instead (`maps::equalise`, beyond the \
              paper): Φ maps each base face onto itself, piecewise linearly on a lattice of 4^{} \
              triangles per face, and minimises Sander et al.'s L² stretch (plus a Dirichlet \
              term against slivers) of the whole lattice by L-BFGS (stretch {} → {} in {} \
-             iterations, {} s), so Π''s area follows the surface's: \
+             iterations, {} s in all); Φ_E (`maps::flaps`) then does the same on each base \
+             edge's two half-faces unfolded, so that area crosses base edges{}. Π''s area follows \
+             the surface's: \
              |log area ratio| p95 {} → {} (the input's own spread {}). `uniform:3 equalised \
              relaxed` relaxes that remesh's parameters too. `horned_equalised_area_distortion.png` \
              colours the input by Π''s area ratio.",
@@ -711,6 +715,12 @@ fn maps_relax_demo(out: &Path, report: &mut Report, torus: super::maps::MapsArgs
             sig(e.solve.stretch_after, 3),
             e.solve.solver.iterations,
             sig(e.seconds, 3),
+            e.edge_solve.map_or(String::new(), |r| format!(
+                " (stretch {} → {} in {} iterations)",
+                sig(r.stretch_before, 3),
+                sig(r.stretch_after, 3),
+                r.solver.iterations
+            )),
             sig(s.distortion.final_map.area_p95, 3),
             sig(e.distortion.area_p95, 3),
             sig(s.distortion.input_area_spread, 3),

@@ -94,6 +94,16 @@ pub struct MapsArgs {
     /// With `--relax`, Π''s remesh is relaxed too.
     #[arg(long, value_name = "K", num_args = 0..=1, default_missing_value = EQUALISE_DEPTH)]
     pub equalise: Option<u32>,
+    /// With `--equalise`: K_E, the depth of the edge-flap stage Φ_E solved after Φ
+    /// (`maps::flaps`, beyond the paper), Π' = Φ_E ∘ Φ ∘ Π: each base edge's two half-faces,
+    /// unfolded, mapped onto themselves with the lattice points on the edge free, so that area
+    /// moves across base edges; 4^K_E lattice triangles per third of a face. 0: no edge stage.
+    #[arg(long, value_name = "K_E", default_value = EDGE_FLAPS_DEPTH)]
+    pub edge_flaps: u32,
+    /// With `--equalise` and an edge stage: solve the per-face stage once more after it, on the map
+    /// the two leave (Π' = Φ₂ ∘ Φ_E ∘ Φ ∘ Π).
+    #[arg(long)]
+    pub refine_faces: bool,
     /// Remeshes to make: `uniform:J` (quadrisect J times) or `adaptive:EPS` (EPS relative to
     /// the longest bounding-box side). May be repeated.
     #[arg(long)]
@@ -115,6 +125,9 @@ pub const RELAX_SWEEPS: &str = "15";
 /// `--equalise` without a value: [`crate::maps::equalise::DEFAULT_DEPTH`] (a test checks they
 /// agree).
 pub const EQUALISE_DEPTH: &str = "5";
+
+/// `--edge-flaps` by default: [`crate::maps::flaps::DEFAULT_DEPTH`] (a test checks they agree).
+pub const EDGE_FLAPS_DEPTH: &str = "4";
 
 /// One requested remesh.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -188,6 +201,12 @@ pub struct RemeshSummary {
 #[derive(Clone, Debug, Serialize)]
 pub struct EqualisedSummary {
     pub solve: EqualiseReport,
+    /// With `--edge-flaps`: the solve of the edge stage Φ_E.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub edge_solve: Option<EqualiseReport>,
+    /// With `--refine-faces`: the solve of the second per-face stage Φ₂.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refine_solve: Option<EqualiseReport>,
     pub distortion: DistortionStats,
     /// Wall-clock seconds of the solve (lattice and L-BFGS).
     pub seconds: f64,
@@ -439,6 +458,8 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
                 &maps,
                 &EqualiseOptions {
                     depth,
+                    edge_depth: (args.edge_flaps > 0).then_some(args.edge_flaps),
+                    refine: args.refine_faces,
                     ..EqualiseOptions::default()
                 },
             )?;
@@ -515,6 +536,8 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         (
             EqualisedSummary {
                 solve: phi.report,
+                edge_solve: phi.flaps.as_ref().map(|f| f.report),
+                refine_solve: phi.refined.as_ref().map(|f| f.report),
                 distortion,
                 seconds: *seconds,
             },
@@ -687,8 +710,9 @@ fn relax_hint(remeshes: &[RemeshSummary], bad: &[&RemeshSummary]) -> &'static st
 /// composed with the reparameterisation (issue #37).
 fn equalise_hint(distortion: &Distortion, equalised: bool) -> &'static str {
     if !equalised && distortion.final_map.area_p95 > distortion.input_area_spread {
-        "--equalise (Π composed with a stretch-minimising reparameterisation of each base face, \
-         so that its area follows the surface's; beyond the paper), "
+        "--equalise (Π composed with a stretch-minimising reparameterisation of the base domain, \
+         within each base face and across its edges, so that its area follows the surface's; \
+         beyond the paper), "
     } else {
         ""
     }
@@ -868,6 +892,23 @@ fn print_summary(s: &MapsSummary) {
             sig(d.conformal_max, 3),
         );
     }
+    for (name, r) in s.equalised.iter().flat_map(|e| {
+        [
+            ("edge-flap stage Φ_E", e.edge_solve),
+            ("second per-face stage Φ₂", e.refine_solve),
+        ]
+    }) {
+        if let Some(r) = r {
+            outln!(
+                "  {name}: lattice depth {}, {} unknowns, L² stretch {} → {} in {} L-BFGS iterations",
+                r.depth,
+                r.unknowns,
+                sig(r.stretch_before, 4),
+                sig(r.stretch_after, 4),
+                r.solver.iterations,
+            );
+        }
+    }
     if !s.remeshes.is_empty() {
         let header: Vec<String> = [
             "remesh",
@@ -919,6 +960,14 @@ mod tests {
         assert_eq!(
             super::EQUALISE_DEPTH.parse::<u32>(),
             Ok(crate::maps::equalise::DEFAULT_DEPTH)
+        );
+    }
+
+    #[test]
+    fn edge_flaps_default_is_the_library_default() {
+        assert_eq!(
+            super::EDGE_FLAPS_DEPTH.parse::<u32>(),
+            Ok(crate::maps::flaps::DEFAULT_DEPTH)
         );
     }
 }

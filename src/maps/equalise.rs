@@ -1,5 +1,5 @@
-//! A stretch-minimising reparameterisation of the base domain, Π' = Φ ∘ Π (beyond the paper;
-//! issue #37).
+//! A stretch-minimising reparameterisation of the base domain, Π' = Φ_E ∘ Φ ∘ Π (beyond the
+//! paper; issue #37): the per-face stage Φ here, the edge stage Φ_E in [`super::flaps`].
 //!
 //! MAPS's Π gives each part of the surface the share of the base domain its removals happened
 //! to leave it; a uniform remesh then puts the same number of vertices in every base triangle
@@ -40,6 +40,14 @@
 //! onto it wherever that part of the surface is not much more curved than the face; where a
 //! whole tip is squeezed into a corner of a base face, Φ can widen the corner within the face.
 //! Neither can it widen what a single lattice triangle's corners do not see: X_t is flat.
+//!
+//! **The edge stage.** [`super::flaps`] adds Φ_E, solved after Φ on the same energy with the
+//! targets of Π⁻¹ ∘ Φ⁻¹: it maps each base edge's *flap* (the edge's two half-faces, cut at the
+//! faces' centroids and unfolded about the edge) onto itself, the lattice points on the edge
+//! free, so that area crosses base edges. [`Equalised`] is the composition
+//! Π' = Φ₂ ∘ Φ_E ∘ Φ ∘ Π ([`EqualiseOptions::edge_depth`]; Φ₂, a second per-face stage after
+//! Φ_E, only with [`EqualiseOptions::refine`]), and its inverse Π⁻¹ ∘ Φ⁻¹ ∘ Φ_E⁻¹ ∘ Φ₂⁻¹ is
+//! exact up to rounding as each stage's is.
 
 use std::collections::HashMap;
 use std::time::Instant;
@@ -47,13 +55,18 @@ use std::time::Instant;
 use nalgebra::Point3;
 use rayon::prelude::*;
 
+use super::flaps::EdgeFlaps;
+use super::lattice::{
+    cell, combine, in_frame, lattice_cells, moved_at, reference, solve_net, Buckets, Corner,
+};
+pub use super::lattice::{frame, EqualiseReport};
 use super::param::BasePoint;
 use super::remesh::{finish, place, uniform_leaves, vkey, Remesh, VKey};
 use super::retriangulate::{barycentric, locate};
-use super::stretch::{l2_stretch, signed_area, weighted_stretch, StretchTarget};
+use super::stretch::StretchTarget;
 use super::Maps;
 use crate::error::{Error, Result};
-use crate::lbfgs::{minimise, LbfgsOptions, LbfgsReport};
+use crate::lbfgs::LbfgsOptions;
 
 /// Options of the reparameterisation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -74,6 +87,14 @@ pub struct EqualiseOptions {
     /// tolerance of 1e-6 and a first step of ¼ of the shortest edge (measured in
     /// `src/maps/README.md`).
     pub solver: LbfgsOptions,
+    /// K_E, the depth of the edge-flap stage Φ_E ([`super::flaps`]), solved after the per-face
+    /// stage so that Π' = Φ_E ∘ Φ ∘ Π, each of a face's three pieces cut into 4^K_E lattice
+    /// triangles; `None`: no edge stage. Default `Some(`[`super::flaps::DEFAULT_DEPTH`]`)`
+    /// (measured in `src/maps/README.md`).
+    pub edge_depth: Option<u32>,
+    /// With an edge stage: solve a second per-face stage Φ₂ after it, on the map the first two
+    /// leave (Π' = Φ₂ ∘ Φ_E ∘ Φ ∘ Π). Default `false` (measured in `src/maps/README.md`).
+    pub refine: bool,
 }
 
 impl Default for EqualiseOptions {
@@ -88,6 +109,8 @@ impl Default for EqualiseOptions {
                 first_step: 0.25,
                 ..LbfgsOptions::default()
             },
+            edge_depth: Some(super::flaps::DEFAULT_DEPTH),
+            refine: false,
         }
     }
 }
@@ -101,26 +124,6 @@ pub const MAX_DEPTH: u32 = 7;
 /// The most lattice triangles (base faces × 4^K) a solve may hold: about 250 bytes each (the
 /// target, the corners' rules, the energy's terms), so 2²¹ keep it near half a gigabyte.
 pub const MAX_LATTICE_TRIANGLES: usize = 1 << 21;
-
-/// What the solve did.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct EqualiseReport {
-    /// K.
-    pub depth: u32,
-    /// Unknowns: 2 per interior lattice point, 1 per lattice point inside a base edge.
-    pub unknowns: usize,
-    /// Lattice triangles.
-    pub triangles: usize,
-    /// Sander et al.'s L²(M) of the net before (Φ = id) and after (1 is an isometry up to
-    /// scale).
-    pub stretch_before: f64,
-    pub stretch_after: f64,
-    /// The solver's iterations, evaluations and stop.
-    pub solver: LbfgsReport,
-    /// Wall-clock seconds: Π⁻¹ of the lattice, and the solve.
-    pub lattice_seconds: f64,
-    pub solve_seconds: f64,
-}
 
 /// How a lattice point moves (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -138,78 +141,9 @@ enum Unknown {
     Inside { face: u32, offset: usize },
 }
 
-/// Where a lattice point is, seen from one base face's frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Corner {
-    Fixed([f64; 2]),
-    Edge {
-        origin: [f64; 2],
-        unit: [f64; 2],
-        offset: usize,
-    },
-    Inside(usize),
-}
-
-impl Corner {
-    fn at(&self, x: &[f64]) -> [f64; 2] {
-        match *self {
-            Corner::Fixed(p) => p,
-            Corner::Edge {
-                origin,
-                unit,
-                offset,
-            } => [
-                origin[0] + x[offset] * unit[0],
-                origin[1] + x[offset] * unit[1],
-            ],
-            Corner::Inside(o) => [x[o], x[o + 1]],
-        }
-    }
-
-    /// Add the gradient with respect to this corner's 2D position to the unknowns' gradient.
-    fn add_gradient(&self, g: [f64; 2], grad: &mut [f64]) {
-        match *self {
-            Corner::Fixed(_) => {}
-            Corner::Edge { unit, offset, .. } => grad[offset] += g[0] * unit[0] + g[1] * unit[1],
-            Corner::Inside(o) => {
-                grad[o] += g[0];
-                grad[o + 1] += g[1];
-            }
-        }
-    }
-}
-
-/// The isometric layout of base face `f` in the plane: corner 0 at the origin, corner 1 on the
-/// positive x axis, corner 2 above it (counter-clockwise). Error for a degenerate face.
-pub fn frame(maps: &Maps, f: u32) -> Result<[[f64; 2]; 3]> {
-    let [a, b, c] = maps.base_faces[f as usize].map(|v| maps.positions[v as usize]);
-    let (e, d) = (b - a, c - a);
-    let length = e.norm();
-    let height = e.cross(&d).norm() / length;
-    if !(length > 0.0 && height > 0.0 && height.is_finite()) {
-        return Err(Error::InvalidArgument(format!(
-            "{}: base face {f} (input vertices {}, {}, {}) has no area, so --equalise cannot lay \
-             it out in the plane; try another --base-size, or leave out --equalise",
-            maps.name,
-            maps.base_faces[f as usize][0],
-            maps.base_faces[f as usize][1],
-            maps.base_faces[f as usize][2]
-        )));
-    }
-    Ok([[0.0, 0.0], [length, 0.0], [d.dot(&e) / length, height]])
-}
-
-/// The point with barycentrics `b` in a frame.
-fn in_frame(frame: &[[f64; 2]; 3], b: [f64; 3]) -> [f64; 2] {
-    [
-        b[0] * frame[0][0] + b[1] * frame[1][0] + b[2] * frame[2][0],
-        b[0] * frame[0][1] + b[1] * frame[1][1] + b[2] * frame[2][1],
-    ]
-}
-
-/// The reparameterisation Φ of a MAPS base domain (module docs).
+/// The per-face stage Φ of the reparameterisation (module docs): every base face onto itself.
 #[derive(Clone, Debug)]
-pub struct Equalised {
+pub struct FaceStage {
     depth: u32,
     frames: Vec<[[f64; 2]; 3]>,
     /// Per base face, the lattice point (i, j) as index i (s + 1) + j: its moved position in
@@ -219,79 +153,21 @@ pub struct Equalised {
     cells: Vec<[usize; 3]>,
     /// Per base face, the moved triangles binned by their bounding boxes (Φ⁻¹'s search).
     buckets: Vec<Buckets>,
-    /// The solve's figures.
+    /// The solve's figures (all depths).
     pub report: EqualiseReport,
 }
 
-/// A uniform grid of s × s buckets over a face's frame, each holding the moved triangles whose
-/// bounding box meets it: Φ⁻¹ tests the few triangles of one bucket instead of all 4^K.
+/// The reparameterisation Π' = Φ₂ ∘ Φ_E ∘ Φ ∘ Π of a MAPS base domain: the per-face stage Φ
+/// (module docs), then, when asked for, the edge-flap stage Φ_E ([`super::flaps`]) and a
+/// second per-face stage Φ₂ solved on the map the first two leave
+/// ([`EqualiseOptions::edge_depth`], [`EqualiseOptions::refine`]).
 #[derive(Clone, Debug)]
-struct Buckets {
-    lo: [f64; 2],
-    cell: [f64; 2],
-    side: usize,
-    triangles: Vec<Vec<u32>>,
-}
-
-impl Buckets {
-    fn new(frame: &[[f64; 2]; 3], moved: &[[f64; 2]], cells: &[[usize; 3]], side: usize) -> Self {
-        let lo = [0, 1].map(|a| frame.iter().map(|p| p[a]).fold(f64::INFINITY, f64::min));
-        let hi = [0, 1].map(|a| frame.iter().map(|p| p[a]).fold(f64::NEG_INFINITY, f64::max));
-        let cell = [0, 1].map(|a| (hi[a] - lo[a]) / side as f64);
-        let mut b = Buckets {
-            lo,
-            cell,
-            side,
-            triangles: vec![Vec::new(); side * side],
-        };
-        for (t, c) in cells.iter().enumerate() {
-            let q = c.map(|k| moved[k]);
-            let (a0, a1) = b.bucket(
-                q.iter()
-                    .fold([f64::INFINITY; 2], |m, p| [m[0].min(p[0]), m[1].min(p[1])]),
-            );
-            let (z0, z1) = b.bucket(q.iter().fold([f64::NEG_INFINITY; 2], |m, p| {
-                [m[0].max(p[0]), m[1].max(p[1])]
-            }));
-            for x in a0..=z0 {
-                for y in a1..=z1 {
-                    b.triangles[x * side + y].push(t as u32);
-                }
-            }
-        }
-        b
-    }
-
-    /// The bucket (column, row) of a point, clamped to the grid.
-    fn bucket(&self, u: [f64; 2]) -> (usize, usize) {
-        let at = |a: usize| {
-            let x = ((u[a] - self.lo[a]) / self.cell[a]).floor();
-            (x.max(0.0) as usize).min(self.side - 1)
-        };
-        (at(0), at(1))
-    }
-
-    /// The triangles of u's bucket.
-    fn near(&self, u: [f64; 2]) -> &[u32] {
-        let (x, y) = self.bucket(u);
-        &self.triangles[x * self.side + y]
-    }
-}
-
-/// The 4^K triangles of a face's lattice (s = 2^K) as cells i (s + 1) + j of its points: for
-/// each (i, j) the upward triangle (i, j), (i + 1, j), (i, j + 1) and, inside the face, the
-/// downward one (i + 1, j + 1), (i, j + 1), (i + 1, j); both counter-clockwise.
-fn lattice_cells(s: u32) -> Vec<[usize; 3]> {
-    let mut tris = Vec::with_capacity((s * s) as usize);
-    for i in 0..s {
-        for j in 0..s - i {
-            tris.push([cell(s, i, j), cell(s, i + 1, j), cell(s, i, j + 1)]);
-            if i + j + 1 < s {
-                tris.push([cell(s, i + 1, j + 1), cell(s, i, j + 1), cell(s, i + 1, j)]);
-            }
-        }
-    }
-    tris
+pub struct Equalised {
+    pub faces: FaceStage,
+    pub flaps: Option<EdgeFlaps>,
+    pub refined: Option<FaceStage>,
+    /// The first stage's figures ([`FaceStage::report`]).
+    pub report: EqualiseReport,
 }
 
 /// The lattice of depth K over the base domain: the distinct points (by key), each one's
@@ -303,11 +179,6 @@ struct Lattice {
     count: usize,
     grid: Vec<Vec<u32>>,
     triangles: Vec<(u32, [u32; 3])>,
-}
-
-/// Index of lattice point (i, j) in a face's dense grid.
-fn cell(s: u32, i: u32, j: u32) -> usize {
-    (i * (s + 1) + j) as usize
 }
 
 impl Lattice {
@@ -430,43 +301,6 @@ impl Lattice {
     }
 }
 
-/// The energy E(x) of the module docs (with the Dirichlet term's weight `mu`) and its
-/// gradient; `None` where a moved triangle folds. Per triangle in parallel, summed in triangle
-/// order (the same on any thread count).
-fn energy(
-    corners: &[[Corner; 3]],
-    targets: &[StretchTarget],
-    x: &[f64],
-    mu: f64,
-) -> Option<(f64, Vec<f64>)> {
-    let terms: Vec<Option<(f64, [[f64; 2]; 3])>> = corners
-        .par_iter()
-        .zip(targets)
-        .map(|(c, t)| weighted_stretch(t, c.map(|k| k.at(x)), mu))
-        .collect();
-    let mut e = 0.0;
-    let mut grad = vec![0.0; x.len()];
-    for (term, c) in terms.into_iter().zip(corners) {
-        let (value, g) = term?;
-        e += value;
-        for k in 0..3 {
-            c[k].add_gradient(g[k], &mut grad);
-        }
-    }
-    Some((e, grad))
-}
-
-/// Sander et al.'s L²(M) of the net at x (module docs of [`super::stretch`]).
-fn net_stretch(corners: &[[Corner; 3]], targets: &[StretchTarget], x: &[f64]) -> f64 {
-    let e = energy(corners, targets, x, 0.0).map_or(f64::INFINITY, |r| r.0);
-    let area: f64 = targets.iter().map(|t| t.area).sum();
-    let parameter_area: f64 = corners
-        .iter()
-        .map(|c| signed_area(c.map(|k| k.at(x))))
-        .sum();
-    l2_stretch(e, area, parameter_area)
-}
-
 /// Build Φ for `maps` by minimising the net's stretch (module docs), coarse to fine: the
 /// solve runs on the lattice of depth `options.start_depth`, then on each finer one up to
 /// `options.depth`, each started from the coarser Φ (exact: a lattice triangle lies in one
@@ -479,10 +313,14 @@ pub fn equalise(maps: &Maps, options: &EqualiseOptions) -> Result<Equalised> {
             options.depth
         )));
     }
-    let triangles = maps
-        .base_faces
-        .len()
-        .saturating_mul(1 << (2 * options.depth));
+    if options.edge_depth.is_some_and(|k| k > MAX_DEPTH) {
+        return Err(Error::InvalidArgument(format!(
+            "edge-flap depth {} is above {MAX_DEPTH}",
+            options.edge_depth.unwrap_or_default()
+        )));
+    }
+    let per_face = (1usize << (2 * options.depth)).max(3 << (2 * options.edge_depth.unwrap_or(0)));
+    let triangles = maps.base_faces.len().saturating_mul(per_face);
     if triangles > MAX_LATTICE_TRIANGLES {
         return Err(Error::InvalidArgument(format!(
             "{}: --equalise {} on {} base faces needs {triangles} lattice triangles, more than \
@@ -495,37 +333,62 @@ pub fn equalise(maps: &Maps, options: &EqualiseOptions) -> Result<Equalised> {
     let frames: Vec<[[f64; 2]; 3]> = (0..maps.base_faces.len() as u32)
         .map(|f| frame(maps, f))
         .collect::<Result<_>>()?;
-    let mut phi: Option<Equalised> = None;
-    let mut report: Option<EqualiseReport> = None;
+    let plain = |p: &BasePoint| place(maps, p).0;
+    let faces = solve_faces(maps, &frames, options, &plain)?;
+    let mut phi = Equalised {
+        report: faces.report,
+        faces,
+        flaps: None,
+        refined: None,
+    };
+    if let Some(edge_depth) = options.edge_depth {
+        let surface = |q: &BasePoint| place(maps, &phi.inverse(q)).0;
+        let flaps = super::flaps::solve(
+            maps,
+            edge_depth,
+            options.start_depth,
+            options.conformal_weight,
+            &options.solver,
+            &surface,
+        )?;
+        phi.flaps = Some(flaps);
+        if options.refine {
+            let surface = |q: &BasePoint| place(maps, &phi.inverse(q)).0;
+            let refined = solve_faces(maps, &frames, options, &surface)?;
+            phi.refined = Some(refined);
+        }
+    }
+    Ok(phi)
+}
+
+/// The per-face stage, coarse to fine from `options.start_depth` to `options.depth`, each
+/// lattice point's 3D target `surface(p)` (Π⁻¹ through the stages before it).
+fn solve_faces(
+    maps: &Maps,
+    frames: &[[[f64; 2]; 3]],
+    options: &EqualiseOptions,
+    surface: &(dyn Fn(&BasePoint) -> Point3<f64> + Sync),
+) -> Result<FaceStage> {
+    let mut phi: Option<FaceStage> = None;
     for depth in options.start_depth.min(options.depth)..=options.depth {
         let level = solve_level(
             maps,
-            &frames,
+            frames,
             depth,
             phi.as_ref(),
             &options.solver,
             options.conformal_weight,
+            surface,
         );
-        report = Some(match report {
-            None => level.report,
-            Some(r) => EqualiseReport {
-                solver: LbfgsReport {
-                    iterations: r.solver.iterations + level.report.solver.iterations,
-                    evaluations: r.solver.evaluations + level.report.solver.evaluations,
-                    ..level.report.solver
-                },
-                lattice_seconds: r.lattice_seconds + level.report.lattice_seconds,
-                solve_seconds: r.solve_seconds + level.report.solve_seconds,
-                ..level.report
+        phi = Some(match phi {
+            None => level,
+            Some(c) => FaceStage {
+                report: combine(&c.report, &level.report),
+                ..level
             },
         });
-        phi = Some(level);
     }
-    let mut phi = phi.ok_or_else(|| Error::InvalidArgument("no lattice depth".into()))?;
-    if let Some(r) = report {
-        phi.report = r;
-    }
-    Ok(phi)
+    phi.ok_or_else(|| Error::InvalidArgument("no lattice depth".into()))
 }
 
 /// The lattice of `depth`, the 3D target of each lattice triangle (Π⁻¹ of its reference
@@ -534,6 +397,7 @@ fn problem(
     maps: &Maps,
     frames: &[[[f64; 2]; 3]],
     depth: u32,
+    surface: &(dyn Fn(&BasePoint) -> Point3<f64> + Sync),
 ) -> (Lattice, Vec<StretchTarget>, Vec<[Corner; 3]>) {
     let lattice = Lattice::new(maps, depth);
     let surface: Vec<Point3<f64>> = lattice
@@ -542,7 +406,7 @@ fn problem(
         .zip(&lattice.keys)
         .map(|(p, k)| match k {
             VKey::Vertex(v) => maps.positions[*v as usize],
-            _ => place(maps, p).0,
+            _ => surface(p),
         })
         .collect();
     let targets = lattice
@@ -564,28 +428,19 @@ fn solve_level(
     maps: &Maps,
     frames: &[[[f64; 2]; 3]],
     depth: u32,
-    coarser: Option<&Equalised>,
+    coarser: Option<&FaceStage>,
     solver: &LbfgsOptions,
     mu: f64,
-) -> Equalised {
+    surface: &(dyn Fn(&BasePoint) -> Point3<f64> + Sync),
+) -> FaceStage {
     let t0 = Instant::now();
-    let (lattice, targets, corners) = problem(maps, frames, depth);
+    let (lattice, targets, corners) = problem(maps, frames, depth, surface);
     let lattice_seconds = t0.elapsed().as_secs_f64();
 
     let t1 = Instant::now();
     let identity = lattice.start(maps, frames, |p| *p);
-    let stretch_before = net_stretch(&corners, &targets, &identity);
-    let shortest = shortest_edge(&corners, &identity);
-    let mut x = match coarser {
-        Some(phi) => lattice.start(maps, frames, |p| phi.forward(p)),
-        None => identity,
-    };
-    let solver = LbfgsOptions {
-        first_step: solver.first_step * shortest,
-        ..*solver
-    };
-    let report = minimise(&mut x, |x| energy(&corners, &targets, x, mu), &solver);
-    let stretch_after = net_stretch(&corners, &targets, &x);
+    let start = coarser.map(|phi| lattice.start(maps, frames, |p| phi.forward(p)));
+    let (x, solved) = solve_net(&corners, &targets, identity, start, solver, mu);
     let solve_seconds = t1.elapsed().as_secs_f64();
 
     let moved: Vec<Vec<[f64; 2]>> = lattice
@@ -610,7 +465,7 @@ fn solve_level(
         .zip(&moved)
         .map(|(fr, m)| Buckets::new(fr, m, &cells, 1 << depth))
         .collect();
-    Equalised {
+    FaceStage {
         depth,
         frames: frames.to_vec(),
         moved,
@@ -620,65 +475,66 @@ fn solve_level(
             depth,
             unknowns: lattice.count,
             triangles: lattice.triangles.len(),
-            stretch_before,
-            stretch_after,
-            solver: report,
+            stretch_before: solved.stretch_before,
+            stretch_after: solved.stretch_after,
+            solver: solved.solver,
             lattice_seconds,
             solve_seconds,
         },
     }
 }
 
-/// The shortest edge of the net at x (the solver's length scale).
-fn shortest_edge(corners: &[[Corner; 3]], x: &[f64]) -> f64 {
-    corners
-        .iter()
-        .flat_map(|c| {
-            let q = c.map(|k| k.at(x));
-            (0..3).map(move |k| {
-                let (a, b) = (q[k], q[(k + 1) % 3]);
-                (b[0] - a[0]).hypot(b[1] - a[1])
-            })
-        })
-        .fold(f64::INFINITY, f64::min)
+impl Equalised {
+    /// Π'(p) from Π(p): Φ, then Φ_E and Φ₂ when there are those stages.
+    pub fn forward(&self, p: &BasePoint) -> BasePoint {
+        let mut q = self.faces.forward(p);
+        if let Some(e) = &self.flaps {
+            q = e.forward(&q);
+        }
+        if let Some(r) = &self.refined {
+            q = r.forward(&q);
+        }
+        q
+    }
+
+    /// Φ⁻¹(Φ_E⁻¹(Φ₂⁻¹(d))): Π'⁻¹ = Π⁻¹ ∘ Φ⁻¹ ∘ Φ_E⁻¹ ∘ Φ₂⁻¹, each stage there is.
+    pub fn inverse(&self, d: &BasePoint) -> BasePoint {
+        let mut q = *d;
+        if let Some(r) = &self.refined {
+            q = r.inverse(&q);
+        }
+        if let Some(e) = &self.flaps {
+            q = e.inverse(&q);
+        }
+        self.faces.inverse(&q)
+    }
+
+    /// Π'(v) = Φ(Π(p_v)) (through every stage) of every input vertex (`None` for a vertex no
+    /// face uses).
+    pub fn vertex_parameters(&self, maps: &Maps) -> Vec<Option<BasePoint>> {
+        (0..maps.positions.len() as u32)
+            .into_par_iter()
+            .map(|v| maps.param.vertex(v).map(|p| self.forward(&p)))
+            .collect()
+    }
+
+    /// The moved lattice triangles of every stage that are not strictly counter-clockwise: 0
+    /// for a Π' that is a bijection.
+    pub fn folded_triangles(&self) -> usize {
+        self.faces.folded_triangles()
+            + self.flaps.as_ref().map_or(0, |e| e.folded_triangles())
+            + self.refined.as_ref().map_or(0, |r| r.folded_triangles())
+    }
 }
 
-impl Equalised {
+impl FaceStage {
     fn side(&self) -> u32 {
         1 << self.depth
     }
 
-    /// The lattice triangle of base face `f` holding barycentrics `b`, as its corners' (i, j)
-    /// and the barycentrics λ of `b` in it (by the lattice's arithmetic: i = ⌊b₁ s⌋,
-    /// j = ⌊b₂ s⌋, the lower or upper triangle of that cell by the fractional parts).
-    fn lattice_triangle(&self, b: [f64; 3]) -> ([(u32, u32); 3], [f64; 3]) {
-        let s = self.side();
-        let sf = s as f64;
-        let (u, v) = (b[1] * sf, b[2] * sf);
-        let i = (u.floor().max(0.0) as u32).min(s - 1);
-        let j = (v.floor().max(0.0) as u32).min(s - 1 - i);
-        let (fu, fv) = (u - i as f64, v - j as f64);
-        if fu + fv <= 1.0 || i + j + 1 == s {
-            ([(i, j), (i + 1, j), (i, j + 1)], [1.0 - fu - fv, fu, fv])
-        } else {
-            (
-                [(i + 1, j + 1), (i, j + 1), (i + 1, j)],
-                [fu + fv - 1.0, 1.0 - fu, 1.0 - fv],
-            )
-        }
-    }
-
     /// Φ(p): Σ λ_c Φ(corner_c) over the lattice triangle holding p, in p's base face.
     pub fn forward(&self, p: &BasePoint) -> BasePoint {
-        let s = self.side();
-        let (ij, l) = self.lattice_triangle(p.bary);
-        let moved = &self.moved[p.face as usize];
-        let mut q = [0.0; 2];
-        for c in 0..3 {
-            let m = moved[cell(s, ij[c].0, ij[c].1)];
-            q[0] += l[c] * m[0];
-            q[1] += l[c] * m[1];
-        }
+        let q = moved_at(self.side(), &self.moved[p.face as usize], p.bary);
         let fr = &self.frames[p.face as usize];
         BasePoint {
             face: p.face,
@@ -713,28 +569,9 @@ impl Equalised {
         }
     }
 
-    /// Σ_c λ_c r_c: the point with barycentrics λ in the reference lattice triangle of cells
-    /// `t`, r_c = ((s − i − j)/s, i/s, j/s) for cell c = i (s + 1) + j.
+    /// The point with barycentrics λ in the reference lattice triangle of cells `t`.
     fn reference(&self, t: [usize; 3], l: [f64; 3]) -> [f64; 3] {
-        let s = self.side();
-        let sf = s as f64;
-        let mut b = [0.0; 3];
-        for (&k, lc) in t.iter().zip(l) {
-            let (i, j) = (k as u32 / (s + 1), k as u32 % (s + 1));
-            let r = [(s - i - j) as f64 / sf, i as f64 / sf, j as f64 / sf];
-            for (ba, ra) in b.iter_mut().zip(r) {
-                *ba += lc * ra;
-            }
-        }
-        b
-    }
-
-    /// Π'(v) = Φ(Π(p_v)) of every input vertex (`None` for a vertex no face uses).
-    pub fn vertex_parameters(&self, maps: &Maps) -> Vec<Option<BasePoint>> {
-        (0..maps.positions.len() as u32)
-            .into_par_iter()
-            .map(|v| maps.param.vertex(v).map(|p| self.forward(&p)))
-            .collect()
+        reference(self.side(), t, l)
     }
 }
 
@@ -788,7 +625,7 @@ pub fn uniform_equalised_relaxed(
     Ok(super::relax::Relaxed { remesh, stats })
 }
 
-impl Equalised {
+impl FaceStage {
     /// The moved lattice triangles that are not strictly counter-clockwise (robust
     /// orientation): 0 for a Φ that is a bijection of every base face.
     pub fn folded_triangles(&self) -> usize {
@@ -807,6 +644,8 @@ impl Equalised {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lbfgs::minimise;
+    use crate::maps::lattice::energy;
     use crate::maps::{build, remesh::uniform, Features, MapsOptions};
     use crate::mesh::procedural::torus;
 
@@ -881,10 +720,10 @@ mod tests {
                     face: f,
                     bary: [1.0 - a - b, a, b],
                 };
+                // Compared on the base mesh: a point on a base edge may come back in the
+                // edge's other face. Lengths of order 1: 1e-11 as for barycentrics.
                 let back = phi.inverse(&phi.forward(&p));
-                for c in 0..3 {
-                    worst = worst.max((back.bary[c] - p.bary[c]).abs());
-                }
+                worst = worst.max((maps.on_base_mesh(&back) - maps.on_base_mesh(&p)).norm());
             }
         }
         assert!(worst < 1e-11, "round trip off by {worst}");
@@ -905,8 +744,8 @@ mod tests {
     fn a_swapped_lattice_is_counted_as_folded() -> crate::Result<()> {
         let maps = torus_maps()?;
         let mut phi = equalise(&maps, &options(2, 0))?;
-        let s = phi.side();
-        phi.moved[0].swap(cell(s, 1, 1), cell(s, 1, 2));
+        let s = phi.faces.side();
+        phi.faces.moved[0].swap(cell(s, 1, 1), cell(s, 1, 2));
         assert!(phi.folded_triangles() > 0);
         Ok(())
     }
@@ -922,7 +761,10 @@ mod tests {
             Ok(pool.install(|| equalise(&maps, &options(2, 50)))?)
         };
         let (one, two) = (run(1)?, run(2)?);
-        assert!(one.moved == two.moved, "the moved lattices differ");
+        assert!(
+            one.faces.moved == two.faces.moved,
+            "the moved lattices differ"
+        );
         assert_eq!(one.report.solver, two.report.solver);
         Ok(())
     }
@@ -938,7 +780,8 @@ mod tests {
         let frames: Vec<[[f64; 2]; 3]> = (0..maps.base_faces.len() as u32)
             .map(|f| frame(&maps, f))
             .collect::<crate::Result<_>>()?;
-        let (lattice, targets, corners) = problem(&maps, &frames, 2);
+        let plain = |p: &BasePoint| place(&maps, p).0;
+        let (lattice, targets, corners) = problem(&maps, &frames, 2, &plain);
         let mut x = lattice.start(&maps, &frames, |p| *p);
         let solver = LbfgsOptions {
             max_iterations: 3,
@@ -991,10 +834,10 @@ mod tests {
                 for j in 0..=12 - i {
                     let b = [(12 - i - j) as f64 / 12.0, i as f64 / 12.0, j as f64 / 12.0];
                     let d = BasePoint { face: f, bary: b };
-                    let u = in_frame(&phi.frames[f as usize], b);
-                    let (t, l) = locate(u, &phi.moved[f as usize], &phi.cells);
-                    let want = phi.reference(phi.cells[t], l);
-                    let got = phi.inverse(&d);
+                    let u = in_frame(&phi.faces.frames[f as usize], b);
+                    let (t, l) = locate(u, &phi.faces.moved[f as usize], &phi.faces.cells);
+                    let want = phi.faces.reference(phi.faces.cells[t], l);
+                    let got = phi.faces.inverse(&d);
                     for x in 0..3 {
                         // Two triangles sharing the point give the same image up to rounding.
                         assert!((got.bary[x] - want[x]).abs() < 1e-12, "{got:?} vs {want:?}");

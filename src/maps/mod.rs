@@ -3,10 +3,12 @@
 pub mod distortion;
 pub mod equalise;
 pub mod features;
+pub mod flaps;
 pub mod flatten;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod hierarchy;
+mod lattice;
 pub mod param;
 pub mod picture;
 pub mod priority;
@@ -314,11 +316,17 @@ impl Maps {
         if f == u32::MAX {
             return None;
         }
-        let t = self.base_faces[f as usize];
-        let mut p = Point3::origin();
-        for c in 0..3 {
-            p += self.positions[t[c] as usize].coords * b[c];
+        Some(self.on_base_mesh(&BasePoint { face: f, bary: b }))
+    }
+
+    /// The base-domain point `p` in 3D, on the base mesh's flat faces: Σ b_c P(base corner c).
+    /// A point on a base edge is the same seen from either face.
+    pub fn on_base_mesh(&self, p: &BasePoint) -> Point3<f64> {
+        let t = self.base_faces[p.face as usize];
+        let mut q = Point3::origin();
+        for (v, b) in t.iter().zip(p.bary) {
+            q += self.positions[*v as usize].coords * b;
         }
-        Some(p)
+        q
     }
 }
