@@ -78,7 +78,7 @@ pub struct EqualiseOptions {
     /// unknowns are the base edges' midpoints).
     pub start_depth: u32,
     /// μ, the weight of the Dirichlet term μ Σ_t A'(t) ‖J_t‖²_F / 2 added to the stretch
-    /// ([`weighted_stretch`]), which charges anisotropy. Default 5 (measured in
+    /// ([`super::stretch::weighted_stretch`]), which charges anisotropy. Default 5 (measured in
     /// `src/maps/README.md`: 0 is the stretch alone, whose remeshes had more wrong-facing area
     /// on spot, genus3 and genus2_uneven9).
     pub conformal_weight: f64,
