@@ -1060,22 +1060,48 @@ fn cli_equalise_adds_the_remesh_of_pi_prime_and_the_warning_suggests_it() {
     let err = String::from_utf8_lossy(&bad.stderr);
     assert!(err.contains("depth 9 is above 7"), "{err}");
     // The edge stage (`maps::flaps`) is on by default with --equalise, at depth 4; it lowers
-    // its own stretch. `--edge-flaps 0` leaves it out; `--refine-faces` adds Φ₂ after it.
-    let edge = &e["edge_solve"];
-    assert_eq!(edge["depth"], reparam::maps::flaps::DEFAULT_DEPTH);
+    // its own stretch. `--edge-flaps 0` leaves it out; `--edge-rounds 2` alternates a per-face
+    // stage and a second edge stage after it; `--refine-faces` ends with a per-face stage.
+    let stages = |json: &serde_json::Value| -> Vec<(String, u64)> {
+        json["equalised"]["later"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| {
+                (
+                    s["stage"].as_str().unwrap().to_string(),
+                    s["solve"]["depth"].as_u64().unwrap(),
+                )
+            })
+            .collect()
+    };
+    assert_eq!(stages(&json), [("edges".to_string(), 4)]);
+    let edge = &e["later"][0]["solve"];
     assert!(edge["stretch_after"].as_f64().unwrap() < edge["stretch_before"].as_f64().unwrap());
-    assert!(e.get("refine_solve").is_none());
     let faces_only = run(&["--equalise", "3", "--edge-flaps", "0"]);
     let json: serde_json::Value = serde_json::from_slice(&faces_only.stdout).unwrap();
-    assert!(json["equalised"].get("edge_solve").is_none(), "{json}");
-    let refined = run(&["--equalise", "3", "--edge-flaps", "2", "--refine-faces"]);
-    let json: serde_json::Value = serde_json::from_slice(&refined.stdout).unwrap();
-    assert_eq!(json["equalised"]["edge_solve"]["depth"], 2);
-    assert_eq!(json["equalised"]["refine_solve"]["depth"], 3);
+    assert!(stages(&json).is_empty(), "{json}");
+    let more = run(&[
+        "--equalise",
+        "3",
+        "--edge-flaps",
+        "2",
+        "--edge-rounds",
+        "2",
+        "--refine-faces",
+    ]);
+    let json: serde_json::Value = serde_json::from_slice(&more.stdout).unwrap();
+    let want = [("edges", 2), ("faces", 3), ("edges", 2), ("faces", 3)];
+    assert_eq!(
+        stages(&json),
+        want.map(|(s, d)| (s.to_string(), d)).to_vec()
+    );
     let deep = run(&["--equalise", "3", "--edge-flaps", "8"]);
     assert!(!deep.status.success());
     let err = String::from_utf8_lossy(&deep.stderr);
     assert!(err.contains("edge-flap depth 8 is above 7"), "{err}");
+    let zero = run(&["--equalise", "3", "--edge-rounds", "0"]);
+    assert!(!zero.status.success());
 }
 
 #[test]

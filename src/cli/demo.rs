@@ -625,6 +625,7 @@ fn maps_demo(out: &Path, report: &mut Report) -> Result<()> {
         equalise: None,
         edge_flaps: crate::maps::flaps::DEFAULT_DEPTH,
         refine_faces: false,
+        edge_rounds: 1,
         remesh: vec!["uniform:3".into(), "adaptive:0.005".into()],
         out: out.join("maps"),
         picture_size: 384,
@@ -715,11 +716,11 @@ fn maps_relax_demo(out: &Path, report: &mut Report, torus: super::maps::MapsArgs
             sig(e.solve.stretch_after, 3),
             e.solve.solver.iterations,
             sig(e.seconds, 3),
-            e.edge_solve.map_or(String::new(), |r| format!(
+            e.later.first().map_or(String::new(), |l| format!(
                 " (stretch {} → {} in {} iterations)",
-                sig(r.stretch_before, 3),
-                sig(r.stretch_after, 3),
-                r.solver.iterations
+                sig(l.solve.stretch_before, 3),
+                sig(l.solve.stretch_after, 3),
+                l.solve.solver.iterations
             )),
             sig(s.distortion.final_map.area_p95, 3),
             sig(e.distortion.area_p95, 3),

@@ -8,7 +8,7 @@ use crate::maps::distortion::{distortion, Distortion};
 use crate::maps::distortion::{map_distortion, DistortionStats};
 use crate::maps::equalise::{
     equalise, uniform_equalised, uniform_equalised_relaxed, EqualiseOptions, EqualiseReport,
-    Equalised,
+    Equalised, Stage,
 };
 use crate::maps::quality::{AngleStats, WrongFacing};
 use crate::maps::relax::{uniform_relaxed, RelaxOptions, RelaxStats};
@@ -104,6 +104,10 @@ pub struct MapsArgs {
     /// the two leave (Π' = Φ₂ ∘ Φ_E ∘ Φ ∘ Π).
     #[arg(long)]
     pub refine_faces: bool,
+    /// With `--equalise` and an edge stage: how many edge stages, each after a per-face stage
+    /// (2: Π' = Φ_E ∘ Φ ∘ Φ_E ∘ Φ ∘ Π), so that area travels further than one flap.
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub edge_rounds: u32,
     /// Remeshes to make: `uniform:J` (quadrisect J times) or `adaptive:EPS` (EPS relative to
     /// the longest bounding-box side). May be repeated.
     #[arg(long)]
@@ -196,17 +200,21 @@ pub struct RemeshSummary {
     pub relaxation: Option<RelaxStats>,
 }
 
-/// What `--equalise` did: the solve ([`EqualiseReport`]) and the distortion of Π' = Φ ∘ Π,
-/// measured as `distortion.final_map` is for Π.
+/// One stage of Π' after the first per-face one: `edges` (Φ_E) or `faces`, and its solve.
+#[derive(Clone, Debug, Serialize)]
+pub struct StageSummary {
+    pub stage: &'static str,
+    pub solve: EqualiseReport,
+}
+
+/// What `--equalise` did: the solve of the first per-face stage Φ ([`EqualiseReport`]), those
+/// of the later stages, and the distortion of Π' = … Φ_E ∘ Φ ∘ Π, measured as
+/// `distortion.final_map` is for Π.
 #[derive(Clone, Debug, Serialize)]
 pub struct EqualisedSummary {
     pub solve: EqualiseReport,
-    /// With `--edge-flaps`: the solve of the edge stage Φ_E.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub edge_solve: Option<EqualiseReport>,
-    /// With `--refine-faces`: the solve of the second per-face stage Φ₂.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub refine_solve: Option<EqualiseReport>,
+    /// The stages after Φ, in the order they apply (none with `--edge-flaps 0`).
+    pub later: Vec<StageSummary>,
     pub distortion: DistortionStats,
     /// Wall-clock seconds of the solve (lattice and L-BFGS).
     pub seconds: f64,
@@ -460,6 +468,7 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
                     depth,
                     edge_depth: (args.edge_flaps > 0).then_some(args.edge_flaps),
                     refine: args.refine_faces,
+                    edge_rounds: args.edge_rounds,
                     ..EqualiseOptions::default()
                 },
             )?;
@@ -536,8 +545,17 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         (
             EqualisedSummary {
                 solve: phi.report,
-                edge_solve: phi.flaps.as_ref().map(|f| f.report),
-                refine_solve: phi.refined.as_ref().map(|f| f.report),
+                later: phi
+                    .later
+                    .iter()
+                    .map(|s| StageSummary {
+                        stage: match s {
+                            Stage::Edges(_) => "edges",
+                            Stage::Faces(_) => "faces",
+                        },
+                        solve: s.report(),
+                    })
+                    .collect(),
                 distortion,
                 seconds: *seconds,
             },
@@ -892,22 +910,19 @@ fn print_summary(s: &MapsSummary) {
             sig(d.conformal_max, 3),
         );
     }
-    for (name, r) in s.equalised.iter().flat_map(|e| {
-        [
-            ("edge-flap stage Φ_E", e.edge_solve),
-            ("second per-face stage Φ₂", e.refine_solve),
-        ]
-    }) {
-        if let Some(r) = r {
-            outln!(
-                "  {name}: lattice depth {}, {} unknowns, L² stretch {} → {} in {} L-BFGS iterations",
-                r.depth,
-                r.unknowns,
-                sig(r.stretch_before, 4),
-                sig(r.stretch_after, 4),
-                r.solver.iterations,
-            );
-        }
+    for later in s.equalised.iter().flat_map(|e| &e.later) {
+        let r = &later.solve;
+        outln!(
+            "  then the {} stage{}: lattice depth {}, {} unknowns, L² stretch {} → {} in {} L-BFGS \
+             iterations",
+            later.stage,
+            if later.stage == "edges" { " Φ_E" } else { " Φ" },
+            r.depth,
+            r.unknowns,
+            sig(r.stretch_before, 4),
+            sig(r.stretch_after, 4),
+            r.solver.iterations,
+        );
     }
     if !s.remeshes.is_empty() {
         let header: Vec<String> = [

@@ -44,9 +44,12 @@
 //! **The edge stage.** [`super::flaps`] adds Φ_E, solved after Φ on the same energy with the
 //! targets of Π⁻¹ ∘ Φ⁻¹: it maps each base edge's *flap* (the edge's two half-faces, cut at the
 //! faces' centroids and unfolded about the edge) onto itself, the lattice points on the edge
-//! free, so that area crosses base edges. [`Equalised`] is the composition
-//! Π' = Φ₂ ∘ Φ_E ∘ Φ ∘ Π ([`EqualiseOptions::edge_depth`]; Φ₂, a second per-face stage after
-//! Φ_E, only with [`EqualiseOptions::refine`]), and its inverse Π⁻¹ ∘ Φ⁻¹ ∘ Φ_E⁻¹ ∘ Φ₂⁻¹ is
+//! free, so that area crosses base edges. [`Equalised`] is the composition of the stages in
+//! the order they are solved, each on the map the ones before leave: Π' = Φ_E ∘ Φ ∘ Π by
+//! default; [`EqualiseOptions::edge_rounds`] = n alternates n edge stages with per-face ones
+//! (Φ_E ∘ Φ ∘ Φ_E ∘ Φ ∘ Π for 2), so that area travels further than one flap;
+//! [`EqualiseOptions::refine`] ends with a per-face stage. Its inverse, each stage's inverse in
+//! reverse order, is
 //! exact up to rounding as each stage's is.
 
 use std::collections::HashMap;
@@ -92,9 +95,14 @@ pub struct EqualiseOptions {
     /// triangles; `None`: no edge stage. Default `Some(`[`super::flaps::DEFAULT_DEPTH`]`)`
     /// (measured in `src/maps/README.md`).
     pub edge_depth: Option<u32>,
-    /// With an edge stage: solve a second per-face stage Φ₂ after it, on the map the first two
-    /// leave (Π' = Φ₂ ∘ Φ_E ∘ Φ ∘ Π). Default `false` (measured in `src/maps/README.md`).
+    /// With an edge stage: end with a per-face stage, solved on the map the others leave
+    /// (Π' = Φ₂ ∘ Φ_E ∘ Φ ∘ Π with one round). Default `false` (measured in
+    /// `src/maps/README.md`).
     pub refine: bool,
+    /// With an edge stage: how many edge stages, a per-face stage between each two
+    /// (Φ_E ∘ Φ ∘ Φ_E ∘ Φ ∘ Π for 2); 0 counts as 1. Default 1 (measured in
+    /// `src/maps/README.md`).
+    pub edge_rounds: u32,
 }
 
 impl Default for EqualiseOptions {
@@ -111,6 +119,7 @@ impl Default for EqualiseOptions {
             },
             edge_depth: Some(super::flaps::DEFAULT_DEPTH),
             refine: false,
+            edge_rounds: 1,
         }
     }
 }
@@ -157,15 +166,52 @@ pub struct FaceStage {
     pub report: EqualiseReport,
 }
 
-/// The reparameterisation Π' = Φ₂ ∘ Φ_E ∘ Φ ∘ Π of a MAPS base domain: the per-face stage Φ
-/// (module docs), then, when asked for, the edge-flap stage Φ_E ([`super::flaps`]) and a
-/// second per-face stage Φ₂ solved on the map the first two leave
-/// ([`EqualiseOptions::edge_depth`], [`EqualiseOptions::refine`]).
+/// A stage after the first per-face one.
+#[derive(Clone, Debug)]
+pub enum Stage {
+    Edges(EdgeFlaps),
+    Faces(FaceStage),
+}
+
+impl Stage {
+    fn forward(&self, p: &BasePoint) -> BasePoint {
+        match self {
+            Stage::Edges(e) => e.forward(p),
+            Stage::Faces(f) => f.forward(p),
+        }
+    }
+
+    fn inverse(&self, d: &BasePoint) -> BasePoint {
+        match self {
+            Stage::Edges(e) => e.inverse(d),
+            Stage::Faces(f) => f.inverse(d),
+        }
+    }
+
+    fn folded_triangles(&self) -> usize {
+        match self {
+            Stage::Edges(e) => e.folded_triangles(),
+            Stage::Faces(f) => f.folded_triangles(),
+        }
+    }
+
+    /// The stage's solve.
+    pub fn report(&self) -> EqualiseReport {
+        match self {
+            Stage::Edges(e) => e.report,
+            Stage::Faces(f) => f.report,
+        }
+    }
+}
+
+/// The reparameterisation Π' = … Φ_E ∘ Φ ∘ Π of a MAPS base domain (module docs): the first
+/// per-face stage Φ, then the later stages in the order they apply ([`EqualiseOptions`]'s
+/// `edge_depth`, `edge_rounds`, `refine`).
 #[derive(Clone, Debug)]
 pub struct Equalised {
     pub faces: FaceStage,
-    pub flaps: Option<EdgeFlaps>,
-    pub refined: Option<FaceStage>,
+    /// The stages after the first per-face one, in the order they apply.
+    pub later: Vec<Stage>,
     /// The first stage's figures ([`FaceStage::report`]).
     pub report: EqualiseReport,
 }
@@ -338,24 +384,30 @@ pub fn equalise(maps: &Maps, options: &EqualiseOptions) -> Result<Equalised> {
     let mut phi = Equalised {
         report: faces.report,
         faces,
-        flaps: None,
-        refined: None,
+        later: Vec::new(),
     };
     if let Some(edge_depth) = options.edge_depth {
-        let surface = |q: &BasePoint| place(maps, &phi.inverse(q)).0;
-        let flaps = super::flaps::solve(
-            maps,
-            edge_depth,
-            options.start_depth,
-            options.conformal_weight,
-            &options.solver,
-            &surface,
-        )?;
-        phi.flaps = Some(flaps);
+        for round in 0..options.edge_rounds.max(1) {
+            if round > 0 {
+                let surface = |q: &BasePoint| place(maps, &phi.inverse(q)).0;
+                let faces = solve_faces(maps, &frames, options, &surface)?;
+                phi.later.push(Stage::Faces(faces));
+            }
+            let surface = |q: &BasePoint| place(maps, &phi.inverse(q)).0;
+            let flaps = super::flaps::solve(
+                maps,
+                edge_depth,
+                options.start_depth,
+                options.conformal_weight,
+                &options.solver,
+                &surface,
+            )?;
+            phi.later.push(Stage::Edges(flaps));
+        }
         if options.refine {
             let surface = |q: &BasePoint| place(maps, &phi.inverse(q)).0;
             let refined = solve_faces(maps, &frames, options, &surface)?;
-            phi.refined = Some(refined);
+            phi.later.push(Stage::Faces(refined));
         }
     }
     Ok(phi)
@@ -485,28 +537,24 @@ fn solve_level(
 }
 
 impl Equalised {
-    /// Π'(p) from Π(p): Φ, then Φ_E and Φ₂ when there are those stages.
+    /// Π'(p) from Π(p): Φ, then each later stage in order.
     pub fn forward(&self, p: &BasePoint) -> BasePoint {
-        let mut q = self.faces.forward(p);
-        if let Some(e) = &self.flaps {
-            q = e.forward(&q);
-        }
-        if let Some(r) = &self.refined {
-            q = r.forward(&q);
-        }
-        q
+        let q = self.faces.forward(p);
+        self.later.iter().fold(q, |q, s| s.forward(&q))
     }
 
-    /// Φ⁻¹(Φ_E⁻¹(Φ₂⁻¹(d))): Π'⁻¹ = Π⁻¹ ∘ Φ⁻¹ ∘ Φ_E⁻¹ ∘ Φ₂⁻¹, each stage there is.
+    /// Π'⁻¹ = Π⁻¹ ∘ Φ⁻¹ ∘ Φ_E⁻¹ ∘ …: each later stage's inverse in reverse order, then Φ⁻¹.
     pub fn inverse(&self, d: &BasePoint) -> BasePoint {
-        let mut q = *d;
-        if let Some(r) = &self.refined {
-            q = r.inverse(&q);
-        }
-        if let Some(e) = &self.flaps {
-            q = e.inverse(&q);
-        }
+        let q = self.later.iter().rev().fold(*d, |q, s| s.inverse(&q));
         self.faces.inverse(&q)
+    }
+
+    /// The first edge stage, if any.
+    pub fn flaps(&self) -> Option<&EdgeFlaps> {
+        self.later.iter().find_map(|s| match s {
+            Stage::Edges(e) => Some(e),
+            Stage::Faces(_) => None,
+        })
     }
 
     /// Π'(v) = Φ(Π(p_v)) (through every stage) of every input vertex (`None` for a vertex no
@@ -522,8 +570,11 @@ impl Equalised {
     /// for a Π' that is a bijection.
     pub fn folded_triangles(&self) -> usize {
         self.faces.folded_triangles()
-            + self.flaps.as_ref().map_or(0, |e| e.folded_triangles())
-            + self.refined.as_ref().map_or(0, |r| r.folded_triangles())
+            + self
+                .later
+                .iter()
+                .map(Stage::folded_triangles)
+                .sum::<usize>()
     }
 }
 
