@@ -60,7 +60,7 @@ use rayon::prelude::*;
 
 use super::flaps::EdgeFlaps;
 use super::lattice::{
-    cell, combine, in_frame, lattice_cells, moved_at, reference, solve_net, Buckets, Corner,
+    cell, combine, folded, in_frame, lattice_cells, moved_at, reference, solve_net, Buckets, Corner,
 };
 pub use super::lattice::{frame, EqualiseReport};
 use super::param::BasePoint;
@@ -680,15 +680,7 @@ impl FaceStage {
     /// The moved lattice triangles that are not strictly counter-clockwise (robust
     /// orientation): 0 for a Φ that is a bijection of every base face.
     pub fn folded_triangles(&self) -> usize {
-        self.moved
-            .iter()
-            .map(|m| {
-                self.cells
-                    .iter()
-                    .filter(|t| super::retriangulate::orient2d(m[t[0]], m[t[1]], m[t[2]]) <= 0.0)
-                    .count()
-            })
-            .sum()
+        self.moved.iter().map(|m| folded(m, &self.cells)).sum()
     }
 }
 

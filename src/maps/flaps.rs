@@ -31,8 +31,8 @@ use nalgebra::Point3;
 use rayon::prelude::*;
 
 use super::lattice::{
-    cell, combine, frame, in_frame, lattice_cells, moved_at, reference, solve_net, Buckets, Corner,
-    EqualiseReport,
+    cell, combine, folded, frame, in_frame, lattice_cells, moved_at, reference, solve_net, Buckets,
+    Corner, EqualiseReport,
 };
 use super::param::BasePoint;
 use super::retriangulate::{barycentric, locate};
@@ -426,18 +426,7 @@ impl EdgeFlaps {
     /// The moved lattice triangles that are not strictly counter-clockwise (robust
     /// orientation): 0 for a Φ_E that is a bijection of every flap.
     pub fn folded_triangles(&self) -> usize {
-        self.flaps
-            .iter()
-            .map(|f| {
-                f.cells
-                    .iter()
-                    .filter(|t| {
-                        super::retriangulate::orient2d(f.moved[t[0]], f.moved[t[1]], f.moved[t[2]])
-                            <= 0.0
-                    })
-                    .count()
-            })
-            .sum()
+        self.flaps.iter().map(|f| folded(&f.moved, &f.cells)).sum()
     }
 }
 

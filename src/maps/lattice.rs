@@ -204,6 +204,15 @@ pub(super) fn reference(s: u32, t: [usize; 3], l: [f64; 3]) -> [f64; 3] {
     b
 }
 
+/// How many of the triangles `cells` over the points `moved` are not strictly
+/// counter-clockwise (robust orientation): 0 for a lattice that does not fold.
+pub(super) fn folded(moved: &[[f64; 2]], cells: &[[usize; 3]]) -> usize {
+    cells
+        .iter()
+        .filter(|t| super::retriangulate::orient2d(moved[t[0]], moved[t[1]], moved[t[2]]) <= 0.0)
+        .count()
+}
+
 /// Σ_c λ_c m_c over the lattice triangle of side s holding barycentrics `b`, m the moved
 /// lattice points by cell: the piecewise-linear map Φ of the lattice at `b`.
 pub(super) fn moved_at(s: u32, moved: &[[f64; 2]], b: [f64; 3]) -> [f64; 2] {
