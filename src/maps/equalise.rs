@@ -49,8 +49,7 @@
 //! default; [`EqualiseOptions::edge_rounds`] = n alternates n edge stages with per-face ones
 //! (Φ_E ∘ Φ ∘ Φ_E ∘ Φ ∘ Π for 2), so that area travels further than one flap;
 //! [`EqualiseOptions::refine`] ends with a per-face stage. Its inverse, each stage's inverse in
-//! reverse order, is
-//! exact up to rounding as each stage's is.
+//! reverse order, is exact up to rounding as each stage's is.
 
 use std::collections::HashMap;
 use std::time::Instant;
@@ -350,8 +349,11 @@ impl Lattice {
 /// Build Φ for `maps` by minimising the net's stretch (module docs), coarse to fine: the
 /// solve runs on the lattice of depth `options.start_depth`, then on each finer one up to
 /// `options.depth`, each started from the coarser Φ (exact: a lattice triangle lies in one
-/// triangle of the coarser lattice, on which Φ is affine, so the start has no fold). Errors: a
-/// depth above [`MAX_DEPTH`], more than [`MAX_LATTICE_TRIANGLES`], a degenerate base face.
+/// triangle of the coarser lattice, on which Φ is affine, so the start has no fold). Then the
+/// later stages ([`super::flaps::solve`], and per-face ones as above), each with the 3D targets
+/// of the map the stages before it leave. Errors: a depth or edge depth above [`MAX_DEPTH`],
+/// more than [`MAX_LATTICE_TRIANGLES`] in a stage, a degenerate base face, a base edge that is
+/// not shared by two consistently oriented faces (the edge stage).
 pub fn equalise(maps: &Maps, options: &EqualiseOptions) -> Result<Equalised> {
     if options.depth > MAX_DEPTH {
         return Err(Error::InvalidArgument(format!(
