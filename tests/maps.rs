@@ -1060,8 +1060,9 @@ fn cli_equalise_adds_the_remesh_of_pi_prime_and_the_warning_suggests_it() {
     let err = String::from_utf8_lossy(&bad.stderr);
     assert!(err.contains("depth 9 is above 7"), "{err}");
     // The edge stage (`maps::flaps`) is on by default with --equalise, at depth 4; it lowers
-    // its own stretch. `--edge-flaps 0` leaves it out; `--edge-rounds 2` alternates a per-face
-    // stage and a second edge stage after it; `--refine-faces` ends with a per-face stage.
+    // its own stretch; two rounds by default (Φ, Φ_E, Φ, Φ_E). `--edge-flaps 0` leaves the
+    // edge stage out; `--edge-rounds N` sets the rounds; `--refine-faces` ends with a per-face
+    // stage.
     let stages = |json: &serde_json::Value| -> Vec<(String, u64)> {
         json["equalised"]["later"]
             .as_array()
@@ -1075,7 +1076,12 @@ fn cli_equalise_adds_the_remesh_of_pi_prime_and_the_warning_suggests_it() {
             })
             .collect()
     };
-    assert_eq!(stages(&json), [("edges".to_string(), 4)]);
+    let rounds = reparam::maps::equalise::DEFAULT_EDGE_ROUNDS;
+    assert_eq!(rounds, 2);
+    assert_eq!(
+        stages(&json),
+        [("edges", 4), ("faces", 3), ("edges", 4)].map(|(s, d)| (s.to_string(), d))
+    );
     let edge = &e["later"][0]["solve"];
     assert!(edge["stretch_after"].as_f64().unwrap() < edge["stretch_before"].as_f64().unwrap());
     let faces_only = run(&["--equalise", "3", "--edge-flaps", "0"]);
@@ -1087,11 +1093,11 @@ fn cli_equalise_adds_the_remesh_of_pi_prime_and_the_warning_suggests_it() {
         "--edge-flaps",
         "2",
         "--edge-rounds",
-        "2",
+        "1",
         "--refine-faces",
     ]);
     let json: serde_json::Value = serde_json::from_slice(&more.stdout).unwrap();
-    let want = [("edges", 2), ("faces", 3), ("edges", 2), ("faces", 3)];
+    let want = [("edges", 2), ("faces", 3)];
     assert_eq!(
         stages(&json),
         want.map(|(s, d)| (s.to_string(), d)).to_vec()

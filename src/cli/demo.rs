@@ -625,7 +625,7 @@ fn maps_demo(out: &Path, report: &mut Report) -> Result<()> {
         equalise: None,
         edge_flaps: crate::maps::flaps::DEFAULT_DEPTH,
         refine_faces: false,
-        edge_rounds: 1,
+        edge_rounds: crate::maps::equalise::DEFAULT_EDGE_ROUNDS,
         remesh: vec!["uniform:3".into(), "adaptive:0.005".into()],
         out: out.join("maps"),
         picture_size: 384,
@@ -701,13 +701,13 @@ fn maps_relax_demo(out: &Path, report: &mut Report, torus: super::maps::MapsArgs
     ));
     if let Some(e) = &s.equalised {
         report.paragraph(&format!(
-            "`uniform:3 equalised` samples Π' = Φ_E ∘ Φ ∘ Π instead (`maps::equalise`, beyond the \
-             paper): Φ maps each base face onto itself, piecewise linearly on a lattice of 4^{} \
-             triangles per face, and minimises Sander et al.'s L² stretch (plus a Dirichlet \
+            "`uniform:3 equalised` samples Π' = (Φ_E ∘ Φ)ⁿ ∘ Π instead (`maps::equalise`, beyond \
+             the paper): Φ maps each base face onto itself, piecewise linearly on a lattice of \
+             4^{} triangles per face, and minimises Sander et al.'s L² stretch (plus a Dirichlet \
              term against slivers) of the whole lattice by L-BFGS (stretch {} → {} in {} \
-             iterations, {} s in all); Φ_E (`maps::flaps`) then does the same on each base \
-             edge's two half-faces unfolded, so that area crosses base edges{}. Π''s area follows \
-             the surface's: \
+             iterations); Φ_E (`maps::flaps`) then does the same on each base edge's two \
+             half-faces unfolded, so that area crosses base edges{}; the two alternate {} \
+             times ({} s in all). Π''s area follows the surface's: \
              |log area ratio| p95 {} → {} (the input's own spread {}). `uniform:3 equalised \
              relaxed` relaxes that remesh's parameters too. `horned_equalised_area_distortion.png` \
              colours the input by Π''s area ratio.",
@@ -715,13 +715,14 @@ fn maps_relax_demo(out: &Path, report: &mut Report, torus: super::maps::MapsArgs
             sig(e.solve.stretch_before, 3),
             sig(e.solve.stretch_after, 3),
             e.solve.solver.iterations,
-            sig(e.seconds, 3),
             e.later.first().map_or(String::new(), |l| format!(
                 " (stretch {} → {} in {} iterations)",
                 sig(l.solve.stretch_before, 3),
                 sig(l.solve.stretch_after, 3),
                 l.solve.solver.iterations
             )),
+            e.later.iter().filter(|l| l.stage == "edges").count(),
+            sig(e.seconds, 3),
             sig(s.distortion.final_map.area_p95, 3),
             sig(e.distortion.area_p95, 3),
             sig(s.distortion.input_area_spread, 3),

@@ -95,7 +95,8 @@ pub struct MapsArgs {
     #[arg(long, value_name = "K", num_args = 0..=1, default_missing_value = EQUALISE_DEPTH)]
     pub equalise: Option<u32>,
     /// With `--equalise`: K_E, the depth of the edge-flap stage Φ_E solved after Φ
-    /// (`maps::flaps`, beyond the paper), Π' = Φ_E ∘ Φ ∘ Π: each base edge's two half-faces,
+    /// (`maps::flaps`, beyond the paper), Π' = Φ_E ∘ Φ ∘ Π for one round: each base edge's two
+    /// half-faces,
     /// unfolded, mapped onto themselves with the lattice points on the edge free, so that area
     /// moves across base edges; 4^K_E lattice triangles per third of a face. 0: no edge stage.
     #[arg(long, value_name = "K_E", default_value = EDGE_FLAPS_DEPTH)]
@@ -105,8 +106,9 @@ pub struct MapsArgs {
     #[arg(long)]
     pub refine_faces: bool,
     /// With `--equalise` and an edge stage: how many edge stages, each after a per-face stage
-    /// (2: Π' = Φ_E ∘ Φ ∘ Φ_E ∘ Φ ∘ Π), so that area travels further than one flap.
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=8))]
+    /// (2, the default: Π' = Φ_E ∘ Φ ∘ Φ_E ∘ Φ ∘ Π), so that area travels further than one
+    /// flap.
+    #[arg(long, value_name = "N", default_value_t = crate::maps::equalise::DEFAULT_EDGE_ROUNDS, value_parser = clap::value_parser!(u32).range(1..=8))]
     pub edge_rounds: u32,
     /// Remeshes to make: `uniform:J` (quadrisect J times) or `adaptive:EPS` (EPS relative to
     /// the longest bounding-box side). May be repeated.
