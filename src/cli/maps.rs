@@ -247,7 +247,7 @@ pub struct MapsSummary {
     pub input_folds: crate::maps::quality::InputFolds,
     /// Seconds spent measuring the distortion.
     pub distortion_seconds: f64,
-    /// With `--equalise`: the solve of Φ and the distortion of Π' = Φ ∘ Π.
+    /// With `--equalise`: the solve of every stage and the distortion of Π'.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub equalised: Option<EqualisedSummary>,
     /// Set when a remesh is not faithful to the input: what was measured and what to try.
@@ -895,15 +895,15 @@ fn print_summary(s: &MapsSummary) {
     if let Some(e) = &s.equalised {
         let (d, r) = (&e.distortion, &e.solve);
         outln!(
-            "distortion of Π' = Φ ∘ Π (--equalise, lattice depth {}, {} unknowns, L² stretch {} → {} \
-             in {} L-BFGS iterations, {} s): |log area ratio| mean {} p95 {} max {}, σmax/σmin \
-             mean {} p95 {} max {}",
+            "distortion of Π' (--equalise, {} s in all; first the per-face stage Φ: lattice depth \
+             {}, {} unknowns, L² stretch {} → {} in {} L-BFGS iterations): |log area ratio| mean \
+             {} p95 {} max {}, σmax/σmin mean {} p95 {} max {}",
+            sig(e.seconds, 3),
             r.depth,
             r.unknowns,
             sig(r.stretch_before, 4),
             sig(r.stretch_after, 4),
             r.solver.iterations,
-            sig(e.seconds, 3),
             sig(d.area_mean, 3),
             sig(d.area_p95, 3),
             sig(d.area_max, 3),
@@ -915,10 +915,12 @@ fn print_summary(s: &MapsSummary) {
     for later in s.equalised.iter().flat_map(|e| &e.later) {
         let r = &later.solve;
         outln!(
-            "  then the {} stage{}: lattice depth {}, {} unknowns, L² stretch {} → {} in {} L-BFGS \
-             iterations",
-            later.stage,
-            if later.stage == "edges" { " Φ_E" } else { " Φ" },
+            "  then the {}: lattice depth {}, {} unknowns, L² stretch {} → {} in {} L-BFGS iterations",
+            if later.stage == "edges" {
+                "edge stage Φ_E"
+            } else {
+                "per-face stage Φ"
+            },
             r.depth,
             r.unknowns,
             sig(r.stretch_before, 4),
