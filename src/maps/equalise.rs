@@ -59,12 +59,13 @@ use rayon::prelude::*;
 
 use super::flaps::EdgeFlaps;
 use super::lattice::{
-    cell, combine, folded, in_frame, lattice_cells, moved_at, reference, solve_net, Buckets, Corner,
+    cell, combine, folded, in_frame, lattice_cells, locate_bucketed, moved_at, reference,
+    solve_net, Buckets, Corner,
 };
 pub use super::lattice::{frame, EqualiseReport};
 use super::param::BasePoint;
 use super::remesh::{finish, place, uniform_leaves, vkey, Remesh, VKey};
-use super::retriangulate::{barycentric, locate};
+use super::retriangulate::barycentric;
 use super::stretch::StretchTarget;
 use super::Maps;
 use crate::error::{Error, Result};
@@ -608,18 +609,8 @@ impl FaceStage {
         let fr = &self.frames[d.face as usize];
         let u = in_frame(fr, d.bary);
         let moved = &self.moved[d.face as usize];
-        let near: Vec<[usize; 3]> = self.buckets[d.face as usize]
-            .near(u)
-            .iter()
-            .map(|&t| self.cells[t as usize])
-            .collect();
-        let (t, l) = match locate(u, moved, &near) {
-            (t, l) if !near.is_empty() && l.iter().all(|&x| x >= 0.0) => (near[t], l),
-            _ => {
-                let (t, l) = locate(u, moved, &self.cells);
-                (self.cells[t], l)
-            }
-        };
+        let (t, l) = locate_bucketed(u, moved, &self.cells, &self.buckets[d.face as usize]);
+        let t = self.cells[t];
         let b = self.reference(t, l);
         BasePoint {
             face: d.face,
@@ -696,6 +687,7 @@ mod tests {
     use super::*;
     use crate::lbfgs::minimise;
     use crate::maps::lattice::energy;
+    use crate::maps::retriangulate::locate;
     use crate::maps::{build, remesh::uniform, Features, MapsOptions};
     use crate::mesh::procedural::torus;
 

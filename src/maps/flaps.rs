@@ -31,11 +31,11 @@ use nalgebra::Point3;
 use rayon::prelude::*;
 
 use super::lattice::{
-    cell, combine, folded, frame, in_frame, lattice_cells, moved_at, reference, solve_net, Buckets,
-    Corner, EqualiseReport,
+    cell, combine, folded, frame, in_frame, lattice_cells, locate_bucketed, moved_at, reference,
+    solve_net, Buckets, Corner, EqualiseReport,
 };
 use super::param::BasePoint;
-use super::retriangulate::{barycentric, locate};
+use super::retriangulate::barycentric;
 use super::stretch::StretchTarget;
 use super::Maps;
 use crate::error::{Error, Result};
@@ -406,12 +406,7 @@ impl EdgeFlaps {
         let (e, n) = self.piece_of[d.face as usize][k];
         let flap = &self.flaps[e as usize];
         let u = in_frame(&flap.pieces[n].layout, q);
-        let near: Vec<usize> = flap.buckets.near(u).iter().map(|&t| t as usize).collect();
-        let near_cells: Vec<[usize; 3]> = near.iter().map(|&t| flap.cells[t]).collect();
-        let (t, l) = match locate(u, &flap.moved, &near_cells) {
-            (t, l) if !near.is_empty() && l.iter().all(|&x| x >= 0.0) => (near[t], l),
-            _ => locate(u, &flap.moved, &flap.cells),
-        };
+        let (t, l) = locate_bucketed(u, &flap.moved, &flap.cells, &flap.buckets);
         let b = self.block();
         let piece = t / (flap.cells.len() / flap.pieces.len());
         let local = flap.cells[t].map(|c| c - piece * b);

@@ -5,6 +5,7 @@
 
 use rayon::prelude::*;
 
+use super::retriangulate::{barycentric, locate};
 use super::stretch::{l2_stretch, signed_area, weighted_stretch, StretchTarget};
 use super::Maps;
 use crate::error::{Error, Result};
@@ -211,6 +212,27 @@ pub(super) fn folded(moved: &[[f64; 2]], cells: &[[usize; 3]]) -> usize {
         .iter()
         .filter(|t| super::retriangulate::orient2d(moved[t[0]], moved[t[1]], moved[t[2]]) <= 0.0)
         .count()
+}
+
+/// The moved lattice triangle holding u, as its index into `cells` and u's barycentrics in it:
+/// the first triangle of u's bucket whose robust orientations are all ≥ 0, and when none is
+/// (u on the region's border, a hair outside by rounding), [`locate`] over all of `cells`.
+/// Φ⁻¹'s search in every stage; it allocates nothing, as it runs for every point the
+/// relaxation places.
+pub(super) fn locate_bucketed(
+    u: [f64; 2],
+    moved: &[[f64; 2]],
+    cells: &[[usize; 3]],
+    buckets: &Buckets,
+) -> (usize, [f64; 3]) {
+    for &t in buckets.near(u) {
+        let c = cells[t as usize];
+        let l = barycentric(u, moved[c[0]], moved[c[1]], moved[c[2]]);
+        if l[0].min(l[1]).min(l[2]) >= 0.0 {
+            return (t as usize, l);
+        }
+    }
+    locate(u, moved, cells)
 }
 
 /// Σ_c λ_c m_c over the lattice triangle of side s holding barycentrics `b`, m the moved
