@@ -1,4 +1,4 @@
-//! Properties of the bound-constrained Levenberg–Marquardt solver (src/lm.rs) and of its box QP.
+//! Properties of the bound-constrained Levenberg–Marquardt solver (src/lm/) and of its box QP.
 
 mod common;
 
