@@ -10,10 +10,10 @@ mod common;
 use common::mutation::MutationTable;
 use reparam::twin::bpm_common::{
     blended_log, c_mul, c_zero, edge_weights, eval, eval_bpm, eval_linear, exp_sl2, fit_mobius_det,
-    fit_mobius_local, log_sl2, maps_logs, maps_m_t, maps_uv, maps_w_origin, maps_z, mobius_apply,
-    mobius_identity, mobius_inverse, mobius_is_finite, mobius_mul, pack_triangle_maps, sl2_add,
-    sl2_max_abs, sl2_scale, sl2_zero, Complex, Mobius, Sl2, TriangleMaps, FLAG_LINEAR_FALLBACK,
-    FLAG_MIRRORED, INTERP_BPM, INTERP_LINEAR,
+    fit_mobius_local, log_sl2_roots, maps_logs, maps_m_t, maps_uv, maps_w_origin, maps_z,
+    mobius_apply, mobius_identity, mobius_inverse, mobius_is_finite, mobius_mul,
+    pack_triangle_maps, sl2_add, sl2_max_abs, sl2_scale, sl2_zero, Complex, Mobius, Sl2,
+    TriangleMaps, FLAG_LINEAR_FALLBACK, FLAG_MIRRORED, INTERP_BPM, INTERP_LINEAR,
 };
 use reparam::twin::bpm_eval::bpm_eval;
 use reparam::twin::bpm_precompute::{
@@ -323,7 +323,7 @@ fn log_unsigned(m: Mobius<F>) -> Sl2<F> {
     } else {
         m
     };
-    let l = log_sl2(flipped);
+    let l = log_sl2_roots(flipped);
     if flipped == m {
         l
     } else {
@@ -341,7 +341,7 @@ const PRECOMPUTE_MUTANTS: [(&str, &str, PrecomputeFn); 9] = [
                 star_layout,
                 fit_mobius_det,
                 right_ratio,
-                log_sl2,
+                log_sl2_roots,
                 false,
                 true,
                 same_slot,
@@ -354,7 +354,7 @@ const PRECOMPUTE_MUTANTS: [(&str, &str, PrecomputeFn); 9] = [
             layout_unmirrored,
             fit_mobius_local,
             right_ratio,
-            log_sl2,
+            log_sl2_roots,
             true,
             true,
             same_slot,
@@ -369,7 +369,7 @@ const PRECOMPUTE_MUTANTS: [(&str, &str, PrecomputeFn); 9] = [
                 layout_apex_left,
                 fit_mobius_local,
                 right_ratio,
-                log_sl2,
+                log_sl2_roots,
                 true,
                 true,
                 same_slot,
@@ -385,7 +385,7 @@ const PRECOMPUTE_MUTANTS: [(&str, &str, PrecomputeFn); 9] = [
                 star_layout,
                 fit_mobius_local,
                 right_ratio,
-                log_sl2,
+                log_sl2_roots,
                 true,
                 false,
                 same_slot,
@@ -417,7 +417,7 @@ const PRECOMPUTE_MUTANTS: [(&str, &str, PrecomputeFn); 9] = [
                 star_layout,
                 fit_mobius_local,
                 |m_t, m_e| mobius_mul(m_e, mobius_inverse(m_t)),
-                log_sl2,
+                log_sl2_roots,
                 true,
                 true,
                 same_slot,
@@ -433,7 +433,7 @@ const PRECOMPUTE_MUTANTS: [(&str, &str, PrecomputeFn); 9] = [
                 star_layout,
                 fit_mobius_local,
                 |m_t, m_e| mobius_mul(mobius_inverse(m_e), m_t),
-                log_sl2,
+                log_sl2_roots,
                 true,
                 true,
                 same_slot,
@@ -449,7 +449,7 @@ const PRECOMPUTE_MUTANTS: [(&str, &str, PrecomputeFn); 9] = [
                 star_layout,
                 fit_mobius_local,
                 right_ratio,
-                log_sl2,
+                log_sl2_roots,
                 false,
                 true,
                 same_slot,
@@ -465,7 +465,7 @@ const PRECOMPUTE_MUTANTS: [(&str, &str, PrecomputeFn); 9] = [
                 star_layout,
                 fit_mobius_local,
                 right_ratio,
-                log_sl2,
+                log_sl2_roots,
                 true,
                 true,
                 |e| (e + 2) % 3,
@@ -493,7 +493,7 @@ fn the_canonical_precompute_vectors_reject_every_mutant_and_accept_the_twin() {
             star_layout,
             fit_mobius_local,
             right_ratio,
-            log_sl2,
+            log_sl2_roots,
             true,
             true,
             same_slot,

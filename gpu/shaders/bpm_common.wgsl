@@ -216,7 +216,7 @@ struct CoshSinhc {
 // (reference: cosh_sinhc_squaring): p is quartered k times until |p/4ᵏ| < 1, the series is
 // summed there, then k doublings of √p: C(4p) = 2 C(p)² − 1, S(4p) = S(p) C(p). Only + − ×:
 // WGSL's cos, sin and cosh may err by 2⁻¹¹ absolutely, which the closed form would pass on.
-fn cosh_sinhc(p: vec2<f32>) -> CoshSinhc {
+fn cosh_sinhc_squaring(p: vec2<f32>) -> CoshSinhc {
     var q = p;
     var k = 0;
     while length(q) >= EXP_SERIES_RADIUS && k < EXP_MAX_QUARTERINGS {
@@ -264,11 +264,11 @@ fn asinhc_series(q: vec2<f32>) -> vec2<f32> {
     return h;
 }
 
-// exp Y for Y = [[a, b], [c, −a]]: p = a² + b c, (C, S) = cosh_sinhc(p),
+// exp Y for Y = [[a, b], [c, −a]]: p = a² + b c, (C, S) = cosh_sinhc_squaring(p),
 // exp Y = [[C + S a, S b], [S c, C − S a]] (det 1).
 fn exp_sl2(y: Sl2) -> Mobius {
     let p = c_mul(y.a, y.a) + c_mul(y.b, y.c);
-    let cs = cosh_sinhc(p);
+    let cs = cosh_sinhc_squaring(p);
     return Mobius(cs.c + c_mul(cs.s, y.a), c_mul(cs.s, y.b), c_mul(cs.s, y.c), cs.c - c_mul(cs.s, y.a));
 }
 
@@ -276,7 +276,7 @@ fn exp_sl2(y: Sl2) -> Mobius {
 // log_sl2_roots): t = Tr A / 2, X = [[(a−d)/2, b], [c, −(a−d)/2]], q = ((a−d)/2)² + b c
 // (= t² − 1); while |q| ≥ 0.1, A ← √A = (A + I)/s with s = √(2t + 2) (X ← X/s, t ← s/2) and
 // the log doubles: log A = 2ᵏ asinhc(q_k) X_k. No log or atan2 (4096 ULP in WGSL).
-fn log_sl2(m: Mobius) -> Sl2 {
+fn log_sl2_roots(m: Mobius) -> Sl2 {
     let n = sign_fix(m);
     var x = Sl2((n.a - n.d) * 0.5, n.b, n.c);
     var t = (n.a + n.d) * 0.5;

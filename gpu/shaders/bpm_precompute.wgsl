@@ -101,7 +101,7 @@ fn fit_star(fit: u32, z: array<vec2<f32>, 6>, big_w: array<vec2<f32>, 6>, n: vec
 // All per-triangle data of one star: with W = w − w_origin (w_origin = w_i for the local fit,
 // 0 for the determinant fit), M_t = fit(z_i, z_j, z_k → W_i, W_j, W_k); for each neighbour e
 // across edge (a, b): M_e = fit(z_a, z_b, z_apex → W_a, W_b, W_apex), δ_e = M_t⁻¹ M_e,
-// l_e = log_sl2(δ_e); l_e = 0 without a neighbour (or when not finite). A degenerate t, or a
+// l_e = log_sl2_roots(δ_e); l_e = 0 without a neighbour (or when not finite). A degenerate t, or a
 // non-finite M_t, gives the linear fallback: M_t = I, logs 0, w_origin 0.
 fn triangle_maps(star: StarInput, fit: u32) -> TriangleMaps {
     let uv = array<vec2<f32>, 3>(star.w[0], star.w[1], star.w[2]);
@@ -131,7 +131,7 @@ fn triangle_maps(star: StarInput, fit: u32) -> TriangleMaps {
         let ab = edge_corners(e);
         let m_e = fit_star(fit, z, big_w, vec3<u32>(ab.x, ab.y, 3u + e));
         let ratio = mobius_mul(m_t_inv, m_e);
-        let l_e = log_sl2(ratio);
+        let l_e = log_sl2_roots(ratio);
         // A non-finite ratio (a neighbour whose fit blew up) is treated like a boundary edge.
         if is_finite_f32(sl2_max_abs(l_e)) {
             logs[e] = l_e;

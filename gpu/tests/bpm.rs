@@ -396,7 +396,7 @@ fn test_exp_log(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     let i = linear_index(gid, nwg);
     if i >= params.count { return; }
     let e = exp_sl2(Sl2(ys[i].a, ys[i].b, ys[i].c));
-    let l = log_sl2(e);
+    let l = log_sl2_roots(e);
     outs[i] = Out(e, Y(l.a, l.b, l.c));
 }
 "#;
@@ -412,7 +412,7 @@ fn test_exp_log(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         .collect()
 }
 
-/// exp_sl2 against an f64 Taylor series of the matrix exponential, and log_sl2 ∘ exp_sl2 = id,
+/// exp_sl2 against an f64 Taylor series of the matrix exponential, and log_sl2_roots ∘ exp_sl2 = id,
 /// on cases chosen to exercise every branch, including near each series' radius where a wrong
 /// coefficient would show: p = a² + bc decides exp (series for |p| < 1), q = sinh²√p decides
 /// log (series for |q| < 0.1). All eigenvalues have |Im| < π/2, so the principal log of exp Y

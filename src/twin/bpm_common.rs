@@ -7,10 +7,15 @@
 //!
 //! Where the f32 kernel computes a function differently from the f64 reference
 //! ([`crate::bpm::moebius`]), both forms are in the reference and a test shows why the kernel
-//! uses its own: `cosh_sinhc` by scaling and squaring and `log_sl2` by inverse scaling and
-//! squaring need no `cos`, `sin`, `exp`, `log` or `atan2`, whose WGSL accuracy (absolute
-//! 2⁻¹¹ for `cos`, 4096 ULP for `atan2`) would put the maps tens of texels off on a GPU that
-//! uses all of its allowance.
+//! uses its own, under the same name in all three places: [`cosh_sinhc_squaring`] (scaling
+//! and squaring) and [`log_sl2_roots`] (inverse scaling and squaring) mirror
+//! [`crate::bpm::moebius::cosh_sinhc_squaring`] and [`crate::bpm::moebius::log_sl2_roots`];
+//! the reference's own `cosh_sinhc` (series or closed form) and `log_sl2` (closed form) have no
+//! f32 twin. The kernel's forms need no `cos`, `sin`, `exp`, `log` or `atan2`, whose WGSL
+//! accuracy (absolute 2⁻¹¹ for `cos`, 4096 ULP for `atan2`) would put the maps tens of texels
+//! off on a GPU that uses all of its allowance. So `exp_sl2` (exp Y = C I + S Y) is one formula
+//! everywhere, but its (C, S) come from `cosh_sinhc` in f64 and from `cosh_sinhc_squaring` in
+//! the twin and the WGSL.
 
 use super::real::{length, select, sqrt, sum, Real, V2, V3, V4};
 
@@ -250,7 +255,7 @@ pub const EXP_SERIES_TERMS: usize = 6;
 /// f32).
 pub const EXP_MAX_QUARTERINGS: usize = 64;
 
-/// (C, S) of [`cosh_sinhc`].
+/// (C, S) of [`cosh_sinhc_squaring`].
 #[derive(Clone, Copy, Debug)]
 pub struct CoshSinhc<R> {
     pub c: Complex<R>,
@@ -262,7 +267,7 @@ pub struct CoshSinhc<R> {
 /// times until |p/4ᵏ| < 1, the series is summed there (Horner from the highest term), and
 /// k doublings of √p follow: C(4p) = 2 C(p)² − 1, S(4p) = S(p) C(p)
 /// (cosh 2r = 2 cosh² r − 1, sinh 2r / 2r = (sinh r / r) cosh r).
-pub fn cosh_sinhc<R: Real>(p: Complex<R>) -> CoshSinhc<R> {
+pub fn cosh_sinhc_squaring<R: Real>(p: Complex<R>) -> CoshSinhc<R> {
     let mut q = p;
     let mut k = 0;
     while length(q.to_array()).value() >= EXP_SERIES_RADIUS && k < EXP_MAX_QUARTERINGS {
@@ -335,11 +340,11 @@ pub fn asinhc_series<R: Real>(q: Complex<R>) -> Complex<R> {
     h
 }
 
-/// exp Y for Y = [[a, b], [c, −a]]: p = a² + b c, (C, S) = cosh_sinhc(p),
+/// exp Y for Y = [[a, b], [c, −a]]: p = a² + b c, (C, S) = cosh_sinhc_squaring(p),
 /// exp Y = [[C + S a, S b], [S c, C − S a]] (det 1).
 pub fn exp_sl2<R: Real>(y: Sl2<R>) -> Mobius<R> {
     let p = c_mul(y.a, y.a) + c_mul(y.b, y.c);
-    let cs = cosh_sinhc(p);
+    let cs = cosh_sinhc_squaring(p);
     Mobius {
         a: cs.c + c_mul(cs.s, y.a),
         b: c_mul(cs.s, y.b),
@@ -355,7 +360,7 @@ pub fn exp_sl2<R: Real>(y: Sl2<R>) -> Mobius<R> {
 /// √A = (A + I)/s with s = √(2t + 2) (Re t ≥ 0 after the sign fix, so |2t + 2| ≥ 2): then
 /// X ← X/s, t ← s/2, q ← ((a−d)/2)² + b c of the new X, and the log doubles:
 /// log A = 2ᵏ asinhc(q_k) X_k.
-pub fn log_sl2<R: Real>(m: Mobius<R>) -> Sl2<R> {
+pub fn log_sl2_roots<R: Real>(m: Mobius<R>) -> Sl2<R> {
     let n = sign_fix(m);
     let half = R::lit(0.5);
     let mut x = Sl2 {

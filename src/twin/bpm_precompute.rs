@@ -3,9 +3,9 @@
 //! 1–5).
 
 use super::bpm_common::{
-    c_mul, c_zero, fit_mobius_det, fit_mobius_local, log_sl2, mobius_identity, mobius_inverse,
-    mobius_is_finite, mobius_mul, pack_triangle_maps, sl2_max_abs, sl2_zero, Complex, Mobius,
-    TriangleMaps, FLAG_LINEAR_FALLBACK, FLAG_MIRRORED,
+    c_mul, c_zero, fit_mobius_det, fit_mobius_local, log_sl2_roots, mobius_identity,
+    mobius_inverse, mobius_is_finite, mobius_mul, pack_triangle_maps, sl2_max_abs, sl2_zero,
+    Complex, Mobius, TriangleMaps, FLAG_LINEAR_FALLBACK, FLAG_MIRRORED,
 };
 use super::real::{cross, dot, is_finite, length, select, Real, V2, V3};
 
@@ -112,7 +112,7 @@ pub fn fit_star<R: Real>(
 /// All per-triangle data of one star: with W = w − w_origin (w_origin = w_i for the local fit,
 /// 0 for the determinant fit), M_t = fit(z_i, z_j, z_k → W_i, W_j, W_k); for each neighbour e
 /// across edge (a, b): M_e = fit(z_a, z_b, z_apex → W_a, W_b, W_apex), δ_e = M_t⁻¹ M_e,
-/// l_e = log_sl2(δ_e); l_e = 0 without a neighbour (or when not finite). A degenerate t, or a
+/// l_e = log_sl2_roots(δ_e); l_e = 0 without a neighbour (or when not finite). A degenerate t, or a
 /// non-finite M_t, gives the linear fallback: M_t = I, logs 0, w_origin 0.
 pub fn triangle_maps<R: Real>(star: &StarInput<R>, fit: u32) -> TriangleMaps<R> {
     let uv = [star.w[0], star.w[1], star.w[2]];
@@ -146,7 +146,7 @@ pub fn triangle_maps<R: Real>(star: &StarInput<R>, fit: u32) -> TriangleMaps<R> 
         let [a, b] = edge_corners(e);
         let m_e = fit_star(fit, &z, &big_w, [a, b, 3 + e]);
         let ratio = mobius_mul(m_t_inv, m_e);
-        let l_e = log_sl2(ratio);
+        let l_e = log_sl2_roots(ratio);
         // A non-finite ratio (a neighbour whose fit blew up) is treated like a boundary edge.
         if is_finite(sl2_max_abs(l_e)) {
             *log = l_e;
