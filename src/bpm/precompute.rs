@@ -405,6 +405,12 @@ pub fn place_apex_authors(
 /// M_t = fit(z_i, z_j, z_k → W_i, W_j, W_k) with W = w − w_origin; for each neighbour e across
 /// edge (a, b): M_e = fit(z_a, z_b, z_apex → W_a, W_b, W_apex), δ_e = M_t⁻¹ M_e (right order)
 /// or M_e M_t⁻¹ (left order), l_e = log δ_e after the sign fix; l_e = 0 without a neighbour.
+///
+/// **Departure, stated:** for a missing neighbour (a boundary edge, a UV seam, a degenerate
+/// neighbour) the seed takes the identity, M_e = M_t, so δ_e = I; this code writes l_e = 0
+/// directly. The two are the same map, since log I = 0 and exp 0 = I, so the blend is
+/// unchanged and f = M_t on that edge (the seed's boundary property); writing 0 skips a fit and
+/// a log whose f32 rounding would make l_e only close to 0.
 #[allow(clippy::needless_range_loop)] // e names the edge in every per-edge array
 pub fn triangle_maps(star: &Star, options: BpmOptions) -> TriangleMaps {
     let uv = [star.w[0], star.w[1], star.w[2]];

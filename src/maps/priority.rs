@@ -47,6 +47,13 @@ pub fn tangent_frame(n: &Vector3<f64>) -> [Vector3<f64>; 2] {
 /// the ring vertices by least squares; the shape operator is [[2A, B], [B, 2C]] with eigenvalues
 /// κ₁,₂ = (A + C) ± √((A − C)² + B²). Returns 0 when the normal or the 3×3 normal equations are
 /// degenerate (fewer than three independent directions), so no NaN reaches the priority.
+///
+/// **Departure, stated:** the seed writes κ(i) = κ₁ + κ₂ (twice the mean curvature). Taken
+/// literally that sum is 0 at a saddle, however sharp, and negative in a concave region, so a
+/// vertex at the crease of a saddle would look flat and be removed first; the priority needs a
+/// magnitude that is large wherever the surface bends, which the seed's "conservative curvature
+/// estimate" intends. |κ₁| + |κ₂| equals the seed's κ₁ + κ₂ wherever both are ≥ 0 (convex
+/// regions) and bounds |κ₁ + κ₂| everywhere.
 pub fn curvature(centre: &Point3<f64>, ring: &[Point3<f64>], normal: &Vector3<f64>) -> f64 {
     let len = normal.norm();
     if len.is_nan() || len <= 0.0 || ring.len() < 3 {
