@@ -1,7 +1,9 @@
 //! Properties of the `unwarp_lookup` kernel on lavapipe (or any adapter), from plain f32 inputs:
 //! a lookup at a texel centre returns that texel's offset added with v flipped, the same point
-//! a thousand tiles away gives the same coordinate, the trilinear weight blends two levels, a
-//! bake of zero offsets is the texture, and a chain that does not fit its offsets is refused.
+//! a thousand (or 2²⁰) tiles away gives the same coordinate, the trilinear weight blends two
+//! levels, the level boundaries (λ = 1, λ past the coarsest, the nearest level's ½) choose the
+//! levels the rules give, wrapping and clamping at the border, a bake of zero offsets is the
+//! texture, and malformed chains and colour textures are refused.
 //! Skipped (printing `skipped: no GPU adapter`) without an adapter unless REPARAM_REQUIRE_GPU=1.
 
 use reparam_gpu::unwarp::{LookupQuery, OffsetChain, UnwarpLookupKernel};
@@ -85,4 +87,86 @@ fn a_bake_of_zero_offsets_is_the_texture_and_a_chain_past_its_offsets_is_refused
         panic!("a level past the offsets was accepted");
     };
     assert!(message.contains("level 1"), "{message}");
+}
+
+/// Level boundaries: λ = 1 exactly is level 1 with weight 0 (trilinear), λ beyond the coarsest
+/// level clamps to it, and the nearest level switches at λ = ½ (0.4 → level 0, 0.6 → level 1).
+#[test]
+fn level_boundaries_select_the_levels_the_rules_give() {
+    let Some(gpu) = gpu_or_skip() else { return };
+    let centre = [0.625, 0.625];
+    let level0 = [centre[0] + 2.0 / 64.0, centre[1] - 1.0 / 64.0];
+    let level1 = [centre[0] + 1.0 / 32.0, centre[1] - 1.0 / 32.0];
+    let linear = UnwarpLookupKernel::new(&gpu, &chain(true)).unwrap();
+    let out = linear
+        .lookup(&gpu, &[query(centre, 2.0), query(centre, 64.0)])
+        .unwrap();
+    assert_eq!(out[0], level1, "λ = 1: level 1 alone");
+    assert_eq!(out[1], centre, "λ = 6 clamps to level 2 (offset 0)");
+    let nearest = UnwarpLookupKernel::new(
+        &gpu,
+        &OffsetChain {
+            mipmap_linear: false,
+            ..chain(true)
+        },
+    )
+    .unwrap();
+    let out = nearest
+        .lookup(
+            &gpu,
+            &[query(centre, 2f32.powf(0.4)), query(centre, 2f32.powf(0.6))],
+        )
+        .unwrap();
+    assert_eq!(out, vec![level0, level1]);
+}
+
+/// Wrapping: u = 1 lies half-way between the last column and the first; a fixed border
+/// clamps to the edge texel and does not re-centre; a query 2²⁰ tiles away (exact in f32)
+/// gives the first tile's coordinate.
+#[test]
+fn wrap_clamp_and_far_tiles() {
+    let Some(gpu) = gpu_or_skip() else { return };
+    let periodic = UnwarpLookupKernel::new(&gpu, &chain(true)).unwrap();
+    let far = 1_048_576.0;
+    let out = periodic
+        .lookup(
+            &gpu,
+            &[
+                query([1.0, 0.625], 0.0),
+                query([far + 0.625, 0.625 - far], 0.0),
+            ],
+        )
+        .unwrap();
+    assert_eq!(out[0], [3.0 / 128.0, 0.625 - 1.0 / 64.0]);
+    assert_eq!(out[1], [0.625 + 2.0 / 64.0, 0.625 - 1.0 / 64.0]);
+    let fixed = UnwarpLookupKernel::new(&gpu, &chain(false)).unwrap();
+    let out = fixed.lookup(&gpu, &[query([5.0, -2.0], 0.0)]).unwrap();
+    // ξ = 19.5, η = 11.5: the corner texel (3, 3), offset (3, 3)/64.
+    assert_eq!(out[0], [5.0 + 3.0 / 64.0, -2.0 - 3.0 / 64.0]);
+}
+
+#[test]
+fn an_empty_chain_and_a_colour_of_the_wrong_size_are_refused() {
+    let Some(gpu) = gpu_or_skip() else { return };
+    let empty = OffsetChain {
+        levels: vec![],
+        ..chain(true)
+    };
+    let Err(GpuError::Input(message)) = UnwarpLookupKernel::new(&gpu, &empty) else {
+        panic!("an empty chain was accepted");
+    };
+    assert!(message.contains("no level"), "{message}");
+    let zero_size = OffsetChain {
+        levels: vec![[0, 4, 0]],
+        ..chain(true)
+    };
+    assert!(matches!(
+        UnwarpLookupKernel::new(&gpu, &zero_size),
+        Err(GpuError::Input(_))
+    ));
+    let kernel = UnwarpLookupKernel::new(&gpu, &chain(true)).unwrap();
+    let Err(GpuError::Input(message)) = kernel.bake(&gpu, &[0; 5], 2, 2) else {
+        panic!("5 texels for a 2×2 texture were accepted");
+    };
+    assert!(message.contains("2×2"), "{message}");
 }

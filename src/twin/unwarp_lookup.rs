@@ -124,11 +124,7 @@ pub fn texel_pair<R: Real>(t: R, n: u32, periodic: bool) -> (u32, u32, R) {
     let i = f.value() as i64;
     let n = i64::from(n);
     if periodic {
-        return (
-            i.rem_euclid(n) as u32,
-            (i + 1).rem_euclid(n) as u32,
-            t - f,
-        );
+        return (i.rem_euclid(n) as u32, (i + 1).rem_euclid(n) as u32, t - f);
     }
     let last = n - 1;
     let frac = if i < 0 || i >= last {

@@ -335,7 +335,10 @@ mod tests {
     fn a_level_sampled_at_a_texel_centre_is_that_texel_and_wraps_or_clamps_past_the_edge() {
         let l = level(4, 2, |x, y| [x as f64, 10.0 * y as f64]);
         let centre = texel_centre_uv(2, 1, 4, 2);
-        assert_eq!(sample_chain_level(&l, Border::Periodic, centre), [2.0, 10.0]);
+        assert_eq!(
+            sample_chain_level(&l, Border::Periodic, centre),
+            [2.0, 10.0]
+        );
         // Re-centring: the same point 1000 tiles away.
         let far = [centre[0] + 1000.0, centre[1] - 1000.0];
         assert_eq!(sample_chain_level(&l, Border::Periodic, far), [2.0, 10.0]);
@@ -343,16 +346,15 @@ mod tests {
         let edge = [1.0, centre[1]];
         assert_eq!(sample_chain_level(&l, Border::Periodic, edge), [1.5, 10.0]);
         assert_eq!(sample_chain_level(&l, Border::Fixed, edge), [3.0, 10.0]);
-        assert_eq!(sample_chain_level(&l, Border::Fixed, [-3.0, 7.0]), [0.0, 0.0]);
+        assert_eq!(
+            sample_chain_level(&l, Border::Fixed, [-3.0, 7.0]),
+            [0.0, 0.0]
+        );
     }
 
     #[test]
     fn the_lookup_adds_the_offset_with_v_flipped_and_the_bake_of_zero_offsets_is_the_texture() {
-        let chain = super::super::output::offset_mip_chain(
-            4,
-            4,
-            &vec![[0.01, 0.02]; 16],
-        );
+        let chain = super::super::output::offset_mip_chain(4, 4, &vec![[0.01, 0.02]; 16]);
         let q = Query {
             uv: [3.25, 0.5],
             footprint: Footprint {
@@ -361,7 +363,10 @@ mod tests {
             },
         };
         let c = lookup_coordinate(&chain, Border::Periodic, MipmapFilter::Linear, &q);
-        assert!((c[0] - 0.26).abs() < 1e-15 && (c[1] - 0.48).abs() < 1e-15, "{c:?}");
+        assert!(
+            (c[0] - 0.26).abs() < 1e-15 && (c[1] - 0.48).abs() < 1e-15,
+            "{c:?}"
+        );
         let texture = crate::texture::uv_grid_texture(16);
         let zero = level(4, 4, |_, _| [0.0; 2]);
         for (x, y) in [(0, 0), (5, 9), (15, 15)] {
