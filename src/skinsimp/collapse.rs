@@ -41,6 +41,10 @@
 //! their data a few tries ahead, in steps (vertex data, then face lists, then faces, then
 //! the faces' vertices: `State::prefetch_vertices` and the following).
 //! None of this changes a bit of the greedy result (a test pins the records' hash).
+//!
+//! What the loop starts from (clean faces, locked vertices, special edges, the per-pose vertex
+//! quadrics `Q_i^j`, the start weights) is built in [`super::setup`], one function each; the
+//! order of one pass of [`Schedule::Passes`] is `super::pass_order`.
 
 use std::borrow::Cow;
 
@@ -49,16 +53,20 @@ use rayon::prelude::*;
 
 use super::cost::{
     place_at_endpoint, place_endpoint_weights, place_frames, place_full_cost, place_rest,
-    reduce_weights, rest_position, rest_value, Candidates, EdgeProblem,
+    rest_position, rest_value, EdgeProblem,
 };
 use super::hierarchy::{CollapseRecord, Hierarchy};
 use super::lists::{prefetch, Lists};
-use super::quadric::{edge_constraint, unit_normal, Quadric};
+use super::pass_order::PassOrder;
+use super::quadric::Quadric;
 use super::queue::{Entry, Queue};
-use super::weights::{largest_support, Weights, MAX_CANDIDATES};
+use super::setup::{
+    clean_faces, locked_vertices, sorted_edge_records, special_edges, start_weights,
+    vertex_face_lists, vertex_quadrics,
+};
+use super::weights::Weights;
 use super::{Deformation, Input, Method, Options, Schedule};
 use crate::error::Result;
-use crate::mesh::EDGE_CORNERS;
 
 /// Simplify `input` with `options`: the full collapse hierarchy (down to
 /// `options.target_vertices`, or as far as the validity checks allow).
@@ -153,7 +161,7 @@ fn passes(state: &mut State, target: usize, progress: &mut (dyn FnMut(usize, usi
         state.scored_edges(reuse.as_ref(), &mut scored);
         changed.fill(false);
         let goal = state.alive_count - target;
-        let stop = order.start(&scored.blocks, goal);
+        let stop = order.start(scored.blocks.iter().map(|b| &b.entries[..]), goal);
         // The least a pass does before its cost bound applies (so that the passes do not
         // dwindle to one collapse each near the target).
         let least = (goal / 10).max(wanted / 100);
@@ -306,144 +314,11 @@ impl Reuse<'_> {
     }
 }
 
-/// The order of one pass of [`passes`]: the edges by `(cost, a, b)`, sorted in parts: those
-/// up to the pass's stopping cost when the pass starts, then, only if the pass goes on past
-/// them, the next smallest keys in parts of growing size ([`PassOrder::sort_next_part`]).
-///
-/// An edge's key is its cost's [`f64::total_cmp`] rank ([`cost_rank`]) and its ends
-/// ([`edge_key`]): the keys order the edges by `(cost, a, b)` in a plain sort of `u128`s, with
-/// no comparison closure, and hold all a pass needs of an edge (its cost comes back from its
-/// rank, [`rank_cost`]), so that the pass does not look up the entries at random.
-#[derive(Default)]
-struct PassOrder {
-    /// `cost rank << 64 | a << 32 | b`, sorted up to `sorted`.
-    keys: Vec<u128>,
-    /// Keys before this are sorted; the others all come after them.
-    sorted: usize,
-    /// The position of the next key to hand out.
-    at: usize,
-}
-
-impl PassOrder {
-    /// Start a pass over the entries of `blocks` wanting `goal` collapses: its stopping cost,
-    /// `1.5 ×` the cost of the `goal`-th cheapest entry (the last if fewer; ∞ if none), with
-    /// the keys up to it sorted.
-    fn start(&mut self, blocks: &[ScoredBlock], goal: usize) -> f64 {
-        self.keys.clear();
-        for block in blocks {
-            self.keys.extend(block.entries.iter().map(edge_key));
-        }
-        (self.at, self.sorted) = (0, 0);
-        if self.keys.is_empty() {
-            return f64::INFINITY;
-        }
-        let k = goal.min(self.keys.len() - 1);
-        self.keys.select_nth_unstable(k);
-        let stop = 1.5 * key_edge(self.keys[k]).0;
-        let bound = u128::from(cost_rank(stop)) << 64 | u128::from(u64::MAX);
-        // Those above the k-th whose cost ranks at most `stop`'s join the first part.
-        let mut head = k + 1;
-        for i in k + 1..self.keys.len() {
-            if self.keys[i] <= bound {
-                self.keys.swap(head, i);
-                head += 1;
-            }
-        }
-        self.keys[..head].sort_unstable();
-        self.sorted = head;
-        stop
-    }
-}
-
-impl PassOrder {
-    /// The fewest keys [`PassOrder::sort_next_part`] sorts at once.
-    const MIN_PART: usize = 1024;
-
-    /// The edge `(a, b)` `d ≥ 1` places after the last one handed out, if already sorted (only
-    /// a hint of what comes: for [`passes`] to prefetch).
-    fn ahead(&self, d: usize) -> Option<(usize, usize)> {
-        let i = self.at + d - 1;
-        (i < self.sorted).then(|| {
-            let (_, a, b) = key_edge(self.keys[i]);
-            (a, b)
-        })
-    }
-
-    /// Sort the next part of the keys: the smallest `max(MIN_PART, sorted)` of those not
-    /// sorted yet (all of them if fewer), picked by a selection, O(n), and sorted alone. A
-    /// pass that goes on past its first part usually stops soon after (at the first edge of
-    /// infinite cost, or once it has done its least), so sorting every remaining key — many of
-    /// them of infinite cost — would be wasted; the parts double, so a pass that does go on
-    /// costs about a sort all the same. Keys are distinct (no two edges share `(a, b)`), so
-    /// the order is exactly a full sort's.
-    fn sort_next_part(&mut self) {
-        let rest = &mut self.keys[self.sorted..];
-        let part = self.sorted.max(Self::MIN_PART);
-        if part < rest.len() {
-            rest.select_nth_unstable(part);
-            rest[..part].sort_unstable();
-            self.sorted += part;
-        } else {
-            rest.sort_unstable();
-            self.sorted = self.keys.len();
-        }
-    }
-}
-
-impl Iterator for PassOrder {
-    type Item = (f64, usize, usize);
-
-    /// The next edge `(cost, a, b)` in that order.
-    fn next(&mut self) -> Option<(f64, usize, usize)> {
-        if self.at == self.keys.len() {
-            return None;
-        }
-        if self.at == self.sorted {
-            self.sort_next_part();
-        }
-        self.at += 1;
-        Some(key_edge(self.keys[self.at - 1]))
-    }
-}
-
-/// The [`PassOrder`] key of `entry`.
-fn edge_key(entry: &Entry) -> u128 {
-    u128::from(cost_rank(entry.cost)) << 64 | u128::from(entry.a) << 32 | u128::from(entry.b)
-}
-
-/// The edge `(cost, a, b)` of a [`PassOrder`] key.
-fn key_edge(key: u128) -> (f64, usize, usize) {
-    let cost = rank_cost((key >> 64) as u64);
-    (cost, (key >> 32) as u32 as usize, key as u32 as usize)
-}
-
-/// `x`'s rank in [`f64::total_cmp`]'s order as an unsigned integer: the bits with the sign
-/// bit set for positive numbers, all bits flipped for negative ones.
-fn cost_rank(x: f64) -> u64 {
-    let bits = x.to_bits();
-    if bits >> 63 == 1 {
-        !bits
-    } else {
-        bits | 1 << 63
-    }
-}
-
-/// The number of rank `rank` ([`cost_rank`]'s inverse, bit for bit).
-fn rank_cost(rank: u64) -> f64 {
-    f64::from_bits(if rank >> 63 == 1 {
-        rank & !(1 << 63)
-    } else {
-        !rank
-    })
-}
-
 /// Joint matrices per pose, `[pose][joint]`.
 type PoseMats = Vec<Vec<Matrix4<f64>>>;
 /// Vertex positions per pose, `[pose][vertex]`, borrowed (not copied: each set is a few MB
 /// per million triangles).
 type PosePoints<'p> = Vec<&'p [Point3<f64>]>;
-/// Faces, UV faces and UVs.
-type CleanFaces = (Vec<[u32; 3]>, Vec<[u32; 3]>, Vec<Point2<f64>>);
 
 /// A candidate with the UV mode it was computed for (boxed: most entries have none, and
 /// `Option<Box<_>>` keeps those small).
@@ -1452,246 +1327,4 @@ impl<'a> State<'a> {
             ..self.start
         }
     }
-}
-
-/// Faces without repeated vertices, and UVs split so that each UV index belongs to one vertex
-/// (a UV shared by two positions gets one copy per position), so that remapping a UV index
-/// touches one vertex only.
-fn clean_faces(mesh: &crate::mesh::TriMesh) -> CleanFaces {
-    let keep: Vec<usize> = (0..mesh.faces.len())
-        .filter(|&f| {
-            let [x, y, z] = mesh.faces[f];
-            x != y && y != z && z != x
-        })
-        .collect();
-    let faces: Vec<[u32; 3]> = keep.iter().map(|&f| mesh.faces[f]).collect();
-    if !mesh.has_uvs() {
-        return (faces, Vec::new(), Vec::new());
-    }
-    // The copies of each vertex's UVs as a chain: `first[v]` its first copy, `next[c]` the
-    // copy after `c`, `source[c]` the input UV of copy `c` (a vertex has few copies).
-    const END: u32 = u32::MAX;
-    let mut first = vec![END; mesh.positions.len()];
-    let (mut next, mut source): (Vec<u32>, Vec<u32>) = (Vec::new(), Vec::new());
-    let mut uvs = Vec::new();
-    let mut uv_faces = Vec::with_capacity(faces.len());
-    for &f in &keep {
-        let t = [0, 1, 2].map(|k| {
-            let (v, uv) = (mesh.faces[f][k] as usize, mesh.uv_faces[f][k]);
-            let mut link = &mut first[v];
-            while *link != END {
-                let c = *link as usize;
-                if source[c] == uv {
-                    return c as u32;
-                }
-                link = &mut next[c];
-            }
-            *link = uvs.len() as u32;
-            uvs.push(mesh.uvs[uv as usize]);
-            source.push(uv);
-            next.push(END);
-            (uvs.len() - 1) as u32
-        });
-        uv_faces.push(t);
-    }
-    (faces, uv_faces, uvs)
-}
-
-/// The faces of every vertex, in face order.
-fn vertex_face_lists(faces: &[[u32; 3]], n: usize) -> Lists {
-    Lists::from_pairs(n, || {
-        faces
-            .iter()
-            .enumerate()
-            .flat_map(|(f, t)| t.map(|v| (v, f as u32)))
-    })
-}
-
-/// One side of an edge: its ends `lo ≤ hi` and where it lies, `3 f + e` (local edge `e` of
-/// face `f`, [`EDGE_CORNERS`]).
-type EdgeRecord = (u32, u32, u32);
-
-/// The records of every local edge of `faces` (vertices `< n`), sorted: the records of one
-/// edge are contiguous and in face order. A counting sort on `lo`, then each vertex's few
-/// records sorted: O(F).
-fn sorted_edge_records(faces: &[[u32; 3]], n: usize) -> Vec<EdgeRecord> {
-    let record = |flat: usize| -> EdgeRecord {
-        let (t, [i, j]) = (faces[flat / 3], EDGE_CORNERS[flat % 3]);
-        (t[i].min(t[j]), t[i].max(t[j]), flat as u32)
-    };
-    let sides = 3 * faces.len();
-    // start[v]..start[v + 1]: the records with lo = v.
-    let mut start = vec![0usize; n + 1];
-    for flat in 0..sides {
-        start[record(flat).0 as usize + 1] += 1;
-    }
-    for v in 0..n {
-        start[v + 1] += start[v];
-    }
-    let mut records = vec![(0, 0, 0); sides];
-    let mut cursor = start.clone();
-    for flat in 0..sides {
-        let r = record(flat);
-        records[cursor[r.0 as usize]] = r;
-        cursor[r.0 as usize] += 1;
-    }
-    for v in 0..n {
-        records[start[v]..start[v + 1]].sort_unstable();
-    }
-    records
-}
-
-/// The groups of `records` ([`sorted_edge_records`]) that are one edge each.
-fn edge_groups(records: &[EdgeRecord]) -> impl Iterator<Item = &[EdgeRecord]> {
-    records.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1))
-}
-
-/// Vertex `k` (0: start, 1: end) of the local edge `flat = 3 f + e` of `faces`.
-fn edge_end(faces: &[[u32; 3]], flat: u32, k: usize) -> u32 {
-    faces[flat as usize / 3][EDGE_CORNERS[flat as usize % 3][k]]
-}
-
-/// Vertices on a non-manifold edge (three or more faces) or a misoriented one (two faces
-/// running it in the same direction) of `faces`, as [`crate::mesh::Adjacency`] classifies
-/// them: never moved. `records` from [`sorted_edge_records`].
-fn locked_vertices(faces: &[[u32; 3]], records: &[EdgeRecord], n: usize) -> Vec<bool> {
-    let mut locked = vec![false; n];
-    for group in edge_groups(records) {
-        let lock = match group {
-            [_] => false,
-            [r, s] => edge_end(faces, r.2, 0) != edge_end(faces, s.2, 1),
-            _ => true,
-        };
-        if lock {
-            locked[group[0].0 as usize] = true;
-            locked[group[0].1 as usize] = true;
-        }
-    }
-    locked
-}
-
-/// `Q_i^j = Σ_{f∋i} K_f^j` plus the constraint planes of the `special` (boundary and UV-seam)
-/// edges, for every vertex `i` and pose `j` of `positions` (`[pose][vertex]`); layout
-/// `i * P + j`. Summed face by face in face order (deterministic).
-fn vertex_quadrics(
-    faces: &[[u32; 3]],
-    special: &[[bool; 3]],
-    positions: &[&[Point3<f64>]],
-    boundary_weight: f64,
-) -> Vec<Quadric> {
-    let mut per_pose: Vec<Vec<Quadric>> = positions
-        .par_iter()
-        .map(|pos| pose_quadrics(faces, special, pos, boundary_weight))
-        .collect();
-    if let [only] = &mut per_pose[..] {
-        return std::mem::take(only);
-    }
-    let (p, n) = (
-        positions.len(),
-        positions.first().map_or(0, |set| set.len()),
-    );
-    let mut out = vec![Quadric::default(); n * p];
-    for (j, q) in per_pose.into_iter().enumerate() {
-        for (i, x) in q.into_iter().enumerate() {
-            out[i * p + j] = x;
-        }
-    }
-    out
-}
-
-/// The quadrics of [`vertex_quadrics`] in one pose, vertex positions `pos`.
-fn pose_quadrics(
-    faces: &[[u32; 3]],
-    special: &[[bool; 3]],
-    pos: &[Point3<f64>],
-    boundary_weight: f64,
-) -> Vec<Quadric> {
-    let mut q = vec![Quadric::default(); pos.len()];
-    for (t, special) in faces.iter().zip(special) {
-        let [x, y, z] = t.map(|v| pos[v as usize]);
-        let k = Quadric::from_triangle(&x, &y, &z);
-        for &v in t {
-            q[v as usize].add_assign(&k);
-        }
-        if !special.contains(&true) {
-            continue;
-        }
-        let normal = unit_normal(&x, &y, &z);
-        for (&[i, j], _) in EDGE_CORNERS.iter().zip(special).filter(|e| *e.1) {
-            let (vi, vj) = (t[i] as usize, t[j] as usize);
-            let c = edge_constraint(&pos[vi], &pos[vj], &normal, boundary_weight);
-            q[vi].add_assign(&c);
-            q[vj].add_assign(&c);
-        }
-    }
-    q
-}
-
-/// `special[f][e]`: local edge `e` of face `f` is a boundary (no other face) or a UV seam (the
-/// other face has different UVs at its ends). `records` from [`sorted_edge_records`].
-fn special_edges(
-    faces: &[[u32; 3]],
-    uv_faces: &[[u32; 3]],
-    records: &[EdgeRecord],
-) -> Vec<[bool; 3]> {
-    let mut special = vec![[false; 3]; faces.len()];
-    let uv_at = |flat: u32, v: u32| -> Option<u32> {
-        let f = flat as usize / 3;
-        let k = faces[f].iter().position(|&x| x == v)?;
-        uv_faces.get(f).map(|t| t[k])
-    };
-    let mut mark = |flat: u32| special[flat as usize / 3][flat as usize % 3] = true;
-    for group in edge_groups(records) {
-        match group {
-            [r] => mark(r.2),
-            [r, s] if !uv_faces.is_empty() => {
-                let (lo, hi) = (r.0, r.1);
-                if uv_at(r.2, lo) != uv_at(s.2, lo) || uv_at(r.2, hi) != uv_at(s.2, hi) {
-                    mark(r.2);
-                    mark(s.2);
-                }
-            }
-            _ => {}
-        }
-    }
-    special
-}
-
-/// The input weights as [`Weights`]; a vertex with more than `W_max` influences is reduced as
-/// in the seed's weight reduction, at its own rest position with its own training quadrics:
-/// keep the `W_max` largest (of at most [`MAX_CANDIDATES`]), re-solve the weight QP on them.
-fn start_weights(
-    influences: &[Vec<(u32, f64)>],
-    joints: &[Vec<Matrix4<f64>>],
-    rest: &[Point3<f64>],
-    quadrics: &[Quadric],
-    poses: usize,
-    options: &Options,
-) -> Vec<Weights> {
-    let w_max = options.cost.max_weights;
-    influences
-        .par_iter()
-        .enumerate()
-        .map(|(i, list)| {
-            if list.len() <= w_max {
-                return Weights::from_pairs(list);
-            }
-            let mut sorted = list.clone();
-            sorted.sort_by(|x, y| y.1.total_cmp(&x.1).then(x.0.cmp(&y.0)));
-            sorted.truncate(MAX_CANDIDATES);
-            let total: f64 = sorted.iter().map(|p| p.1).sum();
-            let cand = Candidates {
-                joints: sorted.iter().map(|p| p.0).collect(),
-                mats: joints
-                    .iter()
-                    .flat_map(|pose| sorted.iter().map(|p| pose[p.0 as usize]))
-                    .collect(),
-            };
-            let alpha: Vec<f64> = sorted.iter().map(|p| p.1 / total).collect();
-            let keep = largest_support(&alpha, w_max);
-            let q = &quadrics[i * poses..(i + 1) * poses];
-            let reduced = reduce_weights(q, &cand, &rest[i], &alpha, &alpha, &keep, &options.cost);
-            cand.weights(&reduced)
-        })
-        .collect()
 }

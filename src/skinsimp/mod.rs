@@ -9,10 +9,12 @@ pub mod glb;
 pub mod gpu;
 pub mod hierarchy;
 mod lists;
+mod pass_order;
 pub mod picture;
 pub mod poses;
 pub mod quadric;
 mod queue;
+pub mod setup;
 pub mod tube;
 pub mod weights;
 
