@@ -10,6 +10,9 @@
 //! and 1, negative and 2²⁰ tiles away, at footprints whose λ lies on, just below and just above
 //! every level boundary (integers, and halves for the nearest level), past the coarsest.
 
+// `!(e <= b)` is meant: a NaN error counts as over its bound.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use reparam::crosscheck::unwarp_lookup_bound::lookup_bounds;
 use reparam::twin::real::floor;
 use reparam::twin::unwarp_lookup::{
