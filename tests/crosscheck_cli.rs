@@ -95,6 +95,7 @@ fn every_subcommand_passes_on_built_in_data() {
         "bpm_render",
         "gridwarp_aa",
         "unwarp_pass",
+        "unwarp_lookup",
         "maps_priority",
         "maps_flatten",
         "maps_inverse",

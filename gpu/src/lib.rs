@@ -9,7 +9,8 @@
 //! - [`bpm`]: Blended Piecewise Möbius Maps: [`bpm::bpm_precompute`], [`bpm::bpm_eval`],
 //!   [`bpm::bpm_render`], one WGSL file each in `shaders/`, plus `shaders/bpm_common.wgsl`.
 //! - [`unwarp`]: distortion-free displacement mapping, one descent pass:
-//!   [`unwarp::UnwarpPassKernel`], `shaders/unwarp_pass.wgsl`.
+//!   [`unwarp::UnwarpPassKernel`], `shaders/unwarp_pass.wgsl`; applying the correction:
+//!   [`unwarp::UnwarpLookupKernel`], `shaders/unwarp_lookup.wgsl`.
 //! - [`maps`]: MAPS priority terms, batched z^a flattening of 1-rings and Π⁻¹:
 //!   [`maps::PriorityKernel`], [`maps::FlattenKernel`], [`maps::InverseKernel`].
 //! - [`skinsimp`]: skinned-mesh simplification: LBS, per-pose quadrics, batched collapse costs

@@ -97,3 +97,8 @@ pub mod timing;
 pub mod unwarp;
 /// The `unwarp_pass` step bound, derived from the f32 search's reachable outcomes.
 pub mod unwarp_bound;
+/// The `unwarp_lookup` rows: the GPU's lookup coordinates against the reference.
+#[cfg(feature = "gpu")]
+pub mod unwarp_lookup;
+/// The `unwarp_lookup` per-query bound and its undecided queries (nearest level at a boundary).
+pub mod unwarp_lookup_bound;

@@ -321,7 +321,8 @@ pub fn pass_comparison_row(
 }
 
 /// The full unwarp table for one height map: the pass kernel ([`pass_row`]), whole runs of
-/// min(sweeps, 10) sweeps, and the computations without a GPU kernel.
+/// min(sweeps, 10) sweeps, the lookup through the offsets' mip chain
+/// ([`super::unwarp_lookup::lookup_rows`]), and the computations without a GPU kernel.
 pub fn crosscheck_unwarp(
     gpu: &Gpu,
     input: &str,
@@ -342,6 +343,9 @@ pub fn crosscheck_unwarp(
         heights,
         &run_options,
         premise_violations,
+    )?);
+    rows.extend(super::unwarp_lookup::lookup_rows(
+        gpu, input, heights, options,
     )?);
     rows.push(Row::missing(
         "unwarp",

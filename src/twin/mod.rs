@@ -34,6 +34,7 @@
 //! | [`skinsimp_lbs`] | `skinsimp_lbs.wgsl` | [`crate::mesh::skin::skin_positions`] |
 //! | [`skinsimp_quadrics`] | `skinsimp_quadrics.wgsl` | `skinsimp::quadric` (`Quadric::from_plane`, …) |
 //! | [`skinsimp_collapse_cost`] | `skinsimp_collapse_cost.wgsl` | [`crate::skinsimp::gpu::position_given_weights_f64`] |
+//! | [`unwarp_lookup`] | `unwarp_lookup.wgsl` | [`crate::unwarp::apply::lookup_coordinate`], [`crate::unwarp::apply::bake_colour`] |
 //! | [`unwarp_pass`] | `unwarp_pass.wgsl` | [`crate::unwarp::pass::descend_texel`] |
 //!
 //! [`candidate`] runs a twin over its kernel's conformance-vector inputs (what `verify` judges).
@@ -56,6 +57,7 @@ pub mod real;
 pub mod skinsimp_collapse_cost;
 pub mod skinsimp_lbs;
 pub mod skinsimp_quadrics;
+pub mod unwarp_lookup;
 pub mod unwarp_pass;
 
 pub use ball::Ball;

@@ -1,5 +1,6 @@
 #![doc = include_str!("README.md")]
 
+pub mod apply;
 pub mod coarse_move;
 pub mod energy;
 pub mod fixation;

@@ -15,6 +15,7 @@ use crate::mesh::TriMesh;
 use crate::raster::{rasterize, shade, Camera};
 use crate::texture::{sample_bilinear, save_exr_rg, Image, Rgba8};
 
+use super::apply::{bake_colour, to_rgba8};
 use super::mesh::{Border, UnwarpMesh};
 
 /// (Δu, Δv) = (o.x, −o.y): a solver offset in the OBJ convention.
@@ -82,60 +83,29 @@ pub fn offset_mip_chain(width: usize, height: usize, offsets: &[[f64; 2]]) -> Ve
 }
 
 /// The solver offset at texture coordinate `uv` (OBJ convention), bilinear between texel
-/// centres: wrapping (periodic) or clamped (fixed border).
+/// centres: wrapping (periodic) or clamped (fixed border); [`super::apply::sample_level`] on
+/// the level-0 map.
 pub fn sample_offset(mesh: &UnwarpMesh, offsets: &[[f64; 2]], uv: [f64; 2]) -> [f64; 2] {
-    let (w, h) = (mesh.width, mesh.height);
-    let xi = uv[0] * w as f64 - 0.5;
-    let eta = (1.0 - uv[1]) * h as f64 - 0.5;
-    let wrap = mesh.border == Border::Periodic;
-    let index = |t: f64, n: usize| -> (usize, usize, f64) {
-        let f = t.floor();
-        let i = f as i64;
-        if wrap {
-            let n = n as i64;
-            (
-                i.rem_euclid(n) as usize,
-                (i + 1).rem_euclid(n) as usize,
-                t - f,
-            )
-        } else {
-            let last = n as i64 - 1;
-            let frac = if i < 0 || i >= last { 0.0 } else { t - f };
-            (
-                i.clamp(0, last) as usize,
-                (i + 1).clamp(0, last) as usize,
-                frac,
-            )
-        }
-    };
-    let (x0, x1, fx) = index(xi, w);
-    let (y0, y1, fy) = index(eta, h);
-    let at = |x: usize, y: usize| offsets[y * w + x];
-    [0, 1].map(|c| {
-        let top = at(x0, y0)[c] * (1.0 - fx) + at(x1, y0)[c] * fx;
-        let bottom = at(x0, y1)[c] * (1.0 - fx) + at(x1, y1)[c] * fx;
-        top * (1.0 - fy) + bottom * fy
-    })
+    super::apply::sample_level(mesh.width, mesh.height, offsets, mesh.border, uv)
 }
 
 /// The backward-compatible variant: the pre-warped colour texture C'(u) = C(u + c(u)), c the
-/// offset map sampled at u ([`sample_offset`]), same size as `color`. Rendering C' with the
+/// offset map sampled at u ([`sample_offset`]), same size as `color`
+/// ([`super::apply::bake_colour`] per texel, rounded to 8 bits). Rendering C' with the
 /// original UVs shows what the modified renderer shows with C (bijective maps only).
 pub fn bake_prewarped(
     color: &Image<Rgba8>,
     mesh: &UnwarpMesh,
     offsets: &[[f64; 2]],
 ) -> Image<Rgba8> {
-    let (wc, hc) = (color.width as f64, color.height as f64);
+    let level = OffsetLevel {
+        width: mesh.width,
+        height: mesh.height,
+        offsets: offsets.to_vec(),
+    };
     Image::from_fn(color.width, color.height, |px, py| {
-        let uv = [(px as f64 + 0.5) / wc, 1.0 - (py as f64 + 0.5) / hc];
-        let c = offset_to_uv(sample_offset(mesh, offsets, uv));
-        to_rgba8(sample_bilinear(color, [uv[0] + c[0], uv[1] + c[1]]))
+        to_rgba8(bake_colour(color, &level, mesh.border, px, py))
     })
-}
-
-fn to_rgba8(c: [f64; 4]) -> Rgba8 {
-    c.map(|v| v.round().clamp(0.0, 255.0) as u8)
 }
 
 /// The displaced surface as a triangle mesh, one vertex per node at (X.x, 1 − X.y, s·h) (image
