@@ -305,7 +305,7 @@ fn array_of(
     if let Some(w) = element.iter().find(|w| w.kind != want) {
         return Err(format!("{found}, whose element has {}", describe(w)));
     }
-    if element.is_empty() || total % element.len() != 0 {
+    if element.is_empty() || !total.is_multiple_of(element.len()) {
         return Err(format!(
             "{found}, whose element of {} words does not tile the {total} values",
             element.len()
