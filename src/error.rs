@@ -126,6 +126,11 @@ pub enum Error {
     /// manifest or array, `reason` what is wrong and what was expected.
     #[error("{file}: {reason}")]
     Vectors { file: String, reason: String },
+
+    /// A user's shader (`verify --shader`) that does not parse or validate: naga's message,
+    /// at `file:line:column`.
+    #[error("{0}")]
+    Shader(String),
     /// A figure in a command's `--json` output is NaN or infinite (serde_json would write it as
     /// `null`): `field` is its path in the output, e.g. `results[0].training.rms_mean`. Raised
     /// instead of printing, so a figure that cannot be computed is never a `null` with exit 0.

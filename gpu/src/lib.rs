@@ -15,6 +15,8 @@
 //!   [`maps::PriorityKernel`], [`maps::FlattenKernel`], [`maps::InverseKernel`].
 //! - [`skinsimp`]: skinned-mesh simplification: LBS, per-pose quadrics, batched collapse costs
 //!   ([`skinsimp::LbsKernel`], [`skinsimp::QuadricKernel`], [`skinsimp::CollapseCostKernel`]).
+//! - [`user_shader`]: a user's own WGSL, GLSL or SPIR-V compute shader, parsed, reflected and
+//!   dispatched under a watchdog with guarded output buffers (`reparam verify --shader`).
 //! - [`gpu_or_skip`]: what tests call to get a context or skip.
 //!
 //! WGSL has no includes: shared WGSL lives in its own file and the host concatenates sources.
@@ -31,6 +33,7 @@ pub mod gridwarp;
 pub mod maps;
 pub mod skinsimp;
 pub mod unwarp;
+pub mod user_shader;
 
 use std::sync::OnceLock;
 

@@ -85,6 +85,8 @@ mod demo;
 mod gridwarp;
 mod inputs;
 mod maps;
+#[cfg(feature = "gpu")]
+mod shader;
 mod skinsimp;
 mod unwarp;
 #[cfg(feature = "gpu")]

@@ -286,8 +286,14 @@ pub struct VerifyArgs {
     /// The vectors folder (with manifest.json).
     pub dir: PathBuf,
     /// The candidate's output (.npy, f32 or f64, the expected shape).
+    #[arg(long, required_unless_present_any = ["shader", "print_abi"], conflicts_with = "shader")]
+    pub candidate: Option<PathBuf>,
+    /// Run this compute shader (.wgsl, .comp/.glsl GLSL 450, .spv SPIR-V) on the vectors'
+    /// inputs, bound by the kernel's ABI (`--print-abi`), and judge its output.
     #[arg(long)]
-    pub candidate: PathBuf,
+    pub shader: Option<PathBuf>,
+    #[command(flatten)]
+    pub shader_options: super::shader::ShaderOptions,
     /// The kernel (default: the only one, or the candidate's file stem).
     #[arg(long)]
     pub kernel: Option<String>,
@@ -300,7 +306,17 @@ pub struct VerifyArgs {
 /// status 2).
 pub fn try_verify(args: &VerifyArgs) -> Result<bool> {
     use crate::report::sig;
-    let r = crate::vectors::verify::verify(&args.dir, &args.candidate, args.kernel.as_deref())?;
+    let candidate = match (&args.shader, &args.candidate) {
+        (Some(shader), _) => return super::shader::verify_shader(args, shader),
+        (None, _) if args.shader_options.print_abi => return super::shader::print_abi(args),
+        (None, Some(c)) => c,
+        (None, None) => {
+            return Err(Error::InvalidArgument(
+                "verify needs --candidate OUT.npy or --shader FILE".into(),
+            ))
+        }
+    };
+    let r = crate::vectors::verify::verify(&args.dir, candidate, args.kernel.as_deref())?;
     if args.json {
         super::print_json(&r)?;
     } else {
@@ -320,7 +336,7 @@ pub fn try_verify(args: &VerifyArgs) -> Result<bool> {
 }
 
 /// The verify report as text: the summary table, the bound's formula and the worst elements.
-fn print_verify(r: &crate::vectors::verify::VerifyReport) {
+pub(super) fn print_verify(r: &crate::vectors::verify::VerifyReport) {
     use crate::report::sig;
     let e = &r.errors;
     outln!(

@@ -18,6 +18,7 @@ pub mod bpm;
 pub mod gridwarp;
 pub mod maps;
 pub mod npy;
+pub mod shader_abi;
 pub mod skinsimp;
 pub mod unwarp;
 pub mod verify;

@@ -58,7 +58,7 @@ pub struct VerifyReport {
 
 /// The kernel of `manifest` a candidate is for: `--kernel NAME`, else the only one, else the one
 /// named by the candidate's file stem.
-fn choose<'a>(
+pub fn choose<'a>(
     kernels: &'a [KernelVectors],
     name: Option<&str>,
     candidate: &Path,
