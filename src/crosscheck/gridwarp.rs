@@ -362,13 +362,26 @@ pub fn solve_bounds(
     let e = energy_bound(&mg.r, &mg.m, kl);
     let b = DVector::from_vec(gradient_bound(&mg, kl));
     let a = cpu.normal_equations(x_star).jtj;
+    solve_tolerances(e, &b, &a, energy)
+}
+
+/// The formula of [`solve_bounds`], shared with the non-axis-aligned solves
+/// ([`super::gridwarp_naa::naa_solve_bounds`]): from the energy bound e, the gradient bound b
+/// and A = JᵀJ at the CPU minimum (F = `energy`), (2e + ½ bᵀ|A⁻¹|b + 1e-12 F,
+/// ‖|A⁻¹| b‖∞ + √(4e / λ_min(A))); `None` when A is singular.
+pub fn solve_tolerances(
+    e: f64,
+    b: &DVector<f64>,
+    a: &DMatrix<f64>,
+    energy: f64,
+) -> Option<(f64, f64)> {
     let a_inv_abs = a.clone().try_inverse()?.abs();
-    let lambda_min = a.symmetric_eigenvalues().min();
+    let lambda_min = a.clone().symmetric_eigenvalues().min();
     if !(lambda_min > 0.0) {
         return None;
     }
-    let e_tol = 2.0 * e + 0.5 * b.dot(&(&a_inv_abs * &b)) + 1e-12 * energy;
-    let x_tol = (&a_inv_abs * &b).amax() + (4.0 * e / lambda_min).sqrt();
+    let e_tol = 2.0 * e + 0.5 * b.dot(&(&a_inv_abs * b)) + 1e-12 * energy;
+    let x_tol = (&a_inv_abs * b).amax() + (4.0 * e / lambda_min).sqrt();
     Some((e_tol, x_tol))
 }
 
