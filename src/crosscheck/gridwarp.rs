@@ -519,8 +519,8 @@ pub fn solve_rows(
     ])
 }
 
-/// The full gridwarp table for one input: the kernel at the last (most deformed) frame, whole
-/// solves, and the computations without a GPU kernel.
+/// The axis-aligned gridwarp table for one input: the kernel at the last (most deformed) frame
+/// and whole solves (the non-axis-aligned table: [`super::gridwarp_naa::crosscheck_gridwarp_naa`]).
 pub fn crosscheck_gridwarp(
     gpu: &Gpu,
     input: &str,
@@ -547,11 +547,5 @@ pub fn crosscheck_gridwarp(
         options.samples_per_cell(),
     )?;
     rows.extend(solve_rows(gpu, input, rest, rest_grid, frames, options)?);
-    rows.push(Row::missing(
-        "gridwarp",
-        "non-axis-aligned energy (seed §8)",
-        input,
-        "the NAA objective runs on the CPU only; there is no WGSL kernel for it",
-    ));
     Ok(rows)
 }

@@ -68,6 +68,7 @@ use crate::twin::gridwarp_naa::{
     RestCell, VectorField as TwinField,
 };
 use crate::twin::{Real, V2};
+use reparam_gpu::gridwarp::NaaCellContribution as GpuCellContribution;
 
 /// The bound of an element f32 cannot decide (JSON has no ∞): counted in the rows' notes.
 pub const UNBOUNDED: f64 = f64::MAX;
@@ -720,13 +721,35 @@ pub fn naa_kernel_rows(
     let mut gpu_energy =
         GpuNaaEnergy::new(gpu, &r.rest, &r.rest_grid, &r.deformed, kl, sliding_border)?;
     let (cells, gpu_times) = time_gpu_warm(gpu, || gpu_energy.cells(&e.x))?;
-    let measured = assemble(&cells, e.x.len());
     let residuals = reparam_gpu::gridwarp::naa_residuals(gpu, gpu_energy.input())
         .map_err(|e| Error::Gpu(e.to_string()))?;
     let timing = Timing {
         cpu_ms: Some(cpu_ms),
         ..gpu_times
     };
+    Ok(naa_judged_rows(&e, input, &cells, &residuals, timing))
+}
+
+/// The kernel input of the evaluation `e`: the buffers the GPU receives (and the twin reads,
+/// [`super::gridwarp_naa_twin::twin_outputs`]).
+pub fn evaluation_input(e: &NaaEvaluation) -> Result<reparam_gpu::gridwarp::NaaInput> {
+    let r = &e.rounded;
+    crate::gridwarp::gpu_naa::naa_input(&r.rest, &r.rest_grid, &r.deformed, e.kl, &e.vertices())
+}
+
+/// The five kernel rows of measured outputs (the GPU's, or the twin's under a model) at the
+/// evaluation `e`: per-sample `residuals` (the `gridwarp_naa_residuals` entry, samples in the
+/// kernel's order) and per-cell `cells` (the `gridwarp_naa_cell` entry, added in f64 here as
+/// the host adds them), each element against its bound ([`NaaEvaluation`]).
+pub fn naa_judged_rows(
+    e: &NaaEvaluation,
+    input: &str,
+    cells: &[GpuCellContribution],
+    residuals: &[[f32; 2]],
+    timing: Timing,
+) -> Vec<Row> {
+    let kl = e.kl;
+    let measured = assemble(cells, e.x.len());
     let undecided = e.balls.undecided_samples();
     let point_note = format!(
         "{} cells × {} samples, vertices moved off the rest grid{}",
@@ -737,7 +760,6 @@ pub fn naa_kernel_rows(
             n => format!(" ({n} samples' texels undecided at the best of {CANDIDATES} points)"),
         }
     );
-
     let bounds = e.residual_bounds();
     let (mut r_err, mut r_bound) = (Vec::new(), Vec::new());
     for ((g, reference), b) in residuals.iter().zip(&e.reference.residuals).zip(&bounds) {
@@ -838,7 +860,7 @@ pub fn naa_kernel_rows(
         "(Σ_cells radius + |Σ v − ref| + cells·2⁻⁵² Σ|v|) / max|Jᵀr|",
     )
     .with_note(undecided_note(&jtr_bound, "entries").trim_start_matches("; "));
-    Ok(vec![residual_row, cells_row, energy_row, jtj_row, jtr_row])
+    vec![residual_row, cells_row, energy_row, jtj_row, jtr_row]
 }
 
 /// F's excess and the unknowns' distance that an f32 objective may leave at the CPU minimum x*
@@ -954,4 +976,40 @@ pub fn naa_solve_rows(
         )
         .with_note(&note),
     ])
+}
+
+/// The non-axis-aligned gridwarp table for one input: the kernel at the last (most deformed)
+/// frame ([`naa_kernel_rows`]) and whole Gauss–Newton solves ([`naa_solve_rows`]), with the
+/// rest vertices' border mode `sliding_border`.
+pub fn crosscheck_gridwarp_naa(
+    gpu: &Gpu,
+    input: &str,
+    rest: &RestFields,
+    rest_grid: &Grid,
+    frames: &[DeformedJacobian],
+    options: &SolveOptions,
+    sliding_border: bool,
+) -> Result<Vec<Row>> {
+    let last = frames
+        .last()
+        .ok_or_else(|| Error::InvalidArgument(format!("{input}: no frame to cross-check")))?;
+    let start = VertexGrid::from_grid(rest_grid).with_sliding_border(sliding_border);
+    if start.unknowns() == 0 {
+        return Err(Error::InvalidArgument(format!(
+            "{input}: the starting vertex grid has no free coordinate, so there is nothing to \
+             evaluate; give a rigidity map or --grid MxN"
+        )));
+    }
+    let kl = options.samples_per_cell();
+    let mut rows = naa_kernel_rows(gpu, input, rest, rest_grid, last, kl, sliding_border)?;
+    rows.extend(naa_solve_rows(
+        gpu,
+        input,
+        rest,
+        rest_grid,
+        frames,
+        options,
+        sliding_border,
+    )?);
+    Ok(rows)
 }

@@ -77,6 +77,8 @@ pub mod gridwarp;
 #[cfg(feature = "gpu")]
 pub mod gridwarp_naa;
 #[cfg(feature = "gpu")]
+pub mod gridwarp_naa_twin;
+#[cfg(feature = "gpu")]
 pub mod maps;
 #[cfg(feature = "gpu")]
 pub mod maps_bound;
