@@ -1,8 +1,9 @@
 //! gridwarp's non-axis-aligned objective (seed 000 §8; §7 and Table 1's ObjFunc column for the
 //! `nonaa-` rows): the `gridwarp_naa_cell` kernel (f32) against the f64 energy at one vertex
 //! grid, and whole LM solves with the GPU objective against CPU solves. The bounds are derived
-//! here once and used by `reparam crosscheck gridwarp`, `tests/gpu_gridwarp_naa.rs`, the twin
-//! tests and the conformance manifest (`src/vectors/gridwarp_naa.rs`).
+//! here once and used by `reparam crosscheck gridwarp --variant naa`, `tests/gpu_gridwarp_naa.rs`
+//! and the twin tests (`tests/twin_gridwarp_naa.rs`, through [`super::gridwarp_naa_twin`] and
+//! [`naa_judged_rows`], the same rows for the twin as for the GPU).
 //!
 //! # The bound: the twin over [`Ball`]
 //! A hand count of roundings, as [`super::gridwarp`] does for the axis-aligned kernel, does not
@@ -20,7 +21,7 @@
 //!
 //! v the ball's centre (the twin's formula in f64), ref the f64 reference (`PlainNaaEnergy`'s
 //! residuals, `NaaEnergy`'s F, JᵀJ and Jᵀr): the second term is the formulations' departure,
-//! evaluated, not assumed; it is f64 rounding only (`tests/gpu_gridwarp_naa.rs` checks that it
+//! evaluated, not assumed; it is f64 rounding only (`tests/twin_gridwarp_naa.rs` checks that it
 //! stays below 10⁻³ of the radius, so a twin that left the formula would be seen). Cell
 //! energies, F, JᵀJ and Jᵀr add the cells' f32 blocks in f64 on the host: their bound is the
 //! sum of the cells' radii, the departure, and the host's f64 sum (cells · 2⁻⁵² Σ|terms|).
