@@ -42,8 +42,8 @@
 //!   ∞: the cell's JᵀJ and Jᵀr entries are undecided ([`UNBOUNDED`]) and counted.
 //!
 //! # Whole solves
-//! As [`super::gridwarp::solve_bounds`], at the CPU's minimum x*: F's excess ≤ 2e + ½ bᵀ|A⁻¹|b
-//! + 1e-12 F and the vertices within ‖|A⁻¹| b‖∞ + √(4e/λ_min(A)) ([`solve_tolerances`]), with
+//! As [`super::gridwarp::solve_bounds`], at the CPU's minimum x*: F's excess is at most
+//! 2e + ½ bᵀ|A⁻¹|b + 1e-12 F and the vertices within ‖|A⁻¹| b‖∞ + √(4e/λ_min(A)) ([`solve_tolerances`]), with
 //! e, b the bounds above at x* (A = JᵀJ there). x* is not f32 and not chosen: its samples'
 //! texels are not decided one by one (values are continuous across texel boundaries, the balls
 //! widen them by the whole fraction; the gradient counted is the f64 patch's), and how many
@@ -261,7 +261,7 @@ pub struct CellBall {
 impl CellBall {
     /// Whether every element this cell reaches has a bound (`texels`: the texel choice counts).
     pub fn decided(&self, texels: bool) -> bool {
-        !self.unbounded && !(texels && self.undecided_texels > 0)
+        !self.unbounded && (!texels || self.undecided_texels == 0)
     }
 }
 
