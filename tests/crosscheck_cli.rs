@@ -27,7 +27,16 @@ fn row<'a>(rows: &'a [Value], kernel: &str) -> &'a Value {
 
 /// One subcommand on built-in data: exit 0, every row judged passes, the adapter named.
 fn passes(algorithm: &str) -> Vec<Value> {
-    let (code, stdout, stderr) = reparam(&["crosscheck", algorithm, "--json"]);
+    passes_args(&[algorithm])
+}
+
+/// [`passes`] with the subcommand's arguments.
+fn passes_args(args: &[&str]) -> Vec<Value> {
+    let algorithm = args[0];
+    let mut all = vec!["crosscheck"];
+    all.extend_from_slice(args);
+    all.push("--json");
+    let (code, stdout, stderr) = reparam(&all);
     assert_eq!(code, 0, "{algorithm}: {stderr}\n{stdout}");
     let v: Value = serde_json::from_str(&stdout).unwrap();
     assert!(v["adapters"][0]["adapter"].as_str().unwrap().len() > 3);
@@ -62,10 +71,19 @@ fn every_subcommand_passes_on_built_in_data() {
     );
     let gridwarp = passes("gridwarp");
     assert_eq!(row(&gridwarp, "gridwarp_aa: JᵀJ")["verdict"], "pass");
-    assert_eq!(
-        row(&gridwarp, "non-axis-aligned energy (seed §8)")["verdict"],
-        "missing"
-    );
+    let naa = passes_args(&[
+        "gridwarp",
+        "--variant",
+        "naa",
+        "--size",
+        "64",
+        "--frames",
+        "2",
+    ]);
+    for r in &naa {
+        assert_eq!(r["verdict"], "pass", "{r}");
+    }
+    assert_eq!(row(&naa, "gridwarp_naa: JᵀJ")["verdict"], "pass");
     let unwarp = passes("unwarp");
     assert_eq!(
         row(&unwarp, "coarse moves (hat-weighted block steps)")["verdict"],
@@ -82,7 +100,7 @@ fn every_subcommand_passes_on_built_in_data() {
         "pass"
     );
     // Every kernel of reparam-gpu has a row.
-    let all: Vec<String> = [&bpm, &gridwarp, &unwarp, &maps, &skinsimp]
+    let all: Vec<String> = [&bpm, &gridwarp, &naa, &unwarp, &maps, &skinsimp]
         .iter()
         .flat_map(|rows| {
             rows.iter()
@@ -94,6 +112,7 @@ fn every_subcommand_passes_on_built_in_data() {
         "bpm_eval",
         "bpm_render",
         "gridwarp_aa",
+        "gridwarp_naa",
         "unwarp_pass",
         "unwarp_lookup",
         "maps_priority",

@@ -1,5 +1,6 @@
 // gridwarp_aa_cell: one invocation per grid cell, the cell's share of the axis-aligned energy
-// and of its normal equations. Prepended by the host: dispatch.wgsl.
+// and of its normal equations. Prepended by the host: dispatch.wgsl, gridwarp_field.wgsl (the
+// bilinear lookup `axis`, `bilinear_formula`).
 //
 // Twin of the plain f64 path src/gridwarp/plain/aa.rs (`PlainAaEnergy`, the formula sample by
 // sample) and src/gridwarp/field.rs (`Field::bilinear`, here `field_bilinear`), name for name:
@@ -83,63 +84,28 @@ struct AaParams {
 @group(0) @binding(4) var<storage, read> fields: array<f32>;
 @group(0) @binding(5) var<storage, read_write> cells: array<CellContribution>;
 
-// A bilinear sample and its gradient (∂/∂s, ∂/∂t): `Sample` of field.rs.
-struct FieldSample {
-    value: f32,
-    ds: f32,
-    dt: f32,
-}
-
-// `axis` of field.rs: (lower texel centre index, fraction, du/ds = n or 0 where clamped).
-// `!(u > 0)` also sends NaN to the first texel, as the reference does.
-struct Axis {
-    x0: u32,
-    frac: f32,
-    grad: f32,
-}
-
-fn axis(s: f32, n: u32) -> Axis {
-    let u = s * f32(n) - 0.5;
-    if n == 1u || !(u > 0.0) {
-        return Axis(0u, 0.0, 0.0);
-    }
-    if u >= f32(n - 1u) {
-        return Axis(n - 1u, 0.0, 0.0);
-    }
-    let x0 = floor(u);
-    return Axis(u32(x0), u - x0, f32(n));
-}
-
 fn field_at(offset: u32, width: u32, x: u32, y: u32) -> f32 {
     return fields[offset + y * width + x];
 }
 
 // `Field::bilinear`: interpolation between texel centres, clamped to the edge texels, with its
-// gradient (0 along an axis where the sample is clamped). The field is `fields[offset ..]`,
+// gradient (0 along an axis where the sample is clamped): `axis` and `bilinear_formula` of
+// gridwarp_field.wgsl on the four texels around (s, t). The field is `fields[offset ..]`,
 // width × height, row-major, row 0 at t = 0.
 fn field_bilinear(offset: u32, width: u32, height: u32, s: f32, t: f32) -> FieldSample {
     let ax = axis(s, width);
     let ay = axis(t, height);
-    let x0 = ax.x0;
-    let y0 = ay.x0;
-    let alpha = ax.frac;
-    let beta = ay.frac;
-    let x1 = min(x0 + 1u, width - 1u);
-    let y1 = min(y0 + 1u, height - 1u);
-    let f00 = field_at(offset, width, x0, y0);
-    let f10 = field_at(offset, width, x1, y0);
-    let f01 = field_at(offset, width, x0, y1);
-    let f11 = field_at(offset, width, x1, y1);
-    // `bilinear_formula`: along s on the two texel rows, then along t between them.
-    let along_0 = f10 - f00;
-    let along_1 = f11 - f01;
-    let f0 = f00 + alpha * along_0;
-    let f1 = f01 + alpha * along_1;
-    let across = f1 - f0;
-    return FieldSample(
-        f0 + beta * across,
-        ax.grad * (along_0 + beta * (along_1 - along_0)),
-        ay.grad * across,
+    let x1 = min(ax.x0 + 1u, width - 1u);
+    let y1 = min(ay.x0 + 1u, height - 1u);
+    return bilinear_formula(
+        ax.frac,
+        ax.grad,
+        ay.frac,
+        ay.grad,
+        field_at(offset, width, ax.x0, ay.x0),
+        field_at(offset, width, x1, ay.x0),
+        field_at(offset, width, ax.x0, y1),
+        field_at(offset, width, x1, y1),
     );
 }
 

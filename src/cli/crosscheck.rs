@@ -372,6 +372,9 @@ pub fn rows_for(
                 },
             )?;
             rows.extend(gridwarp_rows(gpu, &default_gridwarp_args()?)?);
+            let mut naa = default_gridwarp_args()?;
+            naa.variant = super::gridwarp::Variant::Naa;
+            rows.extend(gridwarp_rows(gpu, &naa)?);
             rows.extend(unwarp_rows(gpu, &default_unwarp_args()?)?);
             rows.extend(maps_rows(gpu, &default_maps_input())?);
             rows.extend(skinsimp_rows(gpu, &default_skinsimp_input())?);
@@ -424,17 +427,24 @@ fn gridwarp_rows(
     args: &GridwarpArgs,
 ) -> Result<Vec<crate::crosscheck::Row>> {
     use crate::crosscheck::gridwarp::crosscheck_gridwarp;
+    use crate::crosscheck::gridwarp_naa::crosscheck_gridwarp_naa;
     let options = super::gridwarp::solve_options(args);
     let mut rows = Vec::new();
     for w in super::gridwarp::warp_inputs(args)? {
-        rows.extend(crosscheck_gridwarp(
-            gpu,
-            &w.name,
-            &w.rest,
-            &w.rest_grid,
-            &w.frames,
-            &options,
-        )?);
+        rows.extend(match args.variant {
+            super::gridwarp::Variant::Aa => {
+                crosscheck_gridwarp(gpu, &w.name, &w.rest, &w.rest_grid, &w.frames, &options)?
+            }
+            super::gridwarp::Variant::Naa => crosscheck_gridwarp_naa(
+                gpu,
+                &w.name,
+                &w.rest,
+                &w.rest_grid,
+                &w.jacobians,
+                &options,
+                args.sliding_border,
+            )?,
+        });
     }
     Ok(rows)
 }

@@ -304,14 +304,7 @@ pub fn solve_scene(args: &GridwarpArgs) -> Result<GridwarpResult> {
     let scene = analytic_scene(&args.scene, args.frames)
         .ok_or_else(|| Error::InvalidArgument(format!("unknown scene '{}'", args.scene)))?;
     let fields = scene.fields(args.size);
-    let jacobians = match args.variant {
-        Variant::Aa => Vec::new(),
-        Variant::Naa => scene
-            .frames
-            .iter()
-            .map(|x| DeformedJacobian::from_partials(args.size, |s, t| partials_of(&**x, s, t)))
-            .collect(),
-    };
+    let jacobians = scene_jacobians(args, &scene);
     let rest_grid = starting_grid(args, &scene.rigidity)?;
     let roi = solve_roi(
         args,
@@ -578,6 +571,20 @@ pub struct WarpInput {
     pub rest: RestFields,
     pub rest_grid: Grid,
     pub frames: Vec<DeformedFields>,
+    /// The frames' D_s, D_t for the non-axis-aligned variant (empty for `--variant aa`).
+    pub jacobians: Vec<DeformedJacobian>,
+}
+
+/// The scene's frames as D_s, D_t for `--variant naa` (empty for `--variant aa`).
+fn scene_jacobians(args: &GridwarpArgs, scene: &AnalyticScene) -> Vec<DeformedJacobian> {
+    match args.variant {
+        Variant::Aa => Vec::new(),
+        Variant::Naa => scene
+            .frames
+            .iter()
+            .map(|x| DeformedJacobian::from_partials(args.size, |s, t| partials_of(&**x, s, t)))
+            .collect(),
+    }
 }
 
 /// The problems `args` describes, without solving them (what `crosscheck gridwarp` compares):
@@ -594,6 +601,7 @@ pub fn warp_inputs(args: &GridwarpArgs) -> Result<Vec<WarpInput>> {
             rest_grid: starting_grid(args, &scene.rigidity)?,
             rest: fields.rest,
             frames: fields.frames,
+            jacobians: scene_jacobians(args, &scene),
         }]);
     }
     let rois = parse_rois(args)?;
@@ -612,6 +620,10 @@ pub fn warp_inputs(args: &GridwarpArgs) -> Result<Vec<WarpInput>> {
             rest_grid: starting_grid(args, &rigidity)?,
             rest: fields.rest_fields(rigidity),
             frames: fields.frames,
+            jacobians: match args.variant {
+                Variant::Aa => Vec::new(),
+                Variant::Naa => fields.jacobians,
+            },
         });
     }
     Ok(inputs)

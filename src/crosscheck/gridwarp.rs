@@ -362,13 +362,26 @@ pub fn solve_bounds(
     let e = energy_bound(&mg.r, &mg.m, kl);
     let b = DVector::from_vec(gradient_bound(&mg, kl));
     let a = cpu.normal_equations(x_star).jtj;
+    solve_tolerances(e, &b, &a, energy)
+}
+
+/// The formula of [`solve_bounds`], shared with the non-axis-aligned solves
+/// ([`super::gridwarp_naa::naa_solve_bounds`]): from the energy bound e, the gradient bound b
+/// and A = JᵀJ at the CPU minimum (F = `energy`), (2e + ½ bᵀ|A⁻¹|b + 1e-12 F,
+/// ‖|A⁻¹| b‖∞ + √(4e / λ_min(A))); `None` when A is singular.
+pub fn solve_tolerances(
+    e: f64,
+    b: &DVector<f64>,
+    a: &DMatrix<f64>,
+    energy: f64,
+) -> Option<(f64, f64)> {
     let a_inv_abs = a.clone().try_inverse()?.abs();
-    let lambda_min = a.symmetric_eigenvalues().min();
+    let lambda_min = a.clone().symmetric_eigenvalues().min();
     if !(lambda_min > 0.0) {
         return None;
     }
-    let e_tol = 2.0 * e + 0.5 * b.dot(&(&a_inv_abs * &b)) + 1e-12 * energy;
-    let x_tol = (&a_inv_abs * &b).amax() + (4.0 * e / lambda_min).sqrt();
+    let e_tol = 2.0 * e + 0.5 * b.dot(&(&a_inv_abs * b)) + 1e-12 * energy;
+    let x_tol = (&a_inv_abs * b).amax() + (4.0 * e / lambda_min).sqrt();
     Some((e_tol, x_tol))
 }
 
@@ -506,8 +519,8 @@ pub fn solve_rows(
     ])
 }
 
-/// The full gridwarp table for one input: the kernel at the last (most deformed) frame, whole
-/// solves, and the computations without a GPU kernel.
+/// The axis-aligned gridwarp table for one input: the kernel at the last (most deformed) frame
+/// and whole solves (the non-axis-aligned table: [`super::gridwarp_naa::crosscheck_gridwarp_naa`]).
 pub fn crosscheck_gridwarp(
     gpu: &Gpu,
     input: &str,
@@ -534,11 +547,5 @@ pub fn crosscheck_gridwarp(
         options.samples_per_cell(),
     )?;
     rows.extend(solve_rows(gpu, input, rest, rest_grid, frames, options)?);
-    rows.push(Row::missing(
-        "gridwarp",
-        "non-axis-aligned energy (seed §8)",
-        input,
-        "the NAA objective runs on the CPU only; there is no WGSL kernel for it",
-    ));
     Ok(rows)
 }

@@ -75,6 +75,10 @@ pub use row::{Bounds, Row, Timing, Verdict};
 #[cfg(feature = "gpu")]
 pub mod gridwarp;
 #[cfg(feature = "gpu")]
+pub mod gridwarp_naa;
+#[cfg(feature = "gpu")]
+pub mod gridwarp_naa_twin;
+#[cfg(feature = "gpu")]
 pub mod maps;
 #[cfg(feature = "gpu")]
 pub mod maps_bound;

@@ -1,5 +1,6 @@
 //! Twin of `gpu/shaders/gridwarp_aa.wgsl` (and of the residuals `gridwarp_aa_residuals.wgsl`
-//! shares), function for function: the axis-aligned energy's residuals r^s = σ(c_s a − o_s),
+//! shares, and of the bilinear lookup of `gridwarp_field.wgsl`, which `gridwarp_naa.wgsl`
+//! shares too: [`axis`], [`bilinear_formula`]), function for function: the axis-aligned energy's residuals r^s = σ(c_s a − o_s),
 //! r^t = σ(c_t b − o_t) of one sample (seed 000 §5.1), the stretches c sampled bilinearly
 //! from the fields ‖D_s‖, ‖D_t‖ at the warped point, their derivatives with respect to the
 //! cell's four lines, and each cell's share of F, Jᵀr and JᵀJ (the host adds the cells in f64).
@@ -57,24 +58,38 @@ pub struct FieldSample<R> {
     pub dt: R,
 }
 
-/// `field_bilinear`: along s on the two texel rows, then along t between them, with the
-/// gradient (0 along an axis where the lookup is clamped).
-pub fn field_bilinear_sample<R: Real>(f: &Field<R>, s: R, t: R) -> FieldSample<R> {
-    let ax = axis(s, f.width);
-    let ay = axis(t, f.height);
-    let x1 = (ax.x0 + 1).min(f.width - 1);
-    let y1 = (ay.x0 + 1).min(f.height - 1);
-    let at = |x: usize, y: usize| f.values[y * f.width + x];
-    let along_0 = at(x1, ay.x0) - at(ax.x0, ay.x0);
-    let along_1 = at(x1, y1) - at(ax.x0, y1);
-    let f0 = at(ax.x0, ay.x0) + ax.frac * along_0;
-    let f1 = at(ax.x0, y1) + ax.frac * along_1;
+/// `bilinear_formula` (gridwarp_field.wgsl): the four texels [f00, f10, f01, f11] around a
+/// point at the axes `ax`, `ay`, along s on the two texel rows, then along t between them,
+/// with the gradient (0 along an axis where the lookup is clamped).
+pub fn bilinear_formula<R: Real>(
+    ax: &Axis<R>,
+    ay: &Axis<R>,
+    [f00, f10, f01, f11]: [R; 4],
+) -> FieldSample<R> {
+    let along_0 = f10 - f00;
+    let along_1 = f11 - f01;
+    let f0 = f00 + ax.frac * along_0;
+    let f1 = f01 + ax.frac * along_1;
     let across = f1 - f0;
     FieldSample {
         value: f0 + ay.frac * across,
         ds: ax.grad * (along_0 + ay.frac * (along_1 - along_0)),
         dt: ay.grad * across,
     }
+}
+
+/// `field_bilinear`: [`bilinear_formula`] on the four texels of `f` around (s, t).
+pub fn field_bilinear_sample<R: Real>(f: &Field<R>, s: R, t: R) -> FieldSample<R> {
+    let ax = axis(s, f.width);
+    let ay = axis(t, f.height);
+    let x1 = (ax.x0 + 1).min(f.width - 1);
+    let y1 = (ay.x0 + 1).min(f.height - 1);
+    let at = |x: usize, y: usize| f.values[y * f.width + x];
+    bilinear_formula(
+        &ax,
+        &ay,
+        [at(ax.x0, ay.x0), at(x1, ay.x0), at(ax.x0, y1), at(x1, y1)],
+    )
 }
 
 /// `field_bilinear`'s value.

@@ -13,13 +13,14 @@
 
 use bytemuck::{Pod, Zeroable};
 
+use super::FIELD_WGSL;
 use crate::compute::{ComputeKernel, DISPATCH_WGSL};
 use crate::{Gpu, GpuError};
 
-/// The kernel's own WGSL (after `dispatch.wgsl`).
+/// The kernel's own WGSL (after `dispatch.wgsl` and [`FIELD_WGSL`]).
 pub const WGSL: &str = include_str!("../../shaders/gridwarp_aa.wgsl");
 
-/// The per-sample residuals entry point (after `dispatch.wgsl` and [`WGSL`]).
+/// The per-sample residuals entry point (after `dispatch.wgsl`, [`FIELD_WGSL`] and [`WGSL`]).
 pub const RESIDUALS_WGSL: &str = include_str!("../../shaders/gridwarp_aa_residuals.wgsl");
 
 /// `unknown_index` entry of a fixed grid line (the boundary lines 0 and 1).
@@ -158,9 +159,9 @@ pub struct AaKernel {
 }
 
 impl AaKernel {
-    /// Compile the kernel (`dispatch.wgsl` + `gridwarp_aa.wgsl`).
+    /// Compile the kernel (`dispatch.wgsl` + `gridwarp_field.wgsl` + `gridwarp_aa.wgsl`).
     pub fn new(gpu: &Gpu) -> Result<AaKernel, GpuError> {
-        let source = [DISPATCH_WGSL, WGSL].join("\n");
+        let source = [DISPATCH_WGSL, FIELD_WGSL, WGSL].join("\n");
         Ok(AaKernel {
             kernel: gpu.compute_kernel("gridwarp_aa_cell", &source, "gridwarp_aa_cell")?,
         })
@@ -276,7 +277,7 @@ impl AaBinding {
 /// `gridwarp_aa_residuals` entry point, the same per-sample functions as `gridwarp_aa_cell`.
 pub fn aa_residuals(gpu: &Gpu, input: &AaInput) -> Result<Vec<[f32; 2]>, GpuError> {
     input.check()?;
-    let source = [DISPATCH_WGSL, WGSL, RESIDUALS_WGSL].join("\n");
+    let source = [DISPATCH_WGSL, FIELD_WGSL, WGSL, RESIDUALS_WGSL].join("\n");
     let label = "gridwarp_aa_residuals";
     let kernel = gpu.compute_kernel(label, &source, label)?;
     let binding = AaKernel { kernel }.bind(gpu, input)?;
