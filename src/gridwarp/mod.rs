@@ -6,6 +6,8 @@ pub mod energy_naa;
 pub mod field;
 #[cfg(feature = "gpu")]
 pub mod gpu;
+#[cfg(feature = "gpu")]
+pub mod gpu_lookup;
 pub mod grid;
 mod lanes;
 pub mod merit;

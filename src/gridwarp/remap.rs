@@ -47,7 +47,12 @@ pub fn piecewise_linear(from: &[f64], to: &[f64], x: f64) -> f64 {
 /// (the same index as a binary search over increasing lines).
 pub fn cell_of(lines: &[f64], x: f64) -> usize {
     let mut cell = 0;
-    for (k, &line) in lines.iter().enumerate().take(lines.len().saturating_sub(1)).skip(1) {
+    for (k, &line) in lines
+        .iter()
+        .enumerate()
+        .take(lines.len().saturating_sub(1))
+        .skip(1)
+    {
         if line <= x {
             cell = k;
         }
