@@ -24,10 +24,8 @@ use reparam::vectors::{read_manifest, write_vectors, Array, KernelVectors};
 /// The canonical vectors in a fresh temporary folder of the test `tag`, and their manifest
 /// entry.
 fn vectors(tag: &str) -> (PathBuf, KernelVectors) {
-    let dir = std::env::temp_dir().join(format!(
-        "reparam-twin-lookup-{tag}-{}",
-        std::process::id()
-    ));
+    let dir =
+        std::env::temp_dir().join(format!("reparam-twin-lookup-{tag}-{}", std::process::id()));
     let (kernels, _) = canonical_vectors(None).unwrap();
     write_vectors(&dir, "test", "canonical gridwarp_lookup atlas", &kernels).unwrap();
     let k = read_manifest(&dir).unwrap().kernels.remove(0);

@@ -8,7 +8,7 @@
 //! bilinear quadratic, a near-parallelogram cell, near-degenerate (25× compressed) cells, two
 //! ROIs far from the UV origin (a UDIM-like tile at u ≈ 100) that share an edge; the queries
 //! ([`canonical_queries`]) a pixel grid over each ROI and a pixel beyond, every warped vertex
-//! (cell corners) and the midpoint of every warped cell edge.
+//! (cell corners), the midpoint of every warped cell edge and every cell's centre.
 
 use super::{Array, KernelData, Metric, VectorsAndCandidates};
 use crate::crosscheck::gridwarp_lookup::{
@@ -68,7 +68,9 @@ pub fn canonical_atlas() -> Result<AtlasRemap> {
     let rest0 = grid(&[0.0, 0.25, 0.6, 1.0], &[0.0, 0.3, 0.7, 1.0])?;
     let warped0 = grid(&[0.0, 0.32, 0.5, 1.0], &[0.0, 0.2, 0.75, 1.0])?;
     // ROI 1: NAA, fixed border, blending off; cell (1, 1) a near-parallelogram (its four
-    // corners moved alike but for 1e-6), the others twisted one way or the other.
+    // corners moved alike but for 1e-6), the others twisted one way or the other; its border
+    // vertex (3, 1) moved in to s = 0.9, so that points near (1, 0.35) lie in no warped cell
+    // (the nearest cell's (α, β) is clamped: the `no_clamp` mutant).
     let rest1 = grid(&[0.0, 0.3, 0.65, 1.0], &[0.0, 0.35, 0.7, 1.0])?;
     let v1 = vertices(
         &rest1,
@@ -77,6 +79,7 @@ pub fn canonical_atlas() -> Result<AtlasRemap> {
             ((2, 1), [0.71, 0.38]),
             ((1, 2), [0.36, 0.73]),
             ((2, 2), [0.710001, 0.729999]),
+            ((3, 1), [0.9, 0.35]),
         ],
         false,
     );
@@ -102,12 +105,20 @@ pub fn canonical_atlas() -> Result<AtlasRemap> {
     // ROI 3: AA at u ≈ 100, blending off, its cell 1 compressed 25× (0.01 for 0.25).
     let rest3 = grid(&[0.0, 0.25, 0.5, 0.75, 1.0], &[0.0, 0.5, 1.0])?;
     let warped3 = grid(&[0.0, 0.3, 0.31, 0.75, 1.0], &[0.0, 0.4, 1.0])?;
-    // ROI 4: NAA at u ≈ 100 beside ROI 3 (sharing u = 100.5), blending on; column 1 thin and
-    // twisted.
+    // ROI 4: NAA at u ≈ 100 beside ROI 3 (sharing u = 100.5), blending on; column 1 twisted
+    // in row 0 (where the far root is taken) and thin in row 1 (0.0035–0.004 wide for a rest
+    // width of 0.35: about 90× compressed), so that a kernel solving in UV (u ≈ 100, ULP
+    // 2⁻¹⁷) instead of in re-centred ROI coordinates loses more than the bound allows (the
+    // `not_recentred` mutant).
     let rest4 = grid(&[0.0, 0.35, 0.7, 1.0], &[0.0, 0.5, 1.0])?;
     let v4 = vertices(
         &rest4,
-        &[((1, 1), [0.36, 0.52]), ((2, 1), [0.375, 0.47])],
+        &[
+            ((1, 1), [0.36, 0.52]),
+            ((2, 1), [0.3635, 0.47]),
+            ((1, 2), [0.36, 1.0]),
+            ((2, 2), [0.364, 1.0]),
+        ],
         false,
     );
     let remap = |rest: &Grid, warped: Warped, blend: bool| {
@@ -137,7 +148,8 @@ pub fn canonical_atlas() -> Result<AtlasRemap> {
     ])
 }
 
-/// The warped grid's vertices of ROI k and the midpoints of its cell edges, in ROI coordinates
+/// The warped grid's vertices of ROI k, the midpoints of its cell edges and its cells' centres
+/// (the mean of the four corners), in ROI coordinates
 /// (AA: the lines' crossings and the midpoints between them).
 fn grid_points(remap: &Remap) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
     let (m, n) = (remap.rest.s.len(), remap.rest.t.len());
@@ -155,6 +167,12 @@ fn grid_points(remap: &Remap) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
             }
             if b + 1 < n {
                 edges.push(mid(at(a, b), at(a, b + 1)));
+            }
+            if a + 1 < m && b + 1 < n {
+                edges.push(mid(
+                    mid(at(a, b), at(a + 1, b + 1)),
+                    mid(at(a + 1, b), at(a, b + 1)),
+                ));
             }
         }
     }
@@ -264,7 +282,7 @@ fn covers(
         format!("NAA near root C/q taken: {near}; far root q/A taken: {far}"),
         format!("in a near-parallelogram cell (|A| ≤ 1e-3 |e × f| at the point): {parallelogram}"),
         format!("in a near-degenerate cell (warped 20× or more narrower than at rest): {thin}"),
-        format!("on a warped vertex (cell corner): {corners}; on a warped cell edge's midpoint: {edges}"),
+        format!("on a warped vertex (cell corner): {corners}; on a warped cell edge's midpoint or a cell's centre: {edges}"),
         format!("on the edge two ROIs share (the first takes it): {shared}"),
         format!("large UV coordinates (|u| or |v| ≥ 100, a ROI far from the origin): {large}"),
         format!("undecided (f32 cannot decide: bound unbounded, not judged): {undecided}"),
