@@ -247,3 +247,35 @@ fn the_inputs_reach_every_branch() {
         .unwrap();
     assert!(near > 0, "{near_far}");
 }
+
+/// reparam's own kernel on the GPU (lavapipe in CI) on the canonical vectors: judged by the
+/// same per-query bounds, it passes; and the cross-check row on the canonical atlas (a 16²
+/// pixel grid per ROI) passes. Skipped without an adapter unless REPARAM_REQUIRE_GPU=1.
+#[test]
+fn the_gpu_kernel_passes_its_vectors_and_row() {
+    let Some(gpu) = reparam_gpu::gpu_or_skip() else {
+        return;
+    };
+    let dir = std::env::temp_dir().join(format!("reparam-twin-lookup-gpu-{}", std::process::id()));
+    let (kernels, candidates) = canonical_vectors(Some(&gpu)).unwrap();
+    write_vectors(&dir, "test", "canonical gridwarp_lookup atlas", &kernels).unwrap();
+    let k = read_manifest(&dir).unwrap().kernels.remove(0);
+    let r = verify_array(&dir, &k, &candidates[0].1, "gpu").unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    println!(
+        "GPU kernel on the canonical vectors: pass {} worst error/bound {:.3e}, {} over",
+        r.pass, r.worst_ratio, r.over
+    );
+    assert!(r.pass, "the GPU kernel fails its vectors: {r:?}");
+    let atlas = reparam::vectors::gridwarp_lookup::canonical_atlas().unwrap();
+    let row = reparam::crosscheck::gridwarp_lookup::lookup_row(
+        &gpu,
+        "canonical atlas",
+        "five ROIs, AA and NAA",
+        &atlas,
+        16,
+    )
+    .unwrap();
+    println!("{row:?}");
+    assert!(!row.fails(), "{row:?}");
+}
