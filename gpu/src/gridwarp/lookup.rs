@@ -85,7 +85,7 @@ impl LookupTables {
         }
         for (k, (r, g)) in self.rois.iter().zip(&self.grids).enumerate() {
             let finite = [r.u0, r.u1, r.v0, r.v1].iter().all(|x| x.is_finite());
-            if !finite || !(r.u1 > r.u0) || !(r.v1 > r.v0) {
+            if !finite || r.u1 <= r.u0 || r.v1 <= r.v0 {
                 return bad(format!(
                     "ROI {k}: u [{}, {}] × v [{}, {}] is not a rectangle of positive size",
                     r.u0, r.u1, r.v0, r.v1
