@@ -150,7 +150,7 @@ impl FlatTables {
     /// The GPU's tables again; [`Error::InvalidArgument`] unless there are 4 ROI values and 6
     /// grid values per ROI.
     pub fn to_gpu(&self) -> Result<LookupTables> {
-        if self.rois.len() % 4 != 0 || self.grids.len() != 6 * (self.rois.len() / 4) {
+        if !self.rois.len().is_multiple_of(4) || self.grids.len() != 6 * (self.rois.len() / 4) {
             return Err(Error::InvalidArgument(format!(
                 "gridwarp_lookup: {} ROI values and {} grid values; need 4 and 6 per ROI",
                 self.rois.len(),

@@ -24,7 +24,7 @@ pub fn candidate_with(dir: &Path, k: &KernelVectors, model: Model, body: Body) -
     flat.checked()
         .map_err(|e| super::invalid(k, e.to_string()))?;
     let queries = as_f32(&k.load_input(dir, "queries")?);
-    if queries.len() % 2 != 0 {
+    if !queries.len().is_multiple_of(2) {
         return Err(super::invalid(
             k,
             format!("{} query values, need 2 per query", queries.len()),
