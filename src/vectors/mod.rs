@@ -334,8 +334,7 @@ pub const ALGORITHMS: [&str; 5] = ["bpm", "gridwarp", "unwarp", "maps", "skinsim
 /// - bpm: the conformance mesh (`procedural:bpm_conformance`: a curved cone fan, a mirrored
 ///   one, a non-conformal grid with a zero-area UV island), 32 faces, 352 samples;
 /// - gridwarp: [`canonical_gridwarp_scene`] on 32² fields, lines s = (0, 0.2, 0.45, 0.7, 1),
-///   t = (0, 0.3, 0.55, 0.85, 1), 4 × 4 samples per cell; the lookup on
-///   [`gridwarp_lookup::canonical_atlas`] (five ROIs, AA and NAA, two at u ≈ 100);
+///   t = (0, 0.3, 0.55, 0.85, 1), 4 × 4 samples per cell;
 /// - unwarp: the cones height map at 16², s = 0.05, periodic;
 /// - maps: the 12 × 6 torus (144 triangles) to its coarsest base, Π⁻¹ at the uniform:2 points
 ///   (base vertices, points on the base edges and points inside the base faces); the ring
@@ -358,13 +357,9 @@ pub fn canonical(algorithm: &str) -> Result<(String, Vec<KernelData>)> {
                 samples: (4, 4),
                 ..Default::default()
             };
-            let (mut k, _) =
-                gridwarp::all_vectors(None, &scene.rest, &grid, &scene.frames, &options)?;
-            k.extend(gridwarp_lookup::canonical_vectors(None)?.0);
+            let (k, _) = gridwarp::all_vectors(None, &scene.rest, &grid, &scene.frames, &options)?;
             Ok((
-                "off-centre bump 32², 5 × 5 non-uniform lines, 4 × 4 samples; the lookup on a \
-                 five-ROI atlas (gridwarp_lookup::canonical_atlas)"
-                    .into(),
+                "off-centre bump 32², 5 × 5 non-uniform lines, 4 × 4 samples".into(),
                 k,
             ))
         }
