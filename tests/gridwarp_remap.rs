@@ -294,3 +294,31 @@ fn the_pictures_zoom_on_the_faces_under_rigid_content() {
     assert_eq!(all.faces.len(), faces_in_rois(&mesh, &[roi]).faces.len());
     assert!(all.positions.iter().all(|p| p.x >= 0.375 && p.y >= 0.375));
 }
+
+#[test]
+fn the_cell_count_is_the_binary_search_and_both_roots_occur() {
+    use reparam::gridwarp::remap::{cell_of, choose_root, quadratic, roots};
+    let lines = [0.0, 0.1, 0.35, 0.36, 0.8, 1.0];
+    for k in -20..=220 {
+        let x = k as f64 / 200.0;
+        let search = lines.partition_point(|&v| v <= x).clamp(1, lines.len() - 1) - 1;
+        assert_eq!(cell_of(&lines, x), search, "{x}");
+    }
+    assert_eq!(cell_of(&lines, f64::NAN), 0);
+    // A trapezoid twisted one way takes the near root c/q, mirrored in t the far root q/a; both
+    // invert the bilinear map.
+    let q = [[0.0, 0.0], [1.0, 0.0], [0.2, 1.0], [0.7, 0.8]];
+    let mirrored = q.map(|p| [p[0], 1.0 - p[1]]);
+    let mut taken = [0, 0];
+    for quad in [q, [mirrored[2], mirrored[3], mirrored[0], mirrored[1]]] {
+        for (a, b) in [(0.3, 0.6), (0.8, 0.2), (0.5, 0.5)] {
+            let p = bilinear(&quad, a, b);
+            let k = quadratic(&quad, p);
+            let (near, far) = roots(&k);
+            taken[choose_root(near, far)] += 1;
+            let ab = inverse_bilinear(&quad, p).unwrap();
+            assert!((ab[0] - a).abs() < 1e-13 && (ab[1] - b).abs() < 1e-13);
+        }
+    }
+    assert!(taken[0] > 0 && taken[1] > 0, "{taken:?}");
+}

@@ -74,6 +74,9 @@ pub use row::{Bounds, Row, Timing, Verdict};
 
 #[cfg(feature = "gpu")]
 pub mod gridwarp;
+/// The per-query bound of `gridwarp_lookup`'s UVs, from its twin over `Lin`, and its rows.
+#[cfg(feature = "gpu")]
+pub mod gridwarp_lookup;
 #[cfg(feature = "gpu")]
 pub mod gridwarp_naa;
 #[cfg(feature = "gpu")]

@@ -6,6 +6,7 @@ pub mod energy_naa;
 pub mod field;
 #[cfg(feature = "gpu")]
 pub mod gpu;
+pub mod gpu_lookup;
 #[cfg(feature = "gpu")]
 pub mod gpu_naa;
 pub mod grid;

@@ -41,10 +41,23 @@ pub fn piecewise_linear(from: &[f64], to: &[f64], x: f64) -> f64 {
     to[i] + alpha * (to[i + 1] - to[i])
 }
 
-/// Index of the cell of the increasing `lines` containing x (the last cell for x ≥ its start,
-/// the first for x below).
+/// Index of the cell of the increasing `lines` containing x: the largest k in 1 … len − 2 with
+/// lines[k] ≤ x, else 0 (so the last cell for x ≥ its start, the first for x below, and the
+/// first for NaN). A plain count over the lines, as the WGSL kernel `gridwarp_lookup` does it
+/// (the same index as a binary search over increasing lines).
 pub fn cell_of(lines: &[f64], x: f64) -> usize {
-    lines.partition_point(|&v| v <= x).clamp(1, lines.len() - 1) - 1
+    let mut cell = 0;
+    for (k, &line) in lines
+        .iter()
+        .enumerate()
+        .take(lines.len().saturating_sub(1))
+        .skip(1)
+    {
+        if line <= x {
+            cell = k;
+        }
+    }
+    cell
 }
 
 /// F(s, t) = (F_s(s), F_t(t)): rest ROI coordinates to warped ones.
@@ -79,67 +92,132 @@ pub fn bilinear(q: &[[f64; 2]; 4], alpha: f64, beta: f64) -> [f64; 2] {
     })
 }
 
-/// Solve W(α, β) = p for the bilinear quad `q` = [P00, P10, P01, P11] (closed form).
+/// The quadratic of the inverse bilinear map of quad `q` = [P00, P10, P01, P11] at p: with
+/// e = P10 − P00, f = P01 − P00, g = (P11 − P10) − f and d = p − P00 (everything re-centred on
+/// P00), d = α (e + β g) + β f; crossing with e + β g eliminates α:
 ///
-/// With e = P10 − P00, f = P01 − P00, g = P11 − P10 − P01 + P00 and d = p − P00,
-/// d = α (e + β g) + β f. Crossing with e + β g eliminates α:
-///
-///   (f × g) β² + (f × e − d × g) β − d × e = 0,
-///
-/// a quadratic (linear when f × g = 0, e.g. for a parallelogram, where β = (d × e)/(f × e)).
-/// The root in [0, 1] (the one nearest to it, for points outside) is taken, computed with the
-/// cancellation-free pair β = 2c/(−b ∓ √Δ), (−b ∓ √Δ)/(2a); then
-/// α = (d − β f)·(e + β g)/‖e + β g‖² (the least-squares solution of the 2-vector equation,
-/// exact when p is in the quad). One Newton step on W(α, β) = p polishes the result to rounding.
-/// On a valid (convex, positive corner determinants) quad the solution in [0, 1]² is unique.
-/// Returns None for a degenerate quad (no finite solution).
-pub fn inverse_bilinear(q: &[[f64; 2]; 4], p: [f64; 2]) -> Option<[f64; 2]> {
+///   a β² + b β + c = 0,   a = f × g,   b = f × e − d × g,   c = −(d × e).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Quadratic {
+    pub e: [f64; 2],
+    pub f: [f64; 2],
+    pub g: [f64; 2],
+    pub d: [f64; 2],
+    pub a: f64,
+    pub b: f64,
+    pub c: f64,
+}
+
+/// The [`Quadratic`] of quad `q` at p.
+pub fn quadratic(q: &[[f64; 2]; 4], p: [f64; 2]) -> Quadratic {
     let sub = |a: [f64; 2], b: [f64; 2]| [a[0] - b[0], a[1] - b[1]];
     let e = sub(q[1], q[0]);
     let f = sub(q[2], q[0]);
     let g = sub(sub(q[3], q[1]), f);
     let d = sub(p, q[0]);
-    let (a, b, c) = (cross(f, g), cross(f, e) - cross(d, g), -cross(d, e));
-    let scale = cross(e, f).abs().max(f64::MIN_POSITIVE);
-    let beta = if a.abs() <= 1e-12 * scale {
-        -c / b
-    } else {
-        let disc = (b * b - 4.0 * a * c).max(0.0).sqrt();
-        let big = -b - b.signum() * disc;
-        let roots = [big / (2.0 * a), 2.0 * c / big];
-        let distance = |x: f64| {
-            if x.is_finite() {
-                (x - x.clamp(0.0, 1.0)).abs()
-            } else {
-                f64::INFINITY
-            }
-        };
-        if distance(roots[0]) <= distance(roots[1]) {
-            roots[0]
-        } else {
-            roots[1]
-        }
-    };
-    let axis = [e[0] + beta * g[0], e[1] + beta * g[1]];
-    let rhs = [d[0] - beta * f[0], d[1] - beta * f[1]];
-    let n2 = axis[0] * axis[0] + axis[1] * axis[1];
-    let alpha = (rhs[0] * axis[0] + rhs[1] * axis[1]) / n2;
-    if !alpha.is_finite() || !beta.is_finite() {
-        return None;
+    Quadratic {
+        e,
+        f,
+        g,
+        d,
+        a: cross(f, g),
+        b: cross(f, e) - cross(d, g),
+        c: -cross(d, e),
     }
-    // Newton polish: J = [∂W/∂α ∂W/∂β] = [e + β g, f + α g].
+}
+
+/// A far root is considered only when |far| ≤ this (|q| ≤ FAR_ROOT·|a|); beyond, it is more
+/// than 3 from [0, 1], farther than any root a located point can take (see [`roots`]).
+pub const FAR_ROOT: f64 = 4.0;
+
+/// The two roots of a β² + b β + c = 0 without cancellation: with
+/// q = −½ (b + sgn(b) √max(b² − 4ac, 0)) (sgn(±0) = ±1), the near root c/q and the far root
+/// q/a. The far root is `None` when |q| > [`FAR_ROOT`]·|a|, which includes a = 0 (a
+/// parallelogram: the equation is linear and c/q = −c/b its root): then |q/a| > 4 and no point
+/// located in the cell takes it. The near root may be non-finite (q = 0).
+pub fn roots(k: &Quadratic) -> (f64, Option<f64>) {
+    let disc = (k.b * k.b - 4.0 * k.a * k.c).max(0.0).sqrt();
+    let q = -0.5 * (k.b + k.b.signum() * disc);
+    let near = k.c / q;
+    let far = (q.abs() <= FAR_ROOT * k.a.abs()).then(|| q / k.a);
+    (near, far)
+}
+
+/// How far a root lies outside [0, 1] (+∞ for a non-finite one).
+pub fn root_distance(x: f64) -> f64 {
+    if x.is_finite() {
+        (x - x.clamp(0.0, 1.0)).abs()
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// The root of [`roots`] taken: the near one unless the far one lies strictly nearer to
+/// [0, 1] (index 0: near, 1: far).
+pub fn choose_root(near: f64, far: Option<f64>) -> usize {
+    match far {
+        Some(far) if root_distance(far) < root_distance(near) => 1,
+        _ => 0,
+    }
+}
+
+/// α for a root β: the least-squares solution (d − β f)·(e + β g) / ‖e + β g‖² of
+/// d − β f = α (e + β g) (exact when p lies on the line of that β).
+pub fn alpha_of(k: &Quadratic, beta: f64) -> f64 {
+    let axis = [k.e[0] + beta * k.g[0], k.e[1] + beta * k.g[1]];
+    let rhs = [k.d[0] - beta * k.f[0], k.d[1] - beta * k.f[1]];
+    let n2 = axis[0] * axis[0] + axis[1] * axis[1];
+    (rhs[0] * axis[0] + rhs[1] * axis[1]) / n2
+}
+
+/// One Newton step on W(α, β) = p from (α, β): J = [∂W/∂α ∂W/∂β] = [e + β g, f + α g],
+/// (α, β) + J⁻¹ (p − W(α, β)) by Cramer's rule; (α, β) unchanged where det J is 0 or a step
+/// is not finite. W is bilinear, so one step from an error (δα, δβ) leaves exactly
+/// J⁻¹ g δα δβ: the closed form's rounding is squared away.
+pub fn newton_polish(q: &[[f64; 2]; 4], p: [f64; 2], k: &Quadratic, ab: [f64; 2]) -> [f64; 2] {
+    let [alpha, beta] = ab;
     let w = bilinear(q, alpha, beta);
-    let r = sub(p, w);
-    let (ja, jb) = (axis, [f[0] + alpha * g[0], f[1] + alpha * g[1]]);
+    let r = [p[0] - w[0], p[1] - w[1]];
+    let ja = [k.e[0] + beta * k.g[0], k.e[1] + beta * k.g[1]];
+    let jb = [k.f[0] + alpha * k.g[0], k.f[1] + alpha * k.g[1]];
     let det = cross(ja, jb);
     if det.abs() > 0.0 && det.is_finite() {
         let da = cross(r, jb) / det;
         let db = cross(ja, r) / det;
         if da.is_finite() && db.is_finite() {
-            return Some([alpha + da, beta + db]);
+            return [alpha + da, beta + db];
         }
     }
-    Some([alpha, beta])
+    [alpha, beta]
+}
+
+/// Solve W(α, β) = p for the bilinear quad `q` = [P00, P10, P01, P11] (closed form, seed §8).
+///
+/// The [`quadratic`] in β (re-centred on P00), its [`roots`] without cancellation, the root in
+/// [0, 1] or nearest to it ([`choose_root`]), α by least squares ([`alpha_of`]), then one
+/// Newton step ([`newton_polish`]) to rounding. On a valid (convex, positive corner
+/// determinants) quad the solution in [0, 1]² is unique. Returns None for a degenerate quad
+/// (no finite solution).
+pub fn inverse_bilinear(q: &[[f64; 2]; 4], p: [f64; 2]) -> Option<[f64; 2]> {
+    let k = quadratic(q, p);
+    let (near, far) = roots(&k);
+    let root = choose_root(near, far);
+    inverse_bilinear_with_root(q, p, &k, [near, far.unwrap_or(f64::NAN)][root])
+}
+
+/// [`inverse_bilinear`] from a given root β of the quadratic `k` (what the bound of the f32
+/// kernel follows for either root, `crosscheck::gridwarp_lookup`).
+pub fn inverse_bilinear_with_root(
+    q: &[[f64; 2]; 4],
+    p: [f64; 2],
+    k: &Quadratic,
+    beta: f64,
+) -> Option<[f64; 2]> {
+    let alpha = alpha_of(k, beta);
+    if !alpha.is_finite() || !beta.is_finite() {
+        return None;
+    }
+    Some(newton_polish(q, p, k, [alpha, beta]))
 }
 
 /// The warped grid of a solve: lines (axis-aligned) or vertices (non-axis-aligned).
@@ -196,10 +274,10 @@ impl Remap {
     }
 
     /// Locate the warped point `p` (clamped to the unit square): its warped cell, (α, β) and
-    /// rest point. AA: the cells of the lines. NAA: the first quad (column-major) whose edge
-    /// functions accept p within a relative 1e-12 of its size, else the quad whose (α, β)
-    /// is nearest to [0, 1]² (only for points on shared edges lost to rounding); None only for a
-    /// degenerate vertex grid.
+    /// rest point (ŝ_i + α h_i, t̂_j + β k_j). AA: the cells of the lines ([`cell_of`]),
+    /// α = (p_s − s_i)/(s_{i+1} − s_i), β likewise. NAA: [`locate_in_vertices`] (the first quad,
+    /// column-major, whose inverse bilinear (α, β) lies in [0, 1]², else the nearest); None only
+    /// for a degenerate vertex grid.
     pub fn locate(&self, p: [f64; 2]) -> Option<Located> {
         let p = [p[0].clamp(0.0, 1.0), p[1].clamp(0.0, 1.0)];
         let rest = &self.rest;
@@ -291,41 +369,48 @@ pub fn quad(v: &VertexGrid, i: usize, j: usize) -> [[f64; 2]; 4] {
 }
 
 /// How far (α, β) lies outside [0, 1]² (0 inside).
-fn outside(ab: [f64; 2]) -> f64 {
+pub fn outside(ab: [f64; 2]) -> f64 {
     ab.iter()
         .map(|&x| (x - x.clamp(0.0, 1.0)).abs())
         .fold(0.0, f64::max)
 }
 
-/// The cell of a vertex grid containing `p` and (α, β) there (see [`Remap::locate`]).
-fn locate_in_vertices(v: &VertexGrid, p: [f64; 2]) -> Option<(usize, usize, f64, f64)> {
+/// The bounding-box test of [`locate_in_vertices`] admits points within this fraction of the
+/// box's half-perimeter outside it (2⁻¹²: a prefilter only, wide enough for f32's rounding of
+/// p, so that the f32 kernel never skips the cell that contains p).
+pub const BBOX_SLACK: f64 = 1.0 / 4096.0;
+
+/// The corners' bounding box of quad `q`, widened by [`BBOX_SLACK`] times its half-perimeter,
+/// contains p.
+pub fn in_bbox(q: &[[f64; 2]; 4], p: [f64; 2]) -> bool {
+    let (mut lo, mut hi) = (q[0], q[0]);
+    for c in &q[1..] {
+        lo = [lo[0].min(c[0]), lo[1].min(c[1])];
+        hi = [hi[0].max(c[0]), hi[1].max(c[1])];
+    }
+    let slack = BBOX_SLACK * ((hi[0] - lo[0]) + (hi[1] - lo[1]));
+    !(p[0] < lo[0] - slack || p[0] > hi[0] + slack || p[1] < lo[1] - slack || p[1] > hi[1] + slack)
+}
+
+/// The cell of a vertex grid containing `p` and (α, β) there, clamped to [0, 1]: over the
+/// cells in column-major order (i outer, j inner), those whose box holds p ([`in_bbox`]), the
+/// first whose [`inverse_bilinear`] (α, β) lies in [0, 1]², else the one whose (α, β) is
+/// nearest to it ([`outside`]; the first on ties): a point on a shared edge lost to rounding
+/// goes to either neighbour, whose maps agree there. None when no cell has a finite solution.
+pub fn locate_in_vertices(v: &VertexGrid, p: [f64; 2]) -> Option<(usize, usize, f64, f64)> {
     let mut best: Option<(f64, usize, usize, [f64; 2])> = None;
     for i in 0..v.m - 1 {
         for j in 0..v.n - 1 {
             let q = quad(v, i, j);
-            let (lo, hi) = q.iter().fold(
-                ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-                |(lo, hi), c| {
-                    (
-                        [lo[0].min(c[0]), lo[1].min(c[1])],
-                        [hi[0].max(c[0]), hi[1].max(c[1])],
-                    )
-                },
-            );
-            let slack = 1e-12 * (hi[0] - lo[0] + hi[1] - lo[1]);
-            if p[0] < lo[0] - slack
-                || p[0] > hi[0] + slack
-                || p[1] < lo[1] - slack
-                || p[1] > hi[1] + slack
-            {
+            if !in_bbox(&q, p) {
                 continue;
             }
             let Some(ab) = inverse_bilinear(&q, p) else {
                 continue;
             };
             let miss = outside(ab);
-            if miss <= 1e-12 {
-                return Some((i, j, ab[0].clamp(0.0, 1.0), ab[1].clamp(0.0, 1.0)));
+            if miss <= 0.0 {
+                return Some((i, j, ab[0], ab[1]));
             }
             if best.is_none_or(|b| miss < b.0) {
                 best = Some((miss, i, j, ab));

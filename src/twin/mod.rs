@@ -29,6 +29,7 @@
 //! | [`bpm_render`] | `bpm_render.wgsl` (and the fixed-function stages) | [`crate::bpm::render::render_cpu`] |
 //! | [`gridwarp_aa`] | `gridwarp_aa.wgsl`, `gridwarp_aa_residuals.wgsl`, `gridwarp_field.wgsl` | `gridwarp::plain::aa` |
 //! | [`gridwarp_naa`] | `gridwarp_naa.wgsl`, `gridwarp_naa_residuals.wgsl` | `gridwarp::plain::naa` |
+//! | [`gridwarp_lookup`] | `gridwarp_lookup.wgsl` | [`crate::gridwarp::AtlasRemap::lookup_uv`] |
 //! | [`maps_flatten`] | `maps_flatten.wgsl` | [`crate::maps::flatten::flatten_ring`] |
 //! | [`maps_inverse`] | `maps_inverse.wgsl` | [`crate::maps::Param::inverse`] |
 //! | [`maps_priority`] | `maps_priority.wgsl`, `maps_rings.wgsl` | [`crate::maps::priority::ring_area`], [`crate::maps::priority::curvature`] |
@@ -49,6 +50,7 @@ pub mod bpm_render;
 #[cfg(feature = "gpu")]
 pub mod candidate;
 pub mod gridwarp_aa;
+pub mod gridwarp_lookup;
 pub mod gridwarp_naa;
 pub mod lin;
 pub mod maps_flatten;

@@ -16,6 +16,7 @@
 
 pub mod bpm;
 pub mod gridwarp;
+pub mod gridwarp_lookup;
 pub mod maps;
 pub mod npy;
 pub mod shader_abi;

@@ -7,6 +7,7 @@
 //! | `gridwarp_aa_residuals` | [`aa_residuals`] | `shaders/gridwarp_aa_residuals.wgsl` (after `gridwarp_aa.wgsl`) | per sample: r^s, r^t (conformance vectors) |
 //! | `gridwarp_naa_cell` | [`naa_cells`] / [`NaaKernel::run`] | `shaders/gridwarp_naa.wgsl` | per cell: energy, 8×8 JᵀJ block, 8-vector Jᵀr (seed §8) |
 //! | `gridwarp_naa_residuals` | [`naa_residuals`] | `shaders/gridwarp_naa_residuals.wgsl` (after `gridwarp_naa.wgsl`) | per sample: r^s, r^t (conformance vectors) |
+//! | `gridwarp_lookup` | [`lookup::lookup`] / [`LookupKernel::run`] | `shaders/gridwarp_lookup.wgsl` | per query UV: the warped texture lookup of an atlas of ROIs (AA, NAA, blending) |
 //!
 //! Both read their fields through `shaders/gridwarp_field.wgsl` ([`FIELD_WGSL`], the bilinear
 //! lookup with its gradient, prepended by the host).
@@ -19,6 +20,7 @@
 //! `NaaEnergy`'s bit for bit.
 
 pub mod aa;
+pub mod lookup;
 pub mod naa;
 
 pub use aa::{
@@ -32,3 +34,4 @@ pub use naa::{
 /// The bilinear field lookup both kernels share (`shaders/gridwarp_field.wgsl`: `axis`,
 /// `bilinear_formula`), prepended after `dispatch.wgsl`.
 pub const FIELD_WGSL: &str = include_str!("../../shaders/gridwarp_field.wgsl");
+pub use lookup::{LookupKernel, LookupTables, RoiGrid, RoiRect};

@@ -10,6 +10,7 @@
 
 pub mod bpm;
 pub mod gridwarp_aa;
+pub mod gridwarp_lookup;
 pub mod maps_flatten;
 pub mod maps_inverse;
 pub mod maps_priority;
@@ -57,6 +58,7 @@ pub fn runner(name: &str) -> Option<Runner> {
         | "gridwarp_aa.energy"
         | "gridwarp_aa.jtj"
         | "gridwarp_aa.jtr" => Some(gridwarp_aa::normal_equations),
+        "gridwarp_lookup" => Some(gridwarp_lookup::candidate),
         "maps_flatten.points" | "maps_flatten.rings" => Some(maps_flatten::candidate),
         "maps_inverse" => Some(maps_inverse::candidate),
         "maps_priority" => Some(maps_priority::candidate),
