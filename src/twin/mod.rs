@@ -46,6 +46,7 @@ pub mod bpm_precompute;
 pub mod bpm_render;
 #[cfg(feature = "gpu")]
 pub mod candidate;
+pub mod coverage;
 pub mod gridwarp_aa;
 pub mod lin;
 pub mod maps_flatten;
