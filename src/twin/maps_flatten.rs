@@ -11,8 +11,38 @@
 //! shared by both kernels); θ_k is written to the slots by [`cumulative_angles`] and read back,
 //! as the kernel does.
 
+use super::coverage::{branches, hit, taken, Branch};
 use super::maps_priority::{ring_point, sector_count, Ring, KIND_DISK, KIND_HALF_DISK};
 use super::real::{abs, cos, cross, dot, length, pow, sin, Real, V2};
+
+/// `maps_flatten`'s branches ([`super::coverage`]).
+pub const BRANCHES: &[Branch] = branches![
+    "maps_rings.open" => "a half disk: K − 1 sectors",
+    "maps_rings.closed" => "a disk or a feature line: K sectors",
+    "maps_flatten.atan.direct" => "atan x for x ≤ tan(π/8): the polynomial in x",
+    "maps_flatten.atan.reduced" => "atan x for x > tan(π/8): π/4 + atan((x − 1)/(x + 1))",
+    "maps_flatten.angle.zero" => "atan2(0, 0) = 0 (u × v = 0 and u · v = 0)",
+    "maps_flatten.angle.below_diagonal" => "y ≤ |x|: atan(y/|x|)",
+    "maps_flatten.angle.above_diagonal" => "y > |x|: π/2 − atan(|x|/y)",
+    "maps_flatten.angle.obtuse" => "x < 0 (u · v < 0, an obtuse sector): π − t",
+    "maps_flatten.angle.near_zero" => "a sector angle φ < 0.05 rad (a sliver: acos(u·v/|u||v|) loses its digits here)",
+    "maps_flatten.angle.near_pi" => "a sector angle φ > π − 0.05 (nearly straight: acos loses its digits here)",
+    "maps_flatten.theta.closing" => "θ_K read as θ_total (the closing sector of a closed ring)",
+    "maps_flatten.sane.radius" => "a radius r_k = 0 or not finite: degenerate",
+    "maps_flatten.sane.angle" => "θ not strictly increasing (a sector angle 0) or not finite: degenerate",
+    "maps_flatten.kind.disk" => "a disk: a = 2π/θ_K",
+    "maps_flatten.kind.half_disk" => "a half disk: a = π/θ_{K−1}",
+    "maps_flatten.kind.feature_line" => "a feature line: a₁ = π/(θ_t − θ_s), a₂ = π/(θ_K − (θ_t − θ_s))",
+    "maps_flatten.sectors.single" => "a side of a single sector: a flipped fan",
+    "maps_flatten.sectors.too_wide" => "a scaled sector a·φ ≥ π: a flipped fan",
+    "maps_flatten.sectors.ok" => "every scaled sector a·φ < π",
+    "maps_flatten.feature.upper" => "a ring vertex on the upper side s < m < t: angle a₁(θ_m − θ_s)",
+    "maps_flatten.feature.lower_after_t" => "a ring vertex on the lower side after t: angle π + a₂(θ_m − θ_t)",
+    "maps_flatten.feature.lower_before_s" => "a ring vertex on the lower side before s (past j_0): angle π + a₂(θ_m + θ_K − θ_t)",
+    "maps_flatten.wrap.kept" => "an angle ≤ π given to cos and sin as it is",
+    "maps_flatten.wrap.shifted" => "an angle > π moved by −2π into [−π, π]",
+    "maps_flatten.mu.not_finite" => "a μ not finite: degenerate",
+];
 
 /// `PI` as the kernel spells it (its digits, not `std::f64::consts::PI`: the twin rounds the
 /// kernel's literal).
@@ -46,6 +76,7 @@ pub struct FlatPoint<R> {
 /// `theta_at`: θ_m from slot m, or `total` for m = K (the closing θ_K of a closed ring).
 pub fn theta_at<R: Real>(h: &Ring<R>, points: &[FlatPoint<R>], m: usize, total: R) -> R {
     if m >= h.points.len() {
+        hit("maps_flatten.theta.closing");
         return total;
     }
     points[m].theta
@@ -62,7 +93,11 @@ pub fn finite<R: Real>(x: R) -> bool {
 pub fn atan_unit<R: Real>(x: R) -> R {
     let mut base = R::lit(0.0);
     let mut t = x;
-    if x.value() > f64::from(0.41421356f32) {
+    if taken(
+        x.value() > f64::from(0.41421356f32),
+        "maps_flatten.atan.reduced",
+        "maps_flatten.atan.direct",
+    ) {
         base = R::lit(0.78539816);
         t = (x - R::lit(1.0)) / (x + R::lit(1.0));
     }
@@ -82,14 +117,20 @@ pub fn atan_unit<R: Real>(x: R) -> R {
 pub fn angle_atan2<R: Real>(y: R, x: R) -> R {
     let ax = abs(x);
     if y.value() == 0.0 && ax.value() == 0.0 {
+        hit("maps_flatten.angle.zero");
         return R::lit(0.0);
     }
-    let t = if y.value() <= ax.value() {
+    let t = if taken(
+        y.value() <= ax.value(),
+        "maps_flatten.angle.below_diagonal",
+        "maps_flatten.angle.above_diagonal",
+    ) {
         atan_unit(y / ax)
     } else {
         R::lit(1.57079633) - atan_unit(ax / y)
     };
     if x.value() < 0.0 {
+        hit("maps_flatten.angle.obtuse");
         return R::lit(PI) - t;
     }
     t
@@ -105,11 +146,16 @@ pub fn cumulative_angles<R: Real>(h: &Ring<R>, points: &mut [FlatPoint<R>]) -> R
     for m in 0..sector_count(h) {
         let a = ring_point(h, m) - p;
         let b = ring_point(h, m + 1) - p;
-        theta = theta
-            + angle_atan2(
-                length(cross(a, b).to_array()),
-                dot(a.to_array(), b.to_array()),
-            );
+        let phi = angle_atan2(
+            length(cross(a, b).to_array()),
+            dot(a.to_array(), b.to_array()),
+        );
+        if phi.value() < 0.05 {
+            hit("maps_flatten.angle.near_zero");
+        } else if phi.value() > PI - 0.05 {
+            hit("maps_flatten.angle.near_pi");
+        }
+        theta = theta + phi;
         if m + 1 < h.points.len() {
             points[m + 1].theta = theta;
         }
@@ -123,7 +169,11 @@ pub fn cumulative_angles<R: Real>(h: &Ring<R>, points: &mut [FlatPoint<R>]) -> R
 /// `wrap_angle`: an angle of [0, 3π) moved into [−π, π] (x − 2π above π), where WGSL's `cos`
 /// and `sin` have their 2⁻¹¹ absolute accuracy (the table promises nothing outside).
 pub fn wrap_angle<R: Real>(angle: R) -> R {
-    if angle.value() > f64::from(PI as f32) {
+    if taken(
+        angle.value() > f64::from(PI as f32),
+        "maps_flatten.wrap.shifted",
+        "maps_flatten.wrap.kept",
+    ) {
         return angle - R::lit(2.0) * R::lit(PI);
     }
     angle
@@ -151,14 +201,17 @@ pub fn check_sectors<R: Real>(
     total: R,
 ) -> bool {
     if (end0 - first0) + (end1 - first1) == 1 {
+        hit("maps_flatten.sectors.single");
         return false;
     }
     for m in (first0..end0).chain(first1..end1) {
         let scaled = a * (theta_at(h, points, m + 1, total) - theta_at(h, points, m, total));
         if !scaled.decides_lt(R::lit(PI)) {
+            hit("maps_flatten.sectors.too_wide");
             return false;
         }
     }
+    hit("maps_flatten.sectors.ok");
     true
 }
 
@@ -187,12 +240,18 @@ pub fn flatten_ring<R: Real>(h: &Ring<R>) -> (FlatRing<R>, Vec<FlatPoint<R>>) {
     let mut sane = true;
     for point in points.iter_mut() {
         let radius = point.radius;
-        sane = sane && radius.value() > 0.0 && finite(radius);
+        if !(radius.value() > 0.0 && finite(radius)) {
+            hit("maps_flatten.sane.radius");
+            sane = false;
+        }
         point.mu = V2::splat(zero);
     }
     for m in 0..sector_count(h) {
         let next = theta_at(h, &points, m + 1, total);
-        sane = sane && next.value() > theta_at(h, &points, m, total).value() && finite(next);
+        if !(next.value() > theta_at(h, &points, m, total).value() && finite(next)) {
+            hit("maps_flatten.sane.angle");
+            sane = false;
+        }
     }
     let mut out = FlatRing {
         a: zero,
@@ -206,6 +265,7 @@ pub fn flatten_ring<R: Real>(h: &Ring<R>) -> (FlatRing<R>, Vec<FlatPoint<R>>) {
     }
     let pi = R::lit(PI);
     if h.kind == KIND_DISK {
+        hit("maps_flatten.kind.disk");
         let a = R::lit(2.0) * pi / total;
         out.a = a;
         out.a2 = a;
@@ -217,6 +277,7 @@ pub fn flatten_ring<R: Real>(h: &Ring<R>) -> (FlatRing<R>, Vec<FlatPoint<R>>) {
         }
         points[0].mu = V2::new(pow(points[0].radius, a), zero);
     } else if h.kind == KIND_HALF_DISK {
+        hit("maps_flatten.kind.half_disk");
         let a = pi / total;
         out.a = a;
         out.a2 = a;
@@ -229,6 +290,7 @@ pub fn flatten_ring<R: Real>(h: &Ring<R>) -> (FlatRing<R>, Vec<FlatPoint<R>>) {
         points[0].mu = V2::new(pow(points[0].radius, a), zero);
         points[k - 1].mu = V2::new(-pow(points[k - 1].radius, a), zero);
     } else {
+        hit("maps_flatten.kind.feature_line");
         let (s, t) = (h.s, h.t);
         let theta_s = points[s].theta;
         let theta_t = points[t].theta;
@@ -246,9 +308,14 @@ pub fn flatten_ring<R: Real>(h: &Ring<R>) -> (FlatRing<R>, Vec<FlatPoint<R>>) {
         for (m, point) in points.iter_mut().enumerate() {
             let theta = point.theta;
             if m > s && m < t {
+                hit("maps_flatten.feature.upper");
                 point.mu = polar(point.radius, a1, a1 * (theta - theta_s));
             } else if m != s && m != t {
-                let from_t = if m > t {
+                let from_t = if taken(
+                    m > t,
+                    "maps_flatten.feature.lower_after_t",
+                    "maps_flatten.feature.lower_before_s",
+                ) {
                     theta - theta_t
                 } else {
                     theta + total - theta_t
@@ -261,6 +328,7 @@ pub fn flatten_ring<R: Real>(h: &Ring<R>) -> (FlatRing<R>, Vec<FlatPoint<R>>) {
         points[t].mu = V2::new(-pow(points[t].radius, a_mid), zero);
     }
     if out.status == STATUS_OK && points.iter().any(|p| !finite(p.mu.x) || !finite(p.mu.y)) {
+        hit("maps_flatten.mu.not_finite");
         out.status = STATUS_DEGENERATE;
     }
     (out, points)

@@ -14,7 +14,20 @@
 //! edge: continuous in u, it is made on the values (a GPU that picks the neighbouring face near
 //! an edge lands on the same surface point), not by [`Real::decides_lt`].
 
+use super::coverage::{branches, hit, Branch};
 use super::real::{Real, V2, V3};
+
+/// `maps_inverse`'s branches ([`super::coverage`]).
+pub const BRANCHES: &[Branch] = branches![
+    "maps_inverse.walk.input_face" => "the walk reached an input face (created_by = NONE) and stops",
+    "maps_inverse.walk.step" => "one removal replayed: the face was created by a removal",
+    "maps_inverse.walk.exhausted" => "the walk stopped after face_count steps without reaching an input face",
+    "maps_inverse.locate.inside" => "the first old star face with every λ ≥ 0 taken",
+    "maps_inverse.locate.nearest" => "outside every old star face: the one with the largest smallest λ",
+    "maps_inverse.locate.improved" => "a later star face with a larger smallest λ replaced the best so far",
+    "maps_inverse.barycentric.area_norm" => "the three orientations sum to 0: divided by o(a, b, c) instead",
+    "maps_inverse.clamp.negative" => "a λ < 0 clamped to 0 before the renormalisation",
+];
 
 /// `NONE`: no removal created the face (an input face).
 pub const NONE: u32 = u32::MAX;
@@ -72,6 +85,7 @@ pub fn barycentric<R: Real>(u: V2<R>, a: V2<R>, b: V2<R>, c: V2<R>) -> V3<R> {
     let l = V3::new(orient2d(u, b, c), orient2d(a, u, c), orient2d(a, b, u));
     let mut norm = l.x + l.y + l.z;
     if norm.value() == 0.0 {
+        hit("maps_inverse.barycentric.area_norm");
         norm = area;
     }
     l / norm
@@ -115,19 +129,27 @@ pub fn locate_in_star<R: Real>(tables: &Tables, r: [u32; 2], u: V2<R>) -> Locate
         let l = barycentric(u, c(0), c(1), c(2));
         let lowest = min3(l).value();
         if lowest >= 0.0 {
+            hit("maps_inverse.locate.inside");
             return Located { face: f, bary: l };
         }
         if lowest > best_min {
+            if m > 0 {
+                hit("maps_inverse.locate.improved");
+            }
             best_min = lowest;
             best = Located { face: f, bary: l };
         }
     }
+    hit("maps_inverse.locate.nearest");
     best
 }
 
 /// `clamp_bary`: max(λ, 0) / Σ max(λ, 0).
 pub fn clamp_bary<R: Real>(l: V3<R>) -> V3<R> {
     let zero = R::lit(0.0);
+    if min3(l).value() < 0.0 {
+        hit("maps_inverse.clamp.negative");
+    }
     let c = V3::new(l.x.max(zero), l.y.max(zero), l.z.max(zero));
     c / (c.x + c.y + c.z)
 }
@@ -152,17 +174,27 @@ pub fn inverse<R: Real>(tables: &Tables, base: u32, b: V3<R>) -> InverseResult<R
     let mut face = tables.base_to_face[base as usize];
     let mut bary = b;
     let mut min_bary = min3(bary);
+    let mut reached = false;
     for _ in 0..tables.face_count() {
         let created_by = tables.created_by[face as usize];
         if created_by == NONE {
+            reached = true;
             break;
         }
+        hit("maps_inverse.walk.step");
         let u = to_plane(tables, face, bary);
         let found = locate_in_star(tables, removal(tables, created_by), u);
         min_bary = min_bary.min(min3(found.bary));
         face = found.face;
         bary = clamp_bary(found.bary);
     }
+    // The loop's bound is face_count, reached only by a table whose walk never ends.
+    reached = reached || tables.created_by[face as usize] == NONE;
+    hit(if reached {
+        "maps_inverse.walk.input_face"
+    } else {
+        "maps_inverse.walk.exhausted"
+    });
     let t = &tables.corners[3 * face as usize..3 * face as usize + 3];
     let position = V3::sum(&[
         position(tables, t[0]) * bary.x,

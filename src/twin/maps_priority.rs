@@ -8,7 +8,21 @@
 //! sectors: K of them for a closed ring (disk, feature line), K − 1 for a boundary vertex's
 //! open ring (half disk).
 
+use super::coverage::{branches, hit, taken, Branch};
 use super::real::{abs, cross, dot, length, max, normalize, sqrt, sum, Real, V3};
+
+/// `maps_priority`'s branches ([`super::coverage`]).
+pub const BRANCHES: &[Branch] = branches![
+    "maps_rings.open" => "a half disk: K − 1 sectors (the ring is open at j_{K−1} → j_0)",
+    "maps_rings.closed" => "a disk or a feature line: K sectors (the closing sector j_{K−1} → j_0)",
+    "maps_priority.normal.degenerate" => "|N| = 0 (or NaN), or K < 3: κ = 0",
+    "maps_priority.helper.x" => "the frame's helper h = (1, 0, 0) (|n_x| < 0.9)",
+    "maps_priority.helper.y" => "the frame's helper h = (0, 1, 0) (|n_x| ≥ 0.9)",
+    "maps_priority.scale.zero" => "ℓ = max |p_{j_k} − p_i| = 0 (or NaN): κ = 0",
+    "maps_priority.fit.singular" => "det M = 0 (or NaN): κ = 0",
+    "maps_priority.fit.solved" => "det M ≠ 0: (A', B', C') = adj(M) b / det M",
+    "maps_priority.kappa.not_finite" => "κ not below f32::MAX (∞ or NaN): κ = 0",
+];
 
 /// `KIND_DISK`: a closed ring, K sectors.
 pub const KIND_DISK: u32 = 0;
@@ -32,7 +46,11 @@ pub struct Ring<R> {
 
 /// `sector_count` (`maps_rings.wgsl`): K sectors (j_m, j_{m+1 mod K}) when closed, K − 1 for a half disk.
 pub fn sector_count<R>(h: &Ring<R>) -> usize {
-    if h.kind == KIND_HALF_DISK {
+    if taken(
+        h.kind == KIND_HALF_DISK,
+        "maps_rings.open",
+        "maps_rings.closed",
+    ) {
         return h.points.len() - 1;
     }
     h.points.len()
@@ -103,11 +121,16 @@ pub fn curvature<R: Real>(h: &Ring<R>, normal: V3<R>) -> R {
     let zero = R::lit(0.0);
     let len = length(normal.to_array());
     if !(len.value() > 0.0) || h.points.len() < 3 {
+        hit("maps_priority.normal.degenerate");
         return zero;
     }
     let n = normal / len;
     let mut helper = V3::new(zero, R::lit(1.0), zero);
-    if abs(n.x).value() < 0.9 {
+    if taken(
+        abs(n.x).value() < 0.9,
+        "maps_priority.helper.x",
+        "maps_priority.helper.y",
+    ) {
         helper = V3::new(R::lit(1.0), zero, zero);
     }
     let e1 = normalize(cross(n, helper));
@@ -118,6 +141,7 @@ pub fn curvature<R: Real>(h: &Ring<R>, normal: V3<R>) -> R {
         scale = max(scale, length((ring_point(h, m) - p).to_array()));
     }
     if !(scale.value() > 0.0) {
+        hit("maps_priority.scale.zero");
         return zero;
     }
     let mut mat: Mat3<R> = [V3::splat(zero); 3];
@@ -136,7 +160,11 @@ pub fn curvature<R: Real>(h: &Ring<R>, normal: V3<R>) -> R {
         rhs = rhs + row * z;
     }
     let det = determinant(&mat);
-    if !(abs(det).value() > 0.0) {
+    if !taken(
+        abs(det).value() > 0.0,
+        "maps_priority.fit.solved",
+        "maps_priority.fit.singular",
+    ) {
         return zero;
     }
     let coef = adjugate_times(&mat, rhs) / det;
@@ -154,6 +182,7 @@ pub fn kappa_of<R: Real>(a: R, b: R, c: R) -> R {
     let dev = sqrt((a - c) * (a - c) + b * b);
     let kappa = abs(mean + dev) + abs(mean - dev);
     if !(kappa.value() < 3.4028234e38) {
+        hit("maps_priority.kappa.not_finite");
         return R::lit(0.0);
     }
     kappa

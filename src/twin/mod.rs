@@ -49,6 +49,7 @@ pub mod bpm_precompute;
 pub mod bpm_render;
 #[cfg(feature = "gpu")]
 pub mod candidate;
+pub mod coverage;
 pub mod gridwarp_aa;
 pub mod gridwarp_lookup;
 pub mod gridwarp_naa;

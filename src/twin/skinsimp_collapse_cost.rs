@@ -14,7 +14,23 @@
 //! A matrix product's entry and a matrix–vector product's component are 4-term dot products
 //! ([`dot`]: the models reorder and fuse them as a GPU may).
 
+use super::coverage::{branches, hit, taken, Branch};
 use super::real::{abs, cross, dot, is_finite, max, sqrt, Real, V3};
+
+/// `skinsimp_collapse_cost`'s branches ([`super::coverage`]).
+pub const BRANCHES: &[Branch] = branches![
+    "skinsimp_collapse_cost.blend.used" => "a bone with α_k ≠ 0: α_k M_k^j added to A^j",
+    "skinsimp_collapse_cost.blend.skipped" => "a bone slot with α_k = 0: skipped",
+    "skinsimp_collapse_cost.solve.singular" => "det B = 0: no solution",
+    "skinsimp_collapse_cost.solve.ill_conditioned" => "cond_F(B) > max_condition (or NaN): no solution",
+    "skinsimp_collapse_cost.solve.not_finite" => "v = −B⁻¹ b not finite: no solution",
+    "skinsimp_collapse_cost.solve.found" => "v = −B⁻¹ b kept as the first choice",
+    "skinsimp_collapse_cost.choice.solution" => "the solution kept: no fallback strictly below it",
+    "skinsimp_collapse_cost.choice.a" => "fallback a kept",
+    "skinsimp_collapse_cost.choice.b" => "fallback b kept",
+    "skinsimp_collapse_cost.choice.midpoint" => "fallback (a + b)·0.5 kept",
+    "skinsimp_collapse_cost.choice.first_without_solution" => "no solution: fallback a taken as the first point, whatever its value",
+];
 
 /// `CHOICE_SOLUTION`: the kept point is the solve's; 1, 2, 3 name the fallbacks a, b and the
 /// midpoint.
@@ -156,7 +172,11 @@ pub fn joint_matrix<R: Real>(buffers: &Buffers, pose: u32, joint: u32) -> M4<R> 
 pub fn blend<R: Real>(buffers: &Buffers, item: &EdgeItem, pose: u32) -> M4<R> {
     let mut a = zero_matrix();
     for (&joint, &w) in item.joints.iter().zip(&item.alpha) {
-        if w != 0.0 {
+        if taken(
+            w != 0.0,
+            "skinsimp_collapse_cost.blend.used",
+            "skinsimp_collapse_cost.blend.skipped",
+        ) {
             a = plus(&a, &scaled(&joint_matrix(buffers, pose, joint), read(w)));
         }
     }
@@ -263,6 +283,7 @@ pub fn solve_position<R: Real>(q: &M4<R>, max_condition: f32) -> Solution<R> {
         condition: R::lit(0.0),
     };
     if det.value() == 0.0 {
+        hit("skinsimp_collapse_cost.solve.singular");
         return out;
     }
     let squares = |a: V3<R>, b: V3<R>, c: V3<R>| {
@@ -274,6 +295,7 @@ pub fn solve_position<R: Real>(q: &M4<R>, max_condition: f32) -> Solution<R> {
     let norm_inv = sqrt(squares(r0, r1, r2)) / abs(det);
     out.condition = norm_b * norm_inv;
     if !condition_within(out.condition.value(), max_condition) {
+        hit("skinsimp_collapse_cost.solve.ill_conditioned");
         return out;
     }
     let v = -V3::new(
@@ -281,7 +303,11 @@ pub fn solve_position<R: Real>(q: &M4<R>, max_condition: f32) -> Solution<R> {
         dot(r1.to_array(), b.to_array()),
         dot(r2.to_array(), b.to_array()),
     ) / det;
-    out.found = is_finite(v.x) && is_finite(v.y) && is_finite(v.z);
+    out.found = taken(
+        is_finite(v.x) && is_finite(v.y) && is_finite(v.z),
+        "skinsimp_collapse_cost.solve.found",
+        "skinsimp_collapse_cost.solve.not_finite",
+    );
     out.v = v;
     out
 }
@@ -304,12 +330,21 @@ pub fn skinsimp_collapse_cost<R: Real>(buffers: &Buffers, item: &EdgeItem) -> Ed
     for (k, &point) in fallbacks.iter().enumerate() {
         let e = quadric_value(&q, point);
         if !found || e.decides_lt(best_value) {
+            if !found {
+                hit("skinsimp_collapse_cost.choice.first_without_solution");
+            }
             found = true;
             best = point;
             best_value = e;
             choice = k as u32 + 1;
         }
     }
+    hit(match choice {
+        CHOICE_SOLUTION => "skinsimp_collapse_cost.choice.solution",
+        1 => "skinsimp_collapse_cost.choice.a",
+        2 => "skinsimp_collapse_cost.choice.b",
+        _ => "skinsimp_collapse_cost.choice.midpoint",
+    });
     EdgeCost {
         quadric: upper_triangle(&q),
         condition: solution.condition,

@@ -1,7 +1,14 @@
 //! Twin of `gpu/shaders/skinsimp_lbs.wgsl`, function for function: linear blend skinning
 //! p_ij = Σ_k w_ik M_{j,k} (x_i, 1) (seed 003 §3), each joint matrix its 3 × 4 top, row by row.
 
+use super::coverage::{branches, taken, Branch};
 use super::real::{dot, Real, V3, V4};
+
+/// `skinsimp_lbs`' branches ([`super::coverage`]).
+pub const BRANCHES: &[Branch] = branches![
+    "skinsimp_lbs.weight.used" => "an influence with w_k ≠ 0: w_k M_{pose, joint_k} (x, 1) added",
+    "skinsimp_lbs.weight.skipped" => "an influence with w_k = 0: skipped (its joint index may be any)",
+];
 
 /// `joint_times`: the 3 × 4 matrix `m` (row by row) times the homogeneous point h.
 pub fn joint_times<R: Real>(m: &[R; 12], h: V4<R>) -> V3<R> {
@@ -22,7 +29,11 @@ pub fn skin<R: Real>(
     let mut sum = V3::splat(R::lit(0.0));
     for k in 0..4 {
         let w = weights[k];
-        if w.value() != 0.0 {
+        if taken(
+            w.value() != 0.0,
+            "skinsimp_lbs.weight.used",
+            "skinsimp_lbs.weight.skipped",
+        ) {
             sum = sum + joint_times(&matrix(joints[k]), h) * w;
         }
     }

@@ -15,7 +15,38 @@
 // `!(a > 0.0)` is meant, as in the WGSL: a NaN takes the "no" branch.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use super::coverage::{branches, hit, taken, Branch};
 use super::real::{abs, floor, max, min, sqrt, sum, Real, V2, V3};
+
+/// The kernel's branches ([`super::coverage`]): every decision of one invocation.
+pub const BRANCHES: &[Branch] = branches![
+    "unwarp_pass.neighbour.wrapped" => "a neighbour across the border, its index wrapped mod W or mod H (periodic border)",
+    "unwarp_pass.neighbour.inside" => "a neighbour inside the grid (no wrap)",
+    "unwarp_pass.theta.integer" => "y^θ by square and multiply (θ an integer in [−64, 64])",
+    "unwarp_pass.theta.pow" => "y^θ by pow(y, θ) (θ not an integer, or |θ| > 64)",
+    "unwarp_pass.theta.negative" => "a negative integer power: 1/y^|θ|",
+    "unwarp_pass.triangle.unfolded" => "a triangle with a > 0: E_T and ∇E_T by the formula",
+    "unwarp_pass.triangle.folded" => "a triangle with a ≤ 0 (or NaN): E_T = +∞, ∇E_T = (+∞, +∞)",
+    "unwarp_pass.pin.inside" => "q < 1: E_pin = ½/(1 − q)",
+    "unwarp_pass.pin.outside" => "q ≥ 1: E_pin = +∞",
+    "unwarp_pass.gradient.not_finite" => "g not finite (a folded start triangle): no move",
+    "unwarp_pass.gradient.zero" => "g = (0, 0): no move",
+    "unwarp_pass.bracket.behind" => "a triangle whose zero t0 = a/den is not > 0 (behind the start, or NaN when den = 0): ignored",
+    "unwarp_pass.bracket.hi_by_triangle" => "t0 > 0 of an unfolded triangle: hi = min(hi, t0)",
+    "unwarp_pass.bracket.lo_by_folded" => "t0 > 0 of a folded triangle: lo = max(lo, t0)",
+    "unwarp_pass.root.none" => "no barrier root (α ≤ 0: w = 0 or g = 0; or γ ≥ 1)",
+    "unwarp_pass.root.beta_nonnegative" => "the barrier root as (β + √…)/α (β ≥ 0)",
+    "unwarp_pass.root.beta_negative" => "the barrier root as (1 − γ)/(√… − β) (β < 0)",
+    "unwarp_pass.bracket.hi_by_root" => "the barrier's root below every triangle's t0: it sets hi",
+    "unwarp_pass.bracket.found" => "lo < hi < ∞: the search runs",
+    "unwarp_pass.bracket.empty" => "no bracket (lo ≥ hi or hi = ∞): no move",
+    "unwarp_pass.search.lo_up" => "F(t1) > F(t2): lo = t1",
+    "unwarp_pass.search.hi_down" => "F(t1) ≤ F(t2) (ties, NaN): hi = t2",
+    "unwarp_pass.search.converged" => "the search stopped at hi − lo ≤ 1e−6·hi",
+    "unwarp_pass.search.exhausted" => "the search stopped after its 31 iterations",
+    "unwarp_pass.guard.moved" => "F(o − t g) < F(o): the step is taken",
+    "unwarp_pass.guard.refused" => "F(o − t g) ≥ F(o): the offset is kept",
+];
 
 /// `SEARCH_ITERATIONS`: at most this many ternary-search iterations.
 pub const SEARCH_ITERATIONS: u32 = 31;
@@ -112,7 +143,11 @@ fn fract<R: Real>(x: R) -> R {
 /// · base for each set bit of |θ|, base ← base², from the lowest bit; 1/result for θ < 0), else
 /// `pow(y, θ)`.
 pub fn theta_power<R: Real>(y: R, theta: R) -> R {
-    if fract(theta).value() == 0.0 && abs(theta).value() <= 64.0 {
+    if taken(
+        fract(theta).value() == 0.0 && abs(theta).value() <= 64.0,
+        "unwarp_pass.theta.integer",
+        "unwarp_pass.theta.pow",
+    ) {
         let mut n = abs(theta).value() as u32;
         let mut base = y;
         let mut result = R::lit(1.0);
@@ -124,6 +159,7 @@ pub fn theta_power<R: Real>(y: R, theta: R) -> R {
             n >>= 1;
         }
         if theta.value() < 0.0 {
+            hit("unwarp_pass.theta.negative");
             return R::lit(1.0) / result;
         }
         return result;
@@ -134,7 +170,11 @@ pub fn theta_power<R: Real>(y: R, theta: R) -> R {
 /// `triangle_energy`: E_T = D/(A a) · (A/a + a/A)^θ, +∞ when a ≤ 0 (or NaN).
 pub fn triangle_energy<R: Real>(t: &TriangleGeometry<R>, u1: V2<R>, u2: V2<R>, theta: R) -> R {
     let a = uv_area(u1, u2);
-    if !(a.value() > 0.0) {
+    if !taken(
+        a.value() > 0.0,
+        "unwarp_pass.triangle.unfolded",
+        "unwarp_pass.triangle.folded",
+    ) {
         return infinity();
     }
     let d = dirichlet(t, u1, u2);
@@ -153,7 +193,11 @@ pub fn triangle_gradient<R: Real>(
     theta: R,
 ) -> V2<R> {
     let a = uv_area(u1, u2);
-    if !(a.value() > 0.0) {
+    if !taken(
+        a.value() > 0.0,
+        "unwarp_pass.triangle.unfolded",
+        "unwarp_pass.triangle.folded",
+    ) {
         return V2::splat(infinity());
     }
     let two = R::lit(2.0);
@@ -189,8 +233,17 @@ pub struct Fan<R> {
 /// fixed border the active texels are interior, so the wrap never applies).
 pub fn neighbour(params: &UnwarpParams<impl Real>, x: u32, y: u32, k: usize) -> usize {
     let (w, h) = (params.width as i64, params.height as i64);
-    let nx = (i64::from(x) + i64::from(STENCIL[k][0])).rem_euclid(w);
-    let ny = (i64::from(y) + i64::from(STENCIL[k][1])).rem_euclid(h);
+    let (sx, sy) = (
+        i64::from(x) + i64::from(STENCIL[k][0]),
+        i64::from(y) + i64::from(STENCIL[k][1]),
+    );
+    taken(
+        sx < 0 || sx >= w || sy < 0 || sy >= h,
+        "unwarp_pass.neighbour.wrapped",
+        "unwarp_pass.neighbour.inside",
+    );
+    let nx = sx.rem_euclid(w);
+    let ny = sy.rem_euclid(h);
     (ny * w + nx) as usize
 }
 
@@ -242,7 +295,11 @@ pub fn pin_q<R: Real>(weight: R, resolution: V2<R>, o: V2<R>) -> R {
 /// `pin_energy`: E_pin = ½ / (1 − q), +∞ when q ≥ 1 (seed: "fixation energy").
 pub fn pin_energy<R: Real>(weight: R, resolution: V2<R>, o: V2<R>) -> R {
     let q = pin_q(weight, resolution, o);
-    if q.value() < 1.0 {
+    if taken(
+        q.value() < 1.0,
+        "unwarp_pass.pin.inside",
+        "unwarp_pass.pin.outside",
+    ) {
         return R::lit(0.5) / (R::lit(1.0) - q);
     }
     infinity()
@@ -274,10 +331,15 @@ pub fn pin_root<R: Real>(weight: R, resolution: V2<R>, o: V2<R>, g: V2<R>) -> R 
     let beta = w2 * (rx2 * o.x * g.x + ry2 * o.y * g.y);
     let gamma = pin_q(weight, resolution, o);
     if !(alpha.value() > 0.0) || !(gamma.value() < 1.0) {
+        hit("unwarp_pass.root.none");
         return -one;
     }
     let disc = sqrt(beta * beta + alpha * (one - gamma));
-    if beta.value() >= 0.0 {
+    if taken(
+        beta.value() >= 0.0,
+        "unwarp_pass.root.beta_nonnegative",
+        "unwarp_pass.root.beta_negative",
+    ) {
         return (beta + disc) / alpha;
     }
     (one - gamma) / (disc - beta)
@@ -330,18 +392,31 @@ pub fn flip_free_bracket<R: Real>(
         let den = cross2(u1, g) + cross2(g, u2);
         let t0 = a / den;
         if t0.value() > 0.0 {
-            if a.value() > 0.0 {
+            if taken(
+                a.value() > 0.0,
+                "unwarp_pass.bracket.hi_by_triangle",
+                "unwarp_pass.bracket.lo_by_folded",
+            ) {
                 hi = min(hi, t0);
             } else {
                 lo = max(lo, t0);
             }
+        } else {
+            hit("unwarp_pass.bracket.behind");
         }
     }
     let root = pin_root(weight, resolution, o, g);
     if root.value() > 0.0 {
+        if root.value() < hi.value() {
+            hit("unwarp_pass.bracket.hi_by_root");
+        }
         hi = min(hi, root);
     }
-    let found = lo.value() < hi.value() && hi.value() < f64::INFINITY;
+    let found = taken(
+        lo.value() < hi.value() && hi.value() < f64::INFINITY,
+        "unwarp_pass.bracket.found",
+        "unwarp_pass.bracket.empty",
+    );
     V3::new(lo, hi, R::lit(if found { 1.0 } else { 0.0 }))
 }
 
@@ -361,14 +436,20 @@ pub struct Search<R> {
 pub fn ternary_search<R: Real>(energy: impl Fn(R) -> R, lo_in: R, hi_in: R) -> Search<R> {
     let (mut lo, mut hi) = (lo_in, hi_in);
     let (mut path, mut steps) = (0u32, 0u32);
+    let mut converged = false;
     for i in 0..SEARCH_ITERATIONS {
         if (hi - lo).value() <= (R::lit(SEARCH_RELATIVE_WIDTH) * hi).value() {
+            converged = true;
             break;
         }
         let third = (hi - lo) / R::lit(3.0);
         let t1 = lo + third;
         let t2 = hi - third;
-        if energy(t1).value() > energy(t2).value() {
+        if taken(
+            energy(t1).value() > energy(t2).value(),
+            "unwarp_pass.search.lo_up",
+            "unwarp_pass.search.hi_down",
+        ) {
             lo = t1;
             path |= 1 << i;
         } else {
@@ -376,6 +457,11 @@ pub fn ternary_search<R: Real>(energy: impl Fn(R) -> R, lo_in: R, hi_in: R) -> S
         }
         steps += 1;
     }
+    hit(if converged {
+        "unwarp_pass.search.converged"
+    } else {
+        "unwarp_pass.search.exhausted"
+    });
     Search {
         t: R::lit(0.5) * (lo + hi),
         path,
@@ -415,7 +501,12 @@ pub fn descend_texel<R: Real>(b: &Bindings<R>, x: u32, y: u32) -> TexelResult<R>
         flags: 0,
     };
     let finite = abs(g.x).value() < f64::INFINITY && abs(g.y).value() < f64::INFINITY;
-    if !finite || (g.x.value() == 0.0 && g.y.value() == 0.0) {
+    if !finite {
+        hit("unwarp_pass.gradient.not_finite");
+        return result;
+    }
+    if g.x.value() == 0.0 && g.y.value() == 0.0 {
+        hit("unwarp_pass.gradient.zero");
         return result;
     }
     let bracket = flip_free_bracket(&fan, weight, resolution, o, g);
@@ -427,7 +518,11 @@ pub fn descend_texel<R: Real>(b: &Bindings<R>, x: u32, y: u32) -> TexelResult<R>
     let search = ternary_search(energy, bracket.x, bracket.y);
     result.path = search.path;
     result.flags |= search.steps;
-    if energy(search.t).value() < energy(R::lit(0.0)).value() {
+    if taken(
+        energy(search.t).value() < energy(R::lit(0.0)).value(),
+        "unwarp_pass.guard.moved",
+        "unwarp_pass.guard.refused",
+    ) {
         result.offset = line_point(o, g, search.t);
         result.flags |= FLAG_MOVED;
     }
@@ -460,7 +555,7 @@ pub fn unwarp_pass<R: Real>(
             pins,
             offsets,
         };
-        let r = body(&b, c);
+        let r = super::coverage::invocation(|| body(&b, c));
         offsets[c] = r.offset;
         results.push(r);
     }

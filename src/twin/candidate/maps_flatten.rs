@@ -27,7 +27,7 @@ pub fn candidate_with(dir: &Path, k: &KernelVectors, model: Model, body: Body) -
     let rings = rings(dir, k)?;
     let flat: Vec<_> = rings
         .iter()
-        .map(|h| with_model(model, || body(h)))
+        .map(|h| crate::twin::coverage::invocation(|| with_model(model, || body(h))))
         .collect();
     if k.name.ends_with(".points") {
         let out: Vec<f32> = flat

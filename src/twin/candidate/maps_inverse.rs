@@ -39,7 +39,7 @@ pub fn candidate_with(dir: &Path, k: &KernelVectors, model: Model, body: Body) -
             F::new(query_bary[3 * n + 1]),
             F::new(query_bary[3 * n + 2]),
         );
-        let r = with_model(model, || body(&tables, face, b));
+        let r = crate::twin::coverage::invocation(|| with_model(model, || body(&tables, face, b)));
         out.extend([r.position.x, r.position.y, r.position.z].map(|x| x.get()));
     }
     Ok(Array::f32(&[query_face.len(), 3], out))

@@ -23,7 +23,9 @@ pub fn candidate_with(dir: &Path, k: &KernelVectors, model: Model, body: Body) -
     let rings = rings(dir, k)?;
     let out: Vec<f32> = rings
         .iter()
-        .flat_map(|h| with_model(model, || body(h)).map(F::get))
+        .flat_map(|h| {
+            crate::twin::coverage::invocation(|| with_model(model, || body(h))).map(F::get)
+        })
         .collect();
     Ok(Array::f32(&[rings.len(), 2], out))
 }

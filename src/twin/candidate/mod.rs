@@ -70,3 +70,23 @@ pub fn runner(name: &str) -> Option<Runner> {
         _ => None,
     }
 }
+
+/// The branch catalogue ([`crate::twin::coverage`]) of kernel `name`, for the kernels whose
+/// twins report their branches.
+pub fn branches(name: &str) -> Option<&'static [crate::twin::coverage::Branch]> {
+    use crate::twin::{
+        maps_flatten, maps_inverse, maps_priority, skinsimp_collapse_cost, skinsimp_lbs,
+        skinsimp_quadrics, unwarp_pass,
+    };
+    match name {
+        "maps_flatten.points" | "maps_flatten.rings" => Some(maps_flatten::BRANCHES),
+        "maps_inverse" => Some(maps_inverse::BRANCHES),
+        "maps_priority" => Some(maps_priority::BRANCHES),
+        "skinsimp_collapse_cost" => Some(skinsimp_collapse_cost::BRANCHES),
+        "skinsimp_lbs" => Some(skinsimp_lbs::BRANCHES),
+        "skinsimp_quadrics.source" => Some(skinsimp_quadrics::SOURCE_BRANCHES),
+        "skinsimp_quadrics.vertex" => Some(skinsimp_quadrics::VERTEX_BRANCHES),
+        "unwarp_pass" => Some(unwarp_pass::BRANCHES),
+        _ => None,
+    }
+}

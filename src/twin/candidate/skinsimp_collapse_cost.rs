@@ -55,7 +55,9 @@ pub fn candidate_with(dir: &Path, k: &KernelVectors, model: Model, body: Body) -
             joints: bones[slots.clone()].to_vec(),
             alpha: alpha[slots].to_vec(),
         };
-        out.extend(with_model(model, || row(&body(&buffers, &item))));
+        out.extend(crate::twin::coverage::invocation(|| {
+            with_model(model, || row(&body(&buffers, &item)))
+        }));
     }
     Ok(Array::f32(&[n, 14], out))
 }

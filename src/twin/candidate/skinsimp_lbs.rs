@@ -80,7 +80,9 @@ pub fn candidate_with(
                 let o = 12 * index(j, joint as usize, poses, joint_count).min(matrices - 1);
                 std::array::from_fn(|e| F::new(m[o + e] as f32))
             };
-            let p = with_model(model, || body(x, js, ws, &matrix));
+            let p = crate::twin::coverage::invocation(|| {
+                with_model(model, || body(x, js, ws, &matrix))
+            });
             out.extend([p.x.get(), p.y.get(), p.z.get()]);
         }
     }

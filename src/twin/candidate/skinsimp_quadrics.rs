@@ -70,7 +70,9 @@ impl Sources {
                 F::new(self.posed[o + 2] as f32),
             )
         });
-        with_model(model, || body(self.kind[s], p, self.weight))
+        crate::twin::coverage::invocation(|| {
+            with_model(model, || body(self.kind[s], p, self.weight))
+        })
     }
 }
 
@@ -140,11 +142,13 @@ pub fn vertex_candidate_with(
     let mut out = Vec::with_capacity(vertices * x.poses * 10);
     for v in 0..vertices {
         for j in 0..x.poses {
-            let qs: Vec<Quadric<F>> = gather(&offsets, &sources, &x.kind, v)
-                .into_iter()
-                .map(|s| x.quadric(s, pose_of(j), model, plane_quadric))
-                .collect();
-            let q = with_model(model, || vertex_quadric(&qs));
+            let q = crate::twin::coverage::invocation(|| {
+                let qs: Vec<Quadric<F>> = gather(&offsets, &sources, &x.kind, v)
+                    .into_iter()
+                    .map(|s| x.quadric(s, pose_of(j), model, plane_quadric))
+                    .collect();
+                with_model(model, || vertex_quadric(&qs))
+            });
             out.extend(q.iter().map(|q| q.get()));
         }
     }
