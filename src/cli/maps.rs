@@ -52,6 +52,19 @@ pub struct MapsArgs {
     /// points a removal re-stores lie from its ring's plane) instead of the curvature.
     #[arg(long)]
     pub priority_error: bool,
+    /// The paper's removal order at every level: no shape rule on the coarse levels (by
+    /// default, beyond the paper, the levels near the base size remove first the vertices whose
+    /// retriangulated star keeps the re-stored input points closest, `maps::shape`).
+    #[arg(long)]
+    pub paper_removal: bool,
+    /// The shape rule's deferral: a selected vertex whose shape error is above this quantile of
+    /// the level's candidates' waits for a later level (1: the order alone).
+    #[arg(long, default_value_t = crate::maps::shape::ShapeRule::default().quantile)]
+    pub shape_quantile: f64,
+    /// The shape rule orders the levels that start with at most this many times `--base-size`
+    /// faces.
+    #[arg(long, default_value_t = crate::maps::shape::ShapeRule::default().coarse_factor)]
+    pub shape_levels: f64,
     /// How a removed vertex's ring is flattened: the paper's conformal z^a (|μ| = r^a), or,
     /// beyond the paper, the polar map that keeps the radii (|μ| = r, angles scaled by a).
     #[arg(long, value_enum, default_value_t = FlatteningArg::Conformal)]
@@ -276,7 +289,8 @@ pub fn run(args: MapsArgs) -> Result<()> {
 /// half 9× denser), skull_uneven (64 cubes, head_uneven with two thin arches, genus 2).
 fn hard_model(name: &str) -> Option<TriMesh> {
     use crate::mesh::procedural::{
-        genus_bumpy, genus_uneven, genus_uneven_steps, head_uneven, horned, pedestal, skull_uneven,
+        genus_bumpy, genus_uneven, genus_uneven_steps, head_uneven, horned, many_limbed, pedestal,
+        skull_uneven,
     };
     Some(match name {
         "genus2" => genus_bumpy(2, 64),
@@ -289,12 +303,14 @@ fn hard_model(name: &str) -> Option<TriMesh> {
         "skull_uneven" => skull_uneven(64),
         "horned" => horned(64),
         "pedestal" => pedestal(64),
+        "many_limbed" => many_limbed(96),
         _ => return None,
     })
 }
 
-/// Load the mesh named on the command line.
-pub(super) fn load(spec: &str) -> Result<TriMesh> {
+/// Load the mesh named on the command line: an OBJ, PLY or OFF file, or `procedural:<name>`
+/// (the hard models or a built-in mesh).
+pub fn load(spec: &str) -> Result<TriMesh> {
     match spec.strip_prefix("procedural:") {
         Some(name) => hard_model(name)
             .or_else(|| builtin_mesh(name))
@@ -397,6 +413,10 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         },
         best_triangulation: args.best_triangulation,
         retry_rejected: !args.no_retry_rejected,
+        shape_rule: (!args.paper_removal).then_some(crate::maps::shape::ShapeRule {
+            coarse_factor: args.shape_levels,
+            quantile: args.shape_quantile,
+        }),
         ..MapsOptions::default()
     };
     let bar = if progress {
