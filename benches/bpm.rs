@@ -1,6 +1,6 @@
 //! BPM benchmarks (issue #2): precompute throughput on a ≥ 1M-triangle mesh, evaluation
 //! throughput (f64 CPU with 1 and 2 threads, f32 GPU), the BPM/linear cost ratio, and the QC
-//! protocol on a real model when `../shared/realdata` is present (a procedural mesh otherwise).
+//! protocol on spot (`reference_data/models/spot`).
 //!
 //! Run: `cargo bench --bench bpm`. Figures go in the issue notes; CI only compiles this.
 
@@ -74,11 +74,14 @@ fn bench_eval(c: &mut Criterion) {
 }
 
 fn bench_qc(c: &mut Criterion) {
-    let spot = Path::new("../shared/realdata/uv_textured/spot/spot_triangulated.obj");
-    let (name, mesh) = match load_obj(spot) {
-        Ok(m) => ("spot", m),
-        Err(_) => ("torus_64x32", procedural::torus(64, 32, 1.0, 0.35)),
-    };
+    let spot = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/reference_data/models/spot/spot_triangulated.obj"
+    ));
+    let (name, mesh) = (
+        "spot",
+        load_obj(spot).expect("reference_data/models/spot loads"),
+    );
     let bpm = precompute(&mesh, BpmOptions::default()).unwrap();
     let mut group = c.benchmark_group("bpm_qc");
     group.sample_size(10);

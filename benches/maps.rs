@@ -35,10 +35,11 @@ fn torus(major: usize, minor: usize) -> TriMesh {
     m
 }
 
-fn nefertiti() -> Option<TriMesh> {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/realdata/large/nefertiti-lowres.obj");
-    load_obj(&path).ok()
+/// The Nefertiti scan shipped in `reference_data/models/nefertiti` (public domain).
+fn nefertiti() -> TriMesh {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("reference_data/models/nefertiti/nefertiti-lowres.obj");
+    load_obj(&path).expect("reference_data/models/nefertiti/nefertiti-lowres.obj loads")
 }
 
 /// The cases: name, mesh, and a base size target (0 = as coarse as possible, and the
@@ -51,9 +52,7 @@ fn cases() -> Vec<(String, TriMesh)> {
         // Issue #23's hard case: a bumpy genus-2 surface of ≈ 100k irregular triangles.
         ("genus-2 100k".to_string(), procedural::genus_bumpy(2, 110)),
     ];
-    if let Some(n) = nefertiti() {
-        v.push(("nefertiti 70k".to_string(), n));
-    }
+    v.push(("nefertiti 70k".to_string(), nefertiti()));
     v
 }
 

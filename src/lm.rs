@@ -4,7 +4,7 @@
 //! Koniaris et al. (CVMP 2013, seed 000 §5.3, §7) minimise their grid-warp energy with ALGLIB's
 //! bound-constrained Levenberg–Marquardt optimiser ("all tolerances 0, 100 iterations"). No Rust
 //! crate offers bounds with exact box-constrained steps, so this module is our own, written to
-//! behave like `minlm` as restated in `/work/shared/notes/gridwarp.md` ("The solver").
+//! behave like `minlm`; its rules are restated below (§ One iteration, § Stopping).
 //!
 //! # The problem
 //!

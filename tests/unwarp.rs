@@ -1,4 +1,4 @@
-//! Properties of the f64 unwarp reference (notes/unwarp.md § Properties that make good tests),
+//! Properties of the f64 unwarp reference (the unwarp guide's properties: flat maps stay put, gradient = differences, monotone passes),
 //! thread-count independence, coarse-to-fine, the reference figures, and bad input.
 
 mod common;
