@@ -1123,7 +1123,8 @@ fn limb_joints(k: usize, side: f64) -> [Point3<f64>; 3] {
 /// segments (radius 0.11 → 0.07) curling up over the back to a sting (0.07 → 0.015), blended
 /// with smooth minima of width 0.04. Tips in [`many_limbed_tips`]. `cells` ≥ 8 grid cubes along
 /// the longest side (3.7); the thinnest parts (0.1 across) are resolved from about 80 on, as
-/// one closed genus-0 surface; 96 gives ≈ 30k triangles.
+/// one closed surface (not genus 0: at 96 its Euler characteristic is −8, where the blended
+/// parts close loops); 96 gives ≈ 25.6k triangles.
 pub fn many_limbed(cells: usize) -> TriMesh {
     let ellipsoid = |p: &Point3<f64>, r: [f64; 3]| {
         let q = nalgebra::Vector3::new(p.x / r[0], p.y / r[1], p.z / r[2]);
