@@ -52,6 +52,19 @@ pub struct MapsArgs {
     /// points a removal re-stores lie from its ring's plane) instead of the curvature.
     #[arg(long)]
     pub priority_error: bool,
+    /// The paper's removal order at every level: no shape rule on the coarse levels (by
+    /// default, beyond the paper, the levels near the base size remove first the vertices whose
+    /// retriangulated star keeps the re-stored input points closest, `maps::shape`).
+    #[arg(long)]
+    pub paper_removal: bool,
+    /// The shape rule's deferral: a selected vertex whose shape error is above this quantile of
+    /// the level's candidates' waits for a later level (1: the order alone).
+    #[arg(long, default_value_t = crate::maps::shape::ShapeRule::default().quantile)]
+    pub shape_quantile: f64,
+    /// The shape rule orders the levels that start with at most this many times `--base-size`
+    /// faces.
+    #[arg(long, default_value_t = crate::maps::shape::ShapeRule::default().coarse_factor)]
+    pub shape_levels: f64,
     /// How a removed vertex's ring is flattened: the paper's conformal z^a (|μ| = r^a), or,
     /// beyond the paper, the polar map that keeps the radii (|μ| = r, angles scaled by a).
     #[arg(long, value_enum, default_value_t = FlatteningArg::Conformal)]
@@ -276,7 +289,8 @@ pub fn run(args: MapsArgs) -> Result<()> {
 /// half 9× denser), skull_uneven (64 cubes, head_uneven with two thin arches, genus 2).
 fn hard_model(name: &str) -> Option<TriMesh> {
     use crate::mesh::procedural::{
-        genus_bumpy, genus_uneven, genus_uneven_steps, head_uneven, horned, pedestal, skull_uneven,
+        genus_bumpy, genus_uneven, genus_uneven_steps, head_uneven, horned, many_limbed, pedestal,
+        skull_uneven,
     };
     Some(match name {
         "genus2" => genus_bumpy(2, 64),
@@ -289,12 +303,14 @@ fn hard_model(name: &str) -> Option<TriMesh> {
         "skull_uneven" => skull_uneven(64),
         "horned" => horned(64),
         "pedestal" => pedestal(64),
+        "many_limbed" => many_limbed(96),
         _ => return None,
     })
 }
 
-/// Load the mesh named on the command line.
-pub(super) fn load(spec: &str) -> Result<TriMesh> {
+/// Load the mesh named on the command line: an OBJ, PLY or OFF file, or `procedural:<name>`
+/// (the hard models or a built-in mesh).
+pub fn load(spec: &str) -> Result<TriMesh> {
     match spec.strip_prefix("procedural:") {
         Some(name) => hard_model(name)
             .or_else(|| builtin_mesh(name))
@@ -397,6 +413,10 @@ pub fn maps(args: &MapsArgs, progress: bool) -> Result<MapsSummary> {
         },
         best_triangulation: args.best_triangulation,
         retry_rejected: !args.no_retry_rejected,
+        shape_rule: (!args.paper_removal).then_some(crate::maps::shape::ShapeRule {
+            coarse_factor: args.shape_levels,
+            quantile: args.shape_quantile,
+        }),
         ..MapsOptions::default()
     };
     let bar = if progress {
@@ -691,7 +711,8 @@ pub fn unfaithful_warning(
             sig(100.0 * worst.mean_distance_relative, 3),
         ));
     }
-    Some(format!(
+    Some(
+        format!(
         "warning: {} of {} remeshes miss the faithfulness targets (Hausdorff ≤ 1.5%, mean ≤ 0.1% \
          of the diagonal, no wrong-facing area); worst {}: Hausdorff {}%, mean {}%, wrong-facing \
          area {}%. The base domain of {base_faces} faces does not represent the shape there \
@@ -711,7 +732,41 @@ pub fn unfaithful_warning(
         relax_hint(remeshes, &bad),
         equalise_hint(distortion, equalised),
         wrong_facing_note(worst, folds)
-    ))
+    ) + &equalise_fold_note(
+            &remeshes
+                .iter()
+                .map(|r| (r.kind.as_str(), r.wrong_facing_area))
+                .collect::<Vec<_>>(),
+        ),
+    )
+}
+
+/// Issue #53: the note of [`unfaithful_warning`] when an equalised relaxed remesh (`kind`,
+/// wrong-facing area) has more wrong-facing area than the relaxed remesh of the same depth:
+/// Φ keeps Π's folded images where the base domain misses a part of the shape, and its
+/// redistribution of area can turn more of the remesh over there (the MAPS guide's section on
+/// the coarse levels' removal rule). Empty when none does.
+fn equalise_fold_note(remeshes: &[(&str, f64)]) -> String {
+    for &(kind, equalised) in remeshes {
+        let Some(depth) = kind.strip_suffix(" equalised relaxed") else {
+            continue;
+        };
+        let relaxed_kind = format!("{depth} relaxed");
+        let Some(&(_, relaxed)) = remeshes.iter().find(|(k, _)| *k == relaxed_kind) else {
+            continue;
+        };
+        if equalised > relaxed {
+            return format!(
+                " With --equalise, {kind} has more wrong-facing area than {relaxed_kind} ({}% \
+                 against {}%): Φ keeps Π's folded images where the base domain misses a part \
+                 of the shape, and moving area there turns more of the remesh over; prefer \
+                 {relaxed_kind} there, or a larger --base-size.",
+                sig(100.0 * equalised, 3),
+                sig(100.0 * relaxed, 3)
+            );
+        }
+    }
+    String::new()
 }
 
 /// `--relax, ` when a uniform remesh misses the targets and none was relaxed.
@@ -979,6 +1034,35 @@ mod tests {
         assert_eq!(
             super::EQUALISE_DEPTH.parse::<u32>(),
             Ok(crate::maps::equalise::DEFAULT_DEPTH)
+        );
+    }
+
+    /// The note appears only when an equalised relaxed remesh has more wrong-facing area than
+    /// the relaxed one of its depth (the skull with the paper's order: 3.39% against 2.49%),
+    /// names both, and is empty when it has as much or less, or has no relaxed partner.
+    #[test]
+    fn equalise_fold_note_only_when_equalise_raises_the_wrong_facing_area() {
+        let note = super::equalise_fold_note(&[
+            ("uniform:3", 0.04),
+            ("uniform:3 relaxed", 0.0249),
+            ("uniform:3 equalised", 0.032),
+            ("uniform:3 equalised relaxed", 0.0339),
+        ]);
+        assert!(note.contains("uniform:3 equalised relaxed"), "{note}");
+        assert!(note.contains("3.39% against 2.49%"), "{note}");
+        for rel in [0.0339, 0.04] {
+            let none = super::equalise_fold_note(&[
+                ("uniform:3 relaxed", rel),
+                ("uniform:3 equalised relaxed", 0.0339),
+            ]);
+            assert_eq!(none, "", "relaxed {rel}");
+        }
+        assert_eq!(
+            super::equalise_fold_note(&[
+                ("uniform:2 relaxed", 0.0),
+                ("uniform:3 equalised relaxed", 0.1)
+            ]),
+            ""
         );
     }
 

@@ -87,6 +87,9 @@ mod inputs;
 mod maps;
 #[cfg(feature = "gpu")]
 mod shader;
+/// The mesh named as the `maps` command names it (a file, or `procedural:<name>` with the hard
+/// models), for the `maps_compare` example.
+pub use maps::load as load_maps_input;
 mod skinsimp;
 mod unwarp;
 #[cfg(feature = "gpu")]

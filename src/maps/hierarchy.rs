@@ -31,6 +31,7 @@ use super::quality::smallest_angle_deg;
 use super::retriangulate::{
     best_triangulation, cdt_triangulation, fan_triangulation, locate, orient2d,
 };
+use super::shape::{deferral_threshold, removal_error};
 use super::MapsOptions;
 
 /// One level of the hierarchy, in processing order (`levels[0]` is the input mesh, the paper's
@@ -50,6 +51,9 @@ pub struct Level {
     /// Whether the target base size was reached during this level (later selected vertices
     /// were neither removed nor rejected).
     pub truncated: bool,
+    /// The selected vertices left for a later level by the shape rule of the coarse levels
+    /// ([`super::shape`]: their shape error was above the level's threshold).
+    pub deferred: Vec<u32>,
 }
 
 /// Where a point of the input lives on a level: a triangle of that level and barycentric
@@ -484,11 +488,33 @@ impl<'a> Work<'a> {
         out
     }
 
+    /// The shape error of a planned removal ([`super::shape::removal_error`]) with the
+    /// triangulation [`Work::commit`] would try first: the CDT when it passed the local checks,
+    /// else the first fan that passes them and faces the star normal's side in 3D; ∞ when the
+    /// flattening guard rejected the ring or no such triangulation exists.
+    fn shape_error(&self, planned: &Planned) -> f64 {
+        let Planned::Plan(plan) = planned else {
+            return f64::INFINITY;
+        };
+        let ring = &plan.ring.verts;
+        if let Some((tris, moved)) = &plan.cdt {
+            return removal_error(self.positions, ring, tris, moved);
+        }
+        for apex in fan_apexes(plan) {
+            if let Some(tris) = fan_triangulation(&plan.mu, apex, plan.chord) {
+                if self.valid_3d(plan, &tris) {
+                    let moved = self.relocate(plan, &tris);
+                    return removal_error(self.positions, ring, &tris, &moved);
+                }
+            }
+        }
+        f64::INFINITY
+    }
+
     /// Commit `plan` with the first triangulation that passes every check: the CDT, then the
     /// fans from each allowed apex (the chord ends for a feature or boundary vertex, so the
     /// chord stays). Returns the outcome (on a rejection the vertex is kept).
     fn commit(&mut self, plan: &Plan) -> Commit {
-        let k = plan.ring.verts.len();
         let mut chosen: Option<Triangulation> = None;
         let mut any_3d = plan.cdt.is_some();
         if let Some((tris, moved)) = &plan.cdt {
@@ -497,11 +523,7 @@ impl<'a> Work<'a> {
             }
         }
         if chosen.is_none() {
-            let apexes: Vec<usize> = match plan.chord {
-                None => (0..k).collect(),
-                Some((s, t)) => vec![s, t],
-            };
-            for apex in apexes {
+            for apex in fan_apexes(plan) {
                 if let Some(tris) = fan_triangulation(&plan.mu, apex, plan.chord) {
                     if self.valid_3d(plan, &tris) {
                         any_3d = true;
@@ -622,6 +644,15 @@ impl<'a> Work<'a> {
     }
 }
 
+/// The apexes of the fans [`Work::commit`] falls back to, in order: every ring position for a
+/// disk, the chord's ends otherwise (so that the chord stays).
+fn fan_apexes(plan: &Plan) -> Vec<usize> {
+    match plan.chord {
+        None => (0..plan.ring.verts.len()).collect(),
+        Some((s, t)) => vec![s, t],
+    }
+}
+
 /// Candidate data of one vertex for a level.
 struct Candidate {
     vertex: u32,
@@ -677,30 +708,55 @@ pub(crate) fn decimate<'a>(
             .filter(|c| !excluded.contains(&c.vertex))
             .collect();
         level.candidates = candidates.iter().map(|c| c.vertex).collect();
-        let area: Vec<f64> = candidates.iter().map(|c| c.area).collect();
-        let kappa: Vec<f64> = candidates.iter().map(|c| c.kappa).collect();
-        let w = match options.shuffle_seed {
-            None => priorities_quantile(options.lambda, &area, &kappa, options.priority_quantile),
-            Some(seed) => candidates
-                .iter()
-                .map(|c| shuffle_key(seed, levels.len(), c.vertex))
-                .collect(),
+        let shape_rule = options.shape_rule.filter(|r| {
+            options.shuffle_seed.is_none() && r.applies(work.alive_faces, options.base_size)
+        });
+        // The shape rule plans every candidate (its order is the planned removals' shape
+        // error); the paper's plans only the selected ones.
+        let (w, mut planned_all, threshold) = match shape_rule {
+            Some(rule) => {
+                let planned: Vec<Planned> = candidates
+                    .par_iter()
+                    .map(|c| work.plan(c.vertex, c.ring.clone(), c.shape))
+                    .collect();
+                let errors: Vec<f64> = planned.par_iter().map(|p| work.shape_error(p)).collect();
+                let threshold = deferral_threshold(&errors, rule.quantile);
+                let slots = planned.into_iter().map(Some).collect::<Vec<_>>();
+                (errors, Some(slots), threshold)
+            }
+            None => (
+                paper_order(options, levels.len(), &candidates),
+                None,
+                f64::INFINITY,
+            ),
         };
         let selected = independent_set(work, &candidates, &w);
         level.selected = selected.iter().map(|&c| candidates[c].vertex).collect();
-        let mut slots: Vec<Option<Candidate>> = candidates.into_iter().map(Some).collect();
-        let chosen: Vec<Candidate> = selected
-            .iter()
-            .map(|&c| slots[c].take().expect("once"))
-            .collect();
-        let plans: Vec<Planned> = chosen
-            .into_par_iter()
-            .map(|c| work.plan(c.vertex, c.ring, c.shape))
-            .collect();
-        for planned in plans {
+        let plans: Vec<(f64, Planned)> = match planned_all.as_mut() {
+            Some(slots) => selected
+                .iter()
+                .map(|&c| (w[c], slots[c].take().expect("once")))
+                .collect(),
+            None => {
+                let mut slots: Vec<Option<Candidate>> = candidates.into_iter().map(Some).collect();
+                let chosen: Vec<(f64, Candidate)> = selected
+                    .iter()
+                    .map(|&c| (w[c], slots[c].take().expect("once")))
+                    .collect();
+                chosen
+                    .into_par_iter()
+                    .map(|(e, c)| (e, work.plan(c.vertex, c.ring, c.shape)))
+                    .collect()
+            }
+        };
+        for (error, planned) in plans {
             if work.alive_faces <= options.base_size {
                 level.truncated = true;
                 break;
+            }
+            if error > threshold {
+                level.deferred.push(planned_vertex(&planned));
+                continue;
             }
             match planned {
                 Planned::FlattenRejected(v) => {
@@ -750,6 +806,30 @@ pub(crate) fn decimate<'a>(
     };
     let stop = stop_state(work, options, reason, last_level_rejects);
     (levels, stop)
+}
+
+/// The paper's order of a level's candidates: w(λ, i) ([`priorities_quantile`]), or the
+/// seeded shuffle ([`MapsOptions::shuffle_seed`]).
+fn paper_order(options: &MapsOptions, level: usize, candidates: &[Candidate]) -> Vec<f64> {
+    match options.shuffle_seed {
+        None => {
+            let area: Vec<f64> = candidates.iter().map(|c| c.area).collect();
+            let kappa: Vec<f64> = candidates.iter().map(|c| c.kappa).collect();
+            priorities_quantile(options.lambda, &area, &kappa, options.priority_quantile)
+        }
+        Some(seed) => candidates
+            .iter()
+            .map(|c| shuffle_key(seed, level, c.vertex))
+            .collect(),
+    }
+}
+
+/// The vertex of a planned removal.
+fn planned_vertex(planned: &Planned) -> u32 {
+    match planned {
+        Planned::Plan(plan) => plan.vertex,
+        Planned::FlattenRejected(v) => *v,
+    }
 }
 
 /// [`HierarchyStop`] of the final mesh: every alive vertex classified as a corner, over the

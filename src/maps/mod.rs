@@ -16,6 +16,7 @@ pub mod quality;
 pub mod relax;
 pub mod remesh;
 pub mod retriangulate;
+pub mod shape;
 pub mod smooth;
 pub mod stretch;
 
@@ -101,6 +102,12 @@ pub struct MapsOptions {
     /// spot, nefertiti and blub (the guide, `src/maps/README.md`, with bases 64 to 250): not the
     /// default.
     pub flattening: flatten::Flattening,
+    /// Beyond the paper (issue #53): the removal rule of the coarse levels that keeps the
+    /// shape's parts ([`shape::ShapeRule`]: the levels that start with at most
+    /// `coarse_factor` × `base_size` faces ordered by the shape error of each removal, the
+    /// costlier half of each level left for a later one). `None`: the paper's priority at
+    /// every level. Default `Some(ShapeRule::default())`.
+    pub shape_rule: Option<shape::ShapeRule>,
 }
 
 impl Default for MapsOptions {
@@ -118,6 +125,7 @@ impl Default for MapsOptions {
             shuffle_seed: None,
             priority_error: false,
             flattening: flatten::Flattening::Conformal,
+            shape_rule: Some(shape::ShapeRule::default()),
         }
     }
 }
@@ -191,6 +199,20 @@ pub fn build_with_progress(
             "priority_quantile {} is not in (0, 1]",
             options.priority_quantile
         )));
+    }
+    if let Some(rule) = &options.shape_rule {
+        if !(rule.quantile > 0.0 && rule.quantile <= 1.0) {
+            return Err(Error::InvalidArgument(format!(
+                "shape rule quantile {} is not in (0, 1]",
+                rule.quantile
+            )));
+        }
+        if !(rule.coarse_factor >= 0.0 && rule.coarse_factor.is_finite()) {
+            return Err(Error::InvalidArgument(format!(
+                "shape rule coarse factor {} is not a finite number ≥ 0",
+                rule.coarse_factor
+            )));
+        }
     }
     if options.max_degree < 3 {
         return Err(Error::InvalidArgument(format!(
