@@ -1,7 +1,7 @@
 // skinsimp_lbs: linear blend skinning of V vertices in P poses, one invocation per
 // (vertex, pose). Prepended by the host: dispatch.wgsl.
 //
-// Twin of `skin` in src/skinsimp/mod.rs (notes "Linear blend skinning"):
+// Twin of `skin` in src/skinsimp/mod.rs (src/skinsimp/SPEC.md § 1):
 //   p_i^j = Σ_k w_ik (M_k^j v̂_i),  v̂ = (v, 1),
 // summed over the vertex's influences in list order, each joint product formed first and then
 // scaled by its weight, as the reference does. A joint matrix is stored as the top three rows

@@ -1,5 +1,5 @@
-// skinsimp_quadrics: Garland–Heckbert plane quadrics per example pose (notes "Per-pose
-// quadrics"), in two entry points. Prepended by the host: dispatch.wgsl.
+// skinsimp_quadrics: Garland–Heckbert plane quadrics per example pose (src/skinsimp/SPEC.md
+// § 2), in two entry points. Prepended by the host: dispatch.wgsl.
 //
 // Twin of src/skinsimp/quadric.rs (`Quadric::from_plane`, `Quadric::from_triangle`,
 // `edge_constraint`, `unit_normal`) and of the per-vertex sum `Q_i^j = Σ_{f∋i} K_f^j` (+ the

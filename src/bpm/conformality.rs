@@ -2,12 +2,12 @@
 //! rests on, reported beside its QC figures.
 //!
 //! BPM fits one Möbius map per triangle and blends the neighbours' maps across each edge
-//! through the log of their ratio δ_e = M_t⁻¹ M_e (seed 004 steps 3–5, notes "Method"). A
+//! through the log of their ratio δ_e = M_t⁻¹ M_e (seed 004 steps 3–5, SPEC.md § 5). A
 //! Möbius map preserves complex cross-ratios, so δ_e is the identity exactly when the edge's
 //! quad (t's three corners and the neighbour's apex, laid out flat) has the same cross-ratio in
 //! the layout and in UV, i.e. when the input map is discrete conformal across the edge. In
 //! general δ_e fixes the edge's two ends and multiplies by m = CR_w / CR_z about them, so
-//! Tr(δ_e)² = m + 2 + 1/m (notes, property 6) and l_e = log δ_e has eigenvalues ±½ log m:
+//! Tr(δ_e)² = m + 2 + 1/m (SPEC.md § 11) and l_e = log δ_e has eigenvalues ±½ log m:
 //! |log m| is the size of what BPM blends across the edge.
 //!
 //! The paper (Rorberg, Vaxman, Ben-Chen 2023) claims lower quasi-conformal distortion than

@@ -69,7 +69,7 @@ pub struct Sample {
     pub bary: [f64; 3],
 }
 
-/// Edge-barycentric weights (γ_ij, γ_jk, γ_ki), product form (notes, method step 5):
+/// Edge-barycentric weights (γ_ij, γ_jk, γ_ki), product form (SPEC.md § 7):
 ///
 ///   γ_ij ∝ |ij| b_i b_j,  γ_jk ∝ |jk| b_j b_k,  γ_ki ∝ |ki| b_k b_i,  normalised to sum 1.
 ///

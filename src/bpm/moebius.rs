@@ -142,7 +142,7 @@ pub fn mobius_inverse(m: &Mobius) -> Mobius {
     Mobius::new(m.d, -m.b, -m.c, m.a)
 }
 
-/// The Möbius map through three points, fitted in a local frame (notes, "Stable formulas").
+/// The Möbius map through three points, fitted in a local frame (SPEC.md § 4).
 ///
 /// Shift so that point 0 is the origin on both sides: z' = z − z₀, w' = w − w₀. The shifted map
 /// F fixes 0, so F(z) = z / (c z + d) and 1/F(z) = c + d/z is affine in 1/z:
@@ -197,7 +197,7 @@ fn det3(c0: [C; 3], c1: [C; 3], c2: [C; 3]) -> C {
 /// Which implementation of exp and log to use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum ExpLog {
-    /// The entire-series / closed forms of the notes: exact to rounding everywhere, no branch
+    /// The entire-series / closed forms of SPEC.md § 6: exact to rounding everywhere, no branch
     /// trouble at the identity or at nilpotent arguments. The default.
     #[default]
     Entire,
@@ -396,7 +396,7 @@ pub fn c_sqrt(z: C) -> C {
     }
 }
 
-/// exp of a traceless matrix Y = [[a, b], [c, −a]] (notes, "exp on sl(2,C)").
+/// exp of a traceless matrix Y = [[a, b], [c, −a]] (SPEC.md § 6).
 ///
 /// Y² = p I with p = −det Y = a² + b c, so exp Y = C(p) I + S(p) Y with (C, S) from
 /// [`cosh_sinhc`]: exp Y = [[C + S a, S b], [S c, C − S a]]. The result has det 1.
@@ -406,7 +406,7 @@ pub fn exp_sl2(y: &Sl2) -> Mobius {
     Mobius::new(c + s * y.a, s * y.b, s * y.c, c - s * y.a)
 }
 
-/// The principal log of A ∈ SL(2,C) after the sign fix (seed step 4, notes):
+/// The principal log of A ∈ SL(2,C) after the sign fix (seed step 4, SPEC.md §§ 5–6):
 ///
 /// if Re Tr A < 0, A := −A (SL(2,C) matrices are Möbius maps only up to sign); then with
 /// X = A − (Tr A/2) I = [[(a−d)/2, b], [c, −(a−d)/2]] and q = ((a−d)/2)² + b c (= (Tr A/2)² − 1
@@ -483,7 +483,7 @@ fn add(m: &Mobius, n: &Mobius) -> Mobius {
 }
 
 /// Complex cross-ratio (z₀, z₁; z₂, z₃) = ((z₀ − z₂)(z₁ − z₃)) / ((z₀ − z₃)(z₁ − z₂)), invariant
-/// under Möbius maps; used by the edge diagnostic Tr(δ)² = m + 2 + 1/m (notes, property 6).
+/// under Möbius maps; used by the edge diagnostic Tr(δ)² = m + 2 + 1/m (SPEC.md §§ 10–11).
 pub fn cross_ratio(z: [C; 4]) -> C {
     ((z[0] - z[2]) * (z[1] - z[3])) / ((z[0] - z[3]) * (z[1] - z[2]))
 }

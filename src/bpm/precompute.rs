@@ -26,7 +26,7 @@ pub enum Fit {
     Determinant,
 }
 
-/// Multiplication order of the blended map (seed §3.1, notes "The multiplication order").
+/// Multiplication order of the blended map (seed 004 §3.1, SPEC.md § 9).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 pub enum Order {
     /// M_z = M_t exp(½ Σ γ_e log(M_t⁻¹ M_e)): the seed's final form. Default.
@@ -37,7 +37,7 @@ pub enum Order {
     Left,
 }
 
-/// How a neighbour's apex is laid out in t's plane (seed step 2(c), notes step 1).
+/// How a neighbour's apex is laid out in t's plane (seed step 2(c), SPEC.md § 2).
 ///
 /// With φ ∈ [0, π] the fold angle between t and the neighbour across edge a→b (0: coplanar),
 /// `along`, `perp` the apex's distance along and from the edge line, and dir the unit vector of
@@ -53,7 +53,7 @@ pub enum Order {
 /// back by only π − φ instead of φ: the neighbour stays 2φ − π out of the plane, its projection
 /// is shortened, and past 135° its apex lands on t's side of the edge. The default is right because only the
 /// hinge rotation by the full fold angle is an isometry of the neighbour (seed step 2(c), "rotate
-/// so they lie in t's plane"; notes step 1): M_e must be fitted to the neighbour's true shape.
+/// so they lie in t's plane"; SPEC.md § 2): M_e must be fitted to the neighbour's true shape.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 pub enum Unfold {
     /// Hinge rotation by the full fold angle (ρ = 0): the isometric unfolding. Default.
@@ -273,7 +273,7 @@ pub fn signed_area2(a: C, b: C, c: C) -> f64 {
     u.re * v.im - u.im * v.re
 }
 
-/// Lay out the star in t's own frame (seed step 2, notes step 1–2).
+/// Lay out the star in t's own frame (seed step 2, SPEC.md §§ 2–3).
 ///
 /// z_i = 0, z_j = |p_j − p_i| on the real axis, z_k = ((p_k − p_i)·e₁) + i |e₁ × (p_k − p_i)|;
 /// each neighbour's apex is unfolded across its edge by [`place_apex`] ([`Unfold::Correct`]) or

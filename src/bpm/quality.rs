@@ -1,4 +1,4 @@
-//! The authors' quality protocol (notes, "Quality metric"): subdivide every face n times 1→4,
+//! The authors' quality protocol (SPEC.md § 12): subdivide every face n times 1→4,
 //! evaluate the interpolant at the sub-vertices, and measure the quasi-conformal distortion
 //! QC = σ_max/σ_min of the affine map from each sub-triangle (in the face's layout) to its image.
 

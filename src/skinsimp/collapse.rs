@@ -1,4 +1,4 @@
-//! Greedy edge collapse with a priority queue (notes "Around it"): the cheapest valid edge is
+//! Greedy edge collapse with a priority queue (SPEC.md § 9): the cheapest valid edge is
 //! collapsed into one vertex placed by the method's cost ([`super::cost`]), until the target
 //! vertex count or until no edge is valid.
 //!

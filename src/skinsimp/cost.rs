@@ -1,5 +1,5 @@
-//! The skinned collapse cost `E(v, α)` and where the merged vertex goes (notes "The error and
-//! its alternating minimisation"; seed slides "Modify QEF equation", "Quadratic #1", "Quadratic
+//! The skinned collapse cost `E(v, α)` and where the merged vertex goes (SPEC.md §§ 3–8;
+//! seed slides "Modify QEF equation", "Quadratic #1", "Quadratic
 //! #2", "Alternating minimization", "Weight reduction").
 //!
 //! For an edge `(a, b)` with summed per-pose quadrics `Q^j = Q_a^j + Q_b^j` and candidate bones
@@ -50,7 +50,7 @@ pub enum WeightSolver {
 /// Parameters of the alternating minimisation.
 #[derive(Clone, Copy, Debug)]
 pub struct CostOptions {
-    /// Most alternations (weight step + position step). Default 5 (notes: ≈5 to converge).
+    /// Most alternations (weight step + position step). Default 5 (SPEC.md § 6: ≈5 to converge).
     pub max_alternations: usize,
     /// Stop when an alternation lowers `E` by less than this fraction. Default 1e-9.
     pub relative_tolerance: f64,
@@ -429,7 +429,7 @@ pub struct Alternation {
     pub kkt: Vec<f64>,
 }
 
-/// The full method (notes): from the better endpoint's weights ([`place_endpoint_weights`])
+/// The full method (SPEC.md § 6): from the better endpoint's weights ([`place_endpoint_weights`])
 /// alternate weight step and position step (each accepted only if `E` does not grow) until
 /// `E` drops by less than `relative_tolerance` or `max_alternations`; then reduce to
 /// `max_weights` influences (largest kept, QP re-solved on that support, `v` re-solved). If the

@@ -1,5 +1,5 @@
 //! Distance between two triangle surfaces in one pose: RMS and Hausdorff, sampled both ways
-//! (notes "Tests" 8).
+//! (SPEC.md § 10).
 //!
 //! **Sampling.** Each triangle of a surface is sampled at the 10 barycentric points
 //! `(i, j, k)/3`, `i + j + k = 3` (corners, two points per edge, the centroid), each weighted by

@@ -1,4 +1,4 @@
-//! Quality of a simplified skinned mesh (notes "Tests" 8): per example pose, the
+//! Quality of a simplified skinned mesh (SPEC.md § 10): per example pose, the
 //! [`surface_error`] between the original mesh (skinned with its own weights) and the level
 //! (skinned with its new weights), summarised over the training and the held-out poses, for
 //! the three methods at equal vertex counts.

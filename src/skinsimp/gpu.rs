@@ -1,5 +1,5 @@
 //! Bridge between the f64 skinsimp reference and the f32 kernels of `reparam-gpu`
-//! (`gpu/src/skinsimp/`, notes "GPU f32 kernels worth cross-checking"):
+//! (`gpu/src/skinsimp/`, SPEC.md § 12):
 //!
 //! | step | reference (f64) | kernel (f32) |
 //! |---|---|---|
@@ -49,12 +49,12 @@ use crate::crosscheck::ErrorSummary;
 use crate::error::{Error, Result};
 use crate::mesh::{Adjacency, EdgeKind, TriMesh, EDGE_CORNERS};
 
-/// Costs and positions are compared only where `cond_F(Q̃[0:3,0:3]) ≤ SKIP_CONDITION` (notes).
+/// Costs and positions are compared only where `cond_F(Q̃[0:3,0:3]) ≤ SKIP_CONDITION` (SPEC.md § 12).
 pub const SKIP_CONDITION: f64 = 1e4;
-/// Per-edge cost tolerance of the notes: `|ΔE| ≤ max(COST_RELATIVE · |E|, COST_ABSOLUTE)`.
+/// Per-edge cost tolerance (SPEC.md § 12): `|ΔE| ≤ max(COST_RELATIVE · |E|, COST_ABSOLUTE)`.
 pub const COST_RELATIVE: f64 = 1e-4;
 pub const COST_ABSOLUTE: f64 = 1e-7;
-/// Position tolerance of the notes, as a fraction of the (unit) box.
+/// Position tolerance (SPEC.md § 12), as a fraction of the (unit) box.
 pub const POSITION_TOLERANCE: f64 = 1e-5;
 /// Tolerance of the quadric summaries, relative to the quadric's largest entry. A plane quadric
 /// `w q qᵀ` computed in f32 from f32 corners errs by ≲ (7κ + 10) u · w |q|² (κ = |e1||e2| /

@@ -1,4 +1,4 @@
-//! The collapse-record hierarchy (notes "Around it": a multiresolution hierarchy rather than
+//! The collapse-record hierarchy (SPEC.md § 9: a multiresolution hierarchy rather than
 //! one level). [`Hierarchy::level`] replays the first `n` records on the input: vertex `removed`
 //! of each record is merged into `kept`, which takes the record's position and weights; a face
 //! survives exactly when its three corners still map to three different vertices; UV indices

@@ -1,4 +1,4 @@
-//! Example poses of a skinned glTF model (notes "Linear blend skinning"): which animation
+//! Example poses of a skinned glTF model (SPEC.md § 1): which animation
 //! times train the simplification and which are held out for evaluation, and the joint
 //! matrices `M_k^j = G(joint_k, pose j) · IBM_k` at those times.
 

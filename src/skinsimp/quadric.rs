@@ -1,4 +1,4 @@
-//! Garland–Heckbert plane quadrics, one set per example pose (notes "Per-pose quadrics").
+//! Garland–Heckbert plane quadrics, one set per example pose (SPEC.md § 2).
 //!
 //! A quadric is the symmetric 4×4 matrix `Q` of `E(v̂) = v̂ᵀ Q v̂`, `v̂ = (v, 1)`, stored as its
 //! 10 upper-triangle values. Per face `f` and pose `j`, with unit normal `n` and a corner `x₀`

@@ -1,5 +1,5 @@
 //! Skin weights of a simplified vertex and the weight step of the alternating minimisation
-//! (notes "The error and its alternating minimisation", seed slides "Quadratic #2: Solve for
+//! (SPEC.md §§ 5 and 7, seed slides "Quadratic #2: Solve for
 //! weights" and "Weight reduction").
 //!
 //! With the position `v` fixed, `E(α) = αᵀ H α`, `H = Σ_j B^{jT} Q^j B^j` (K×K, PSD),
