@@ -252,7 +252,8 @@ pub fn cosh_sinhc_closed(p: C) -> (C, C) {
 }
 
 /// (C(p), S(p)) of [`cosh_sinhc`] by scaling and squaring, the form the f32 kernel uses
-/// (`cosh_sinhc` in `bpm_common.wgsl`, twin [`crate::twin::bpm_common::cosh_sinhc`]):
+/// (`cosh_sinhc_squaring` in `bpm_common.wgsl`, twin
+/// [`crate::twin::bpm_common::cosh_sinhc_squaring`]):
 /// p is quartered k times until |p/4ᵏ| < 1, the series is summed there, and k doublings of
 /// r = √p follow: C(4p) = 2 C(p)² − 1, S(4p) = S(p) C(p) (cosh 2r = 2 cosh² r − 1,
 /// sinh 2r / 2r = (sinh r / r) cosh r).
@@ -276,7 +277,8 @@ pub fn cosh_sinhc_squaring(p: C) -> (C, C) {
 }
 
 /// The principal log of A ∈ SL(2,C) by inverse scaling and squaring, the form the f32 kernel
-/// uses (`log_sl2` in `bpm_common.wgsl`, twin [`crate::twin::bpm_common::log_sl2`]).
+/// uses (`log_sl2_roots` in `bpm_common.wgsl`, twin
+/// [`crate::twin::bpm_common::log_sl2_roots`]).
 ///
 /// After the sign fix, with t = Tr A / 2, X = A − t I and q = t² − 1: while |q| ≥ 0.1, A is
 /// replaced by its principal square root √A = (A + I)/s, s = √(2t + 2) (Re t ≥ 0, so
