@@ -305,13 +305,26 @@ fn the_cell_count_is_the_binary_search_and_both_roots_occur() {
         assert_eq!(cell_of(&lines, x), search, "{x}");
     }
     assert_eq!(cell_of(&lines, f64::NAN), 0);
-    // A trapezoid twisted one way takes the near root c/q, mirrored in t the far root q/a; both
-    // invert the bilinear map.
+    // A trapezoid takes the near root c/q at these points; a strongly twisted cell (P11 pulled
+    // far out along the diagonal, the kernel test's `naa_both_roots` cell) takes the far root
+    // q/a at (0.5, 0.5) and (0.25, 0.75) (β = 0.5, 0.75, the near roots −0.34, −0.45 lie
+    // outside [0, 1]) and the near one at (0.75, 0.125); every point inverts the bilinear map.
     let q = [[0.0, 0.0], [1.0, 0.0], [0.2, 1.0], [0.7, 0.8]];
-    let mirrored = q.map(|p| [p[0], 1.0 - p[1]]);
+    let twisted = [
+        [0.0, 0.0],
+        [0.25, 0.09375],
+        [0.046875, 0.25],
+        [0.703125, 0.3125],
+    ];
     let mut taken = [0, 0];
-    for quad in [q, [mirrored[2], mirrored[3], mirrored[0], mirrored[1]]] {
-        for (a, b) in [(0.3, 0.6), (0.8, 0.2), (0.5, 0.5)] {
+    for quad in [q, twisted] {
+        for (a, b) in [
+            (0.3, 0.6),
+            (0.8, 0.2),
+            (0.5, 0.5),
+            (0.25, 0.75),
+            (0.75, 0.125),
+        ] {
             let p = bilinear(&quad, a, b);
             let k = quadratic(&quad, p);
             let (near, far) = roots(&k);

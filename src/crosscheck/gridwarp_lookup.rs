@@ -1,37 +1,37 @@
 //! The bound of `gridwarp_lookup`'s looked-up UVs, per query, derived from the kernel's f32
-//! twin ([`crate::twin::gridwarp_lookup`]) over [`Lin`], and the cross-check rows that use it.
+//! twin ([`crate::twin::gridwarp_lookup`]) over `Lin`, and the cross-check rows that use it.
 //!
 //! Both sides look up the same f32 query uv through the same atlas rounded to f32
 //! ([`crate::gridwarp::gpu_lookup::round_atlas`]); the f64 reference's result is `expected`.
 //! The kernel's result differs by its arithmetic and by its choices:
 //!
 //! - **arithmetic**: along one path (a ROI, a cell, a root), every operation may err as the
-//!   WGSL table allows; [`first_order_bound2`] sums ‖∂uv/∂eᵢ‖ aᵢ over them, and the bound takes
-//!   [`SECOND_ORDER`] = 2 times that ([`crate::twin::lin`]: why 2 covers the neglected terms).
+//!   WGSL table allows; `first_order_bound2` sums ‖∂uv/∂eᵢ‖ aᵢ over them, and the bound takes
+//!   `SECOND_ORDER` = 2 times that ([`crate::twin::lin`]: why 2 covers the neglected terms).
 //!   The closed form's rounding is squared away by the Newton step, whose derivative there is
 //!   0, so first order does not see it: for a bilinear W one step from an error δ leaves
 //!   exactly J(x₀)⁻¹ g δα δβ, which is added as 2‖J⁻¹‖∞‖g‖∞ (2b_α₀)(2b_β₀) (b the first-order
 //!   bounds of α and β before the step, 2 for J(x₀) against J at the solution, required to be
 //!   within a factor ½: ‖J⁻¹‖‖g‖‖δ‖ ≤ ½), carried to UV by the lookup's Lipschitz constant
 //!   (max(h_i, k_j) + 2) · max(u1 − u0, v1 − v0). Near a double root the discriminant's
-//!   square root is Hölder ([`Lin`]'s √: a fresh value with allowance √(2·bound)), so b grows
+//!   square root is Hölder (`Lin`'s √: a fresh value with allowance √(2·bound)), so b grows
 //!   as √u there: the bound follows the cell's conditioning.
 //! - **choices**: which ROI is exact (f32 comparisons of the f32 inputs). Which cell: AA, every
 //!   cell of the lines within 2·(first-order bound) of p on each axis; NAA, every cell (and
 //!   root) whose miss (how far its (α, β) lies outside [0, 1]²) is within its own bound of the
 //!   smallest miss plus that one's bound (the kernel accepts the first in [0, 1]², else the
 //!   nearest). Which root: the other one too where the two roots' distances to [0, 1] are
-//!   within their bounds of each other. Every such path is followed over [`Lin`]:
+//!   within their bounds of each other. Every such path is followed over `Lin`:
 //!
 //!   bound = max over the reachable paths A of |uv_A − expected| + 2·b_A + n_A,
 //!
 //!   (b_A the path's first-order bound, n_A its Newton term). Neighbouring cells' maps agree on
 //!   their shared edge and blending is continuous across it, so near an edge the paths differ
-//!   by about their bounds. Where they differ by more than [`DISAGREE`] = 16 times the sum of
+//!   by about their bounds. Where they differ by more than `DISAGREE` = 16 times the sum of
 //!   their bounds (the cells disagree there), where a path's first-order analysis is not
 //!   trusted (a divisor within 16× its bound of 0: det J at a near-double root, a degenerate
 //!   cell; [`crate::twin::lin`]), or where ‖J⁻¹‖‖g‖‖δ‖ > ½, f32 cannot decide: the element is
-//!   UNDECIDED, its bound [`UNBOUNDED`], and it is counted (rows' notes, `verify`'s
+//!   UNDECIDED, its bound `UNBOUNDED`, and it is counted (rows' notes, `verify`'s
 //!   `undecided`), never a silent pass.
 //!
 //! A far root is followed only where |q| ≤ 4|a| ([`crate::gridwarp::remap::FAR_ROOT`]); a
@@ -62,7 +62,7 @@ pub const DISAGREE: f64 = TRUST;
 /// A query's bound (UV units) and whether f32 can decide its lookup.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct QueryBound {
-    /// [`UNBOUNDED`] when undecided.
+    /// `UNBOUNDED` when undecided.
     pub bound: f64,
     pub undecided: bool,
 }
@@ -110,7 +110,7 @@ fn corners(t: &Tables, k: usize, i: usize, j: usize) -> [[f64; 2]; 4] {
     [at(i, j), at(i + 1, j), at(i, j + 1), at(i + 1, j + 1)]
 }
 
-/// The path through ROI k's cell (i, j) with `root`, over [`Lin`]; None where it does not
+/// The path through ROI k's cell (i, j) with `root`, over `Lin`; None where it does not
 /// exist.
 fn follow(t: &Tables, k: usize, cell: (usize, usize), root: usize, uv: [f32; 2]) -> Option<Path> {
     let (path, ambiguous) = record(|| {

@@ -1,11 +1,11 @@
 //! unwarp cross-check of the `unwarp_lookup` kernel (entry `main`, the render-time lookup
 //! s + o(u) through the offset mip chain): the GPU's f32 coordinates against the f64 reference
-//! [`lookup_coordinate`] on the same f32-rounded chain and queries, per component in UV units,
-//! held to [`lookup_bounds`] (written once in [`super::unwarp_lookup_bound`]); queries whose
+//! `lookup_coordinate` on the same f32-rounded chain and queries, per component in UV units,
+//! held to `lookup_bounds` (written once in `super::unwarp_lookup_bound`); queries whose
 //! nearest level f32 cannot decide are counted in the row's note, their bound unbounded.
 //!
 //! The chain is that of a short reference solve of the map (at most 10 sweeps, no coarse
-//! moves); the queries ([`lookup_queries`]) cover the map on a grid, in the first tile and far
+//! moves); the queries (`lookup_queries`) cover the map on a grid, in the first tile and far
 //! from it, at footprints sweeping λ from 0 past the coarsest level.
 
 use reparam_gpu::unwarp::{LookupQuery, OffsetChain, UnwarpLookupKernel};

@@ -34,7 +34,7 @@
 //!    f32 may pick either level. Its bound is `f64::MAX` and it is counted, never a silent pass.
 //! 7. **The coordinate.** s + (o.x, −o.y) rounds once: ε|s + o|, plus δs.
 //!
-//! Each figure is multiplied by [`SAFETY`] = 2 to cover the second-order terms and the flush
+//! Each figure is multiplied by `SAFETY` = 2 to cover the second-order terms and the flush
 //! of subnormal products (|o| ≪ 1 keeps them far from 2⁻¹²⁶ except for o = 0, exact), and
 //! [`F32_FLUSH`] is added per operation.
 

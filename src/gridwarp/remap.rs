@@ -42,7 +42,7 @@ pub fn piecewise_linear(from: &[f64], to: &[f64], x: f64) -> f64 {
 }
 
 /// Index of the cell of the increasing `lines` containing x: the largest k in 1 … len − 2 with
-/// lines[k] ≤ x, else 0 (so the last cell for x ≥ its start, the first for x below, and the
+/// lines\[k\] ≤ x, else 0 (so the last cell for x ≥ its start, the first for x below, and the
 /// first for NaN). A plain count over the lines, as the WGSL kernel `gridwarp_lookup` does it
 /// (the same index as a binary search over increasing lines).
 pub fn cell_of(lines: &[f64], x: f64) -> usize {

@@ -59,7 +59,7 @@ impl ShapeRule {
 }
 
 /// The shape error of a removal (module docs): max over the re-stored points (p, n, b) of
-/// |P(p) − Σ_c b_c P(ring[tris[n][c]])|, `tris` the hole's triangles as ring positions, `moved`
+/// |P(p) − Σ_c b_c P(ring\[tris\[n\]\[c\]\])|, `tris` the hole's triangles as ring positions, `moved`
 /// (point, triangle index, barycentrics) as [`super::hierarchy`]'s relocation returns them
 /// (the removed vertex among them). 0 when nothing is re-stored.
 pub fn removal_error(

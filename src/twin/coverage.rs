@@ -2,10 +2,10 @@
 //! a guard, a fallback, a mirroring, a clamp, a root's form …) is reported by the twin with a
 //! static name ([`taken`], [`hit`]), and a run over a kernel's vectors counts, per branch, the
 //! invocations that took it ([`count`]; each invocation of a kernel, one GPU thread, is marked
-//! by the runner with [`invocation`]). The canonical manifests list the counts
-//! (`branches`, [`crate::vectors::coverage`]) and a test fails when a branch of a kernel's
-//! catalogue ([`Branch`], `BRANCHES` in each twin) has no invocation and the manifest does not
-//! say why it is unreachable.
+//! by the runner with [`invocation`]). `tests/vectors_coverage.rs` counts them over the
+//! canonical vectors and fails when a branch of a kernel's catalogue ([`Branch`], `BRANCHES` in
+//! each twin) has no invocation and is not in its list of branches not reached yet (each with
+//! its reason), or when a listed branch is reached. The manifests do not carry the counts yet.
 //!
 //! Off by default: a twin's report is one read of a thread-local flag, so the model checks and
 //! the bound derivations (the same twins over [`super::Ball`] and [`super::Lin`]) pay nothing

@@ -22,7 +22,7 @@
 //! choice f32 may make either way: [`MipmapFilter::Nearest`] exists for renderers that use it,
 //! and its bound marks those queries undecided). The trilinear blend weight goes to 0 at a level
 //! boundary, so the lookup is continuous in λ, and so is its f32 evaluation's error. The chain
-//! itself is [`super::output::offset_mip_chain`]: box-averaging offsets equals box-averaging the
+//! itself is [`offset_mip_chain`]: box-averaging offsets equals box-averaging the
 //! coordinates u + o.
 //!
 //! **Why re-centre.** A repeating sampler ignores the integer part of a coordinate; an f32 that
@@ -35,13 +35,62 @@
 //! original UVs shows what the modified renderer shows with C (bijective maps only).
 //!
 //! Coordinates: the offsets are the solver's (node convention, o.y along image rows, down);
-//! [`super::output::offset_to_uv`] turns them into (Δu, Δv) = (o.x, −o.y).
+//! [`offset_to_uv`] turns them into (Δu, Δv) = (o.x, −o.y).
 
 use crate::error::{Error, Result};
 use crate::texture::{sample_bilinear, Image, Rgba8};
 
 use super::mesh::Border;
-use super::output::{offset_to_uv, OffsetLevel};
+
+/// (Δu, Δv) = (o.x, −o.y): a solver offset in the OBJ convention.
+pub fn offset_to_uv(o: [f64; 2]) -> [f64; 2] {
+    [o[0], -o[1]]
+}
+
+/// A level of the offset mip chain.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OffsetLevel {
+    pub width: usize,
+    pub height: usize,
+    pub offsets: Vec<[f64; 2]>,
+}
+
+/// The mip chain of the offsets, level 0 first: each next level the 2×2 box average, while both
+/// sizes are even. Box-averaging offsets equals box-averaging the coordinates u + o, since the
+/// base coordinates of a 2×2 block average to the coarse texel's centre (notes § Application).
+pub fn offset_mip_chain(width: usize, height: usize, offsets: &[[f64; 2]]) -> Vec<OffsetLevel> {
+    let mut chain = vec![OffsetLevel {
+        width,
+        height,
+        offsets: offsets.to_vec(),
+    }];
+    loop {
+        let last = chain.last().expect("level 0");
+        if last.width % 2 != 0 || last.height % 2 != 0 {
+            break;
+        }
+        let (w, h) = (last.width / 2, last.height / 2);
+        let at = |x: usize, y: usize| last.offsets[y * last.width + x];
+        let offsets = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let q = [
+                    at(2 * x, 2 * y),
+                    at(2 * x + 1, 2 * y),
+                    at(2 * x, 2 * y + 1),
+                    at(2 * x + 1, 2 * y + 1),
+                ];
+                [0, 1].map(|c| 0.25 * ((q[0][c] + q[1][c]) + (q[2][c] + q[3][c])))
+            })
+            .collect();
+        chain.push(OffsetLevel {
+            width: w,
+            height: h,
+            offsets,
+        });
+    }
+    chain
+}
 
 /// How the level (or levels) of the offset chain are chosen from λ (WebGPU's sampler
 /// `mipmapFilter`, Vulkan's `mipmapMode`).
@@ -354,7 +403,7 @@ mod tests {
 
     #[test]
     fn the_lookup_adds_the_offset_with_v_flipped_and_the_bake_of_zero_offsets_is_the_texture() {
-        let chain = super::super::output::offset_mip_chain(4, 4, &vec![[0.01, 0.02]; 16]);
+        let chain = super::offset_mip_chain(4, 4, &vec![[0.01, 0.02]; 16]);
         let q = Query {
             uv: [3.25, 0.5],
             footprint: Footprint {

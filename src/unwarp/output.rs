@@ -16,12 +16,10 @@ use crate::raster::{rasterize, shade, Camera};
 use crate::texture::{sample_bilinear, save_exr_rg, Image, Rgba8};
 
 use super::apply::{bake_colour, to_rgba8};
+/// The offsets' mip chain and their UV convention live with the lookup that reads them
+/// ([`super::apply`]); re-exported here, where the outputs are written.
+pub use super::apply::{offset_mip_chain, offset_to_uv, OffsetLevel};
 use super::mesh::{Border, UnwarpMesh};
-
-/// (Δu, Δv) = (o.x, −o.y): a solver offset in the OBJ convention.
-pub fn offset_to_uv(o: [f64; 2]) -> [f64; 2] {
-    [o[0], -o[1]]
-}
 
 /// Write the offset map as a two-channel (R = Δu, G = Δv) 32-bit float EXR, UV units.
 pub fn save_offset_map(
@@ -35,51 +33,6 @@ pub fn save_offset_map(
         .map(|&o| offset_to_uv(o).map(|c| c as f32))
         .collect();
     save_exr_rg(path, width, height, &values)
-}
-
-/// A level of the offset mip chain.
-#[derive(Clone, Debug, PartialEq)]
-pub struct OffsetLevel {
-    pub width: usize,
-    pub height: usize,
-    pub offsets: Vec<[f64; 2]>,
-}
-
-/// The mip chain of the offsets, level 0 first: each next level the 2×2 box average, while both
-/// sizes are even. Box-averaging offsets equals box-averaging the coordinates u + o, since the
-/// base coordinates of a 2×2 block average to the coarse texel's centre (notes § Application).
-pub fn offset_mip_chain(width: usize, height: usize, offsets: &[[f64; 2]]) -> Vec<OffsetLevel> {
-    let mut chain = vec![OffsetLevel {
-        width,
-        height,
-        offsets: offsets.to_vec(),
-    }];
-    loop {
-        let last = chain.last().expect("level 0");
-        if last.width % 2 != 0 || last.height % 2 != 0 {
-            break;
-        }
-        let (w, h) = (last.width / 2, last.height / 2);
-        let at = |x: usize, y: usize| last.offsets[y * last.width + x];
-        let offsets = (0..h)
-            .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .map(|(x, y)| {
-                let q = [
-                    at(2 * x, 2 * y),
-                    at(2 * x + 1, 2 * y),
-                    at(2 * x, 2 * y + 1),
-                    at(2 * x + 1, 2 * y + 1),
-                ];
-                [0, 1].map(|c| 0.25 * ((q[0][c] + q[1][c]) + (q[2][c] + q[3][c])))
-            })
-            .collect();
-        chain.push(OffsetLevel {
-            width: w,
-            height: h,
-            offsets,
-        });
-    }
-    chain
 }
 
 /// The solver offset at texture coordinate `uv` (OBJ convention), bilinear between texel
