@@ -735,13 +735,13 @@ pub(crate) fn decimate<'a>(
         let plans: Vec<(f64, Planned)> = match planned_all.as_mut() {
             Some(slots) => selected
                 .iter()
-                .map(|&c| (w[c], slots[c].take().expect("once")))
+                .filter_map(|&c| Some((w[c], slots[c].take()?)))
                 .collect(),
             None => {
                 let mut slots: Vec<Option<Candidate>> = candidates.into_iter().map(Some).collect();
                 let chosen: Vec<(f64, Candidate)> = selected
                     .iter()
-                    .map(|&c| (w[c], slots[c].take().expect("once")))
+                    .filter_map(|&c| Some((w[c], slots[c].take()?)))
                     .collect();
                 chosen
                     .into_par_iter()

@@ -64,8 +64,7 @@ pub fn offset_mip_chain(width: usize, height: usize, offsets: &[[f64; 2]]) -> Ve
         height,
         offsets: offsets.to_vec(),
     }];
-    loop {
-        let last = chain.last().expect("level 0");
+    while let Some(last) = chain.last() {
         if last.width % 2 != 0 || last.height % 2 != 0 {
             break;
         }
